@@ -1,0 +1,45 @@
+# kontur: `make demo` and `make test` set up what is missing on a fresh machine, then run.
+#   SIM=icarus | SIM=verilator   run the cocotb tests on one simulator (default: both)
+#   WAVES=1                       dump waveforms of the tests into build/waves
+SHELL   := /bin/bash
+PYTHON  ?= python3
+VENV    ?= .venv
+BIN     := $(VENV)/bin
+SIM     ?=
+WAVES   ?= 0
+JOBS    ?= auto
+SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+STAMP   := $(VENV)/.installed
+
+.PHONY: setup demo test test-fast bench bitstream clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,fpga]'
+	touch $@
+
+.PHONY: icarus
+icarus:
+	@command -v iverilog >/dev/null || { $(SUDO) apt-get update -qq && \
+	    $(SUDO) apt-get install -y -qq iverilog; }
+
+setup: $(STAMP) icarus
+
+demo: setup
+	$(BIN)/kontur demo
+
+test: setup
+	SIM=$(SIM) WAVES=$(WAVES) PYTHONWARNINGS=error $(BIN)/python -m pytest -n $(JOBS) tests
+
+test-fast: setup         # Amaranth simulator and models only, no cocotb
+	PYTHONWARNINGS=error $(BIN)/python -m pytest -n $(JOBS) tests -m "not cocotb"
+
+bench: setup
+	$(BIN)/kontur bench
+
+bitstream: setup
+	$(BIN)/kontur build --board icebreaker
+
+clean:
+	rm -rf build sim_build .pytest_cache

