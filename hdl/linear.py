@@ -91,6 +91,17 @@ class LinearInterpolator(wiring.Component):
         self._width = width
         self._variant = variant
         self._period = period
+        # The numbered elements, reachable as attributes (tests sample their contents).
+        self.counter1 = ReversibleCounter(width + 1)
+        self.counter2 = ReversibleCounter(width + 1)
+        self.adder3 = AccumulatingAdder(width + 1)
+        self.generator4 = PulseGenerator(period)
+        self.mux12 = Commutator(width + 1, width + 1, channels=2, shift=0)
+        self.trigger14 = Trigger(priority="set")
+        self.trigger15 = Trigger(priority="set")
+        if variant == "exact":
+            self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
+            self.reg23 = Signal(width, name="reg23")    # constant increment min(|X|, |Y|)
         super().__init__({
             "in22":  In(width),
             "in23":  In(width),
@@ -121,13 +132,13 @@ class LinearInterpolator(wiring.Component):
         m = Module()
         w = self._width
 
-        m.submodules.counter1 = counter1 = ReversibleCounter(w + 1)
-        m.submodules.counter2 = counter2 = ReversibleCounter(w + 1)
-        m.submodules.adder3 = adder3 = AccumulatingAdder(w + 1)
-        m.submodules.generator4 = generator4 = PulseGenerator(self._period)
-        m.submodules.mux12 = mux12 = Commutator(w + 1, w + 1, channels=2, shift=0)
-        m.submodules.trigger14 = trigger14 = Trigger(priority="set")
-        m.submodules.trigger15 = trigger15 = Trigger(priority="set")
+        m.submodules.counter1 = counter1 = self.counter1
+        m.submodules.counter2 = counter2 = self.counter2
+        m.submodules.adder3 = adder3 = self.adder3
+        m.submodules.generator4 = generator4 = self.generator4
+        m.submodules.mux12 = mux12 = self.mux12
+        m.submodules.trigger14 = trigger14 = self.trigger14
+        m.submodules.trigger15 = trigger15 = self.trigger15
 
         # ---- node 18: sign analysis (generator 4, AND 5, AND 6) --------------------------------
         and5 = Signal()     # F >= 0: step along the long projection only (output 16)
@@ -200,8 +211,7 @@ class LinearInterpolator(wiring.Component):
             ]
         else:
             # Constant increments of eq. (1): registers 22' and 23' keep inputs 22 and 23.
-            reg22 = Signal(w, name="reg22")
-            reg23 = Signal(w, name="reg23")
+            reg22, reg23 = self.reg22, self.reg23
             with m.If(go):
                 m.d.sync += [reg22.eq(self.in22), reg23.eq(self.in23)]
             m.d.comb += [
@@ -298,6 +308,7 @@ class LineEngine(wiring.Component):
         self._variant = variant
         self._period = period
         self._coord_width = coord_width
+        self.core = LinearInterpolator(width=width, variant=variant, period=period)
         super().__init__({
             "cmd":   In(stream.Signature(self.Frame(coord_width))),
             "tick":  In(1),
@@ -323,8 +334,7 @@ class LineEngine(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         w = self._width
-        m.submodules.core = core = LinearInterpolator(width=w, variant=self._variant,
-                                                      period=self._period)
+        m.submodules.core = core = self.core
 
         # Frame register: the patent's inputs 22-25, precomputed from the signed end point.
         full = Signal()

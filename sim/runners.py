@@ -6,11 +6,8 @@ cycle model and the three simulators are compared entry for entry.
 
 import json
 import os
-import re
 import shutil
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 from .stimulus import OUTPUTS, Driver, Job
@@ -125,7 +122,7 @@ class CocotbBuild:
         Directory of this build; give each engine and parameter set its own.
     """
 
-    def __init__(self, engine, simulator, build_dir):
+    def __init__(self, engine, simulator, build_dir, *, waves=False):
         from amaranth.back import verilog
         from cocotb_tools.runner import get_runner
 
@@ -144,17 +141,24 @@ class CocotbBuild:
         # reused (a Verilator build takes tens of seconds).
         if not source.exists() or source.read_text() != text:
             source.write_text(text)
-        self.runner = get_runner(simulator)
+        self.waves = waves
+        self.runner = _vcd_icarus() if (waves and simulator == "icarus") else get_runner(simulator)
         build_args = []
         if simulator == "verilator":
             # Amaranth's Verilog mixes widths freely; the width lint is about style, not bugs.
             build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC"]
         self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
-                          timescale=("1ns", "1ps"), build_args=build_args,
+                          timescale=("1ns", "1ps"), build_args=build_args, waves=waves,
                           log_file=self.build_dir / "build.log")
 
-    def run(self, job, *, waves=False, name="job"):
-        """Run ``job``; return the record. With ``waves`` a waveform is dumped in the build dir."""
+    def run(self, job, *, name="job", vcd=None):
+        """Run ``job``; return the record. With ``vcd`` (a build made with ``waves``) the run's
+        waveform is written there, as VCD."""
+        if vcd is not None and not self.waves:
+            raise ValueError("a waveform needs a build made with waves=True")
+        plusargs = []
+        if vcd is not None and self.simulator == "icarus":
+            plusargs = [f"+dumpfile_path={Path(vcd).resolve()}"]
         job_file = self.build_dir / f"{name}.job.json"
         record_file = self.build_dir / f"{name}.record.json"
         job_file.write_text(json.dumps({"job": job.to_json(), "fields": self.fields}))
@@ -162,7 +166,7 @@ class CocotbBuild:
             record_file.unlink()
         results = self.runner.test(
             hdl_toplevel="engine", test_module="sim.cocotb_player", build_dir=self.build_dir,
-            test_dir=self.build_dir, waves=waves,
+            test_dir=self.build_dir, waves=vcd is not None, plusargs=plusargs,
             extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
             results_xml=str(self.build_dir / f"{name}.results.xml"),
             log_file=self.build_dir / f"{name}.log")
@@ -172,7 +176,21 @@ class CocotbBuild:
         data = json.loads(record_file.read_text())
         if data.get("failure"):
             raise RuntimeError(f"cocotb run on {self.simulator} failed: {data['failure']}")
+        if vcd is not None and self.simulator == "verilator":
+            shutil.copyfile(self.build_dir / "dump.vcd", vcd)
         return data["record"]
+
+
+def _vcd_icarus():
+    """The cocotb Icarus runner, dumping VCD instead of FST (``--vcd`` promises a VCD file)."""
+    from cocotb_tools.runner import Icarus
+
+    class IcarusVcd(Icarus):
+        def _test_command(self):
+            return [["-vcd" if arg == "-fst" else arg for arg in cmd]
+                    for cmd in super()._test_command()]
+
+    return IcarusVcd()
 
 
 def _payload_fields(engine):
@@ -183,6 +201,7 @@ def _payload_fields(engine):
             for name, field in layout}
 
 
-def run_cocotb(engine, job, simulator, *, build_dir, waves=False):
+def run_cocotb(engine, job, simulator, *, build_dir, vcd=None):
     """Build ``engine`` for ``simulator`` (or reuse the build) and run ``job``; return the record."""
-    return CocotbBuild(engine, simulator, build_dir).run(job, waves=waves)
+    build = CocotbBuild(engine, simulator, build_dir, waves=vcd is not None)
+    return build.run(job, vcd=vcd)

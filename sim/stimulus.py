@@ -14,8 +14,8 @@ state the caller asked for).
 
 from dataclasses import dataclass, field, asdict
 
-__all__ = ["Job", "Driver", "run_model", "OUTPUTS", "record_steps", "record_moves",
-           "first_difference"]
+__all__ = ["Job", "Driver", "run_model", "plan_resets", "OUTPUTS", "record_steps",
+           "record_moves", "first_difference"]
 
 OUTPUTS = ("ready", "step", "dir", "busy", "done", "error")
 
@@ -85,13 +85,16 @@ class Driver:
         if inputs["rst"]:
             self.reset_left -= 1
             return
-        if inputs["valid"] and outputs["ready"]:
+        accepted = inputs["valid"] and outputs["ready"]
+        if accepted:
             self.index += 1
             self.wait = self.job.gaps[self.index] if self.index < len(self.job.gaps) else 0
         elif self.wait:
             self.wait -= 1
-        self.idle = (self.index == len(self.job.frames) and not outputs["busy"]
-                     and cycle >= self.last_reset)
+        # Idle: every frame accepted, none in this clock (busy shows it from the next), the
+        # engine not busy, and no reset still to come.
+        self.idle = (self.index == len(self.job.frames) and not accepted
+                     and not outputs["busy"] and cycle >= self.last_reset)
 
     @property
     def finished(self):
@@ -118,6 +121,38 @@ def run_model(model, job, *, state=False):
         record.append(entry)
         if driver.finished:
             return record
+    raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
+
+
+def plan_resets(model, job, limit, *, length=1):
+    """Return a copy of ``job`` with a reset wherever a frame would run ``limit`` clocks or more.
+
+    Runs ``job`` on the cycle ``model`` and, whenever the engine has been busy for ``limit``
+    clocks without ending a frame, schedules a reset of ``length`` clocks right there. This is
+    how segments of billions of steps are tested: run for a while, compared clock for clock,
+    then cut by a reset in the middle of the frame.
+    """
+    planned = Job(frames=list(job.frames), gaps=list(job.gaps), resets=dict(job.resets),
+                  tick=list(job.tick), max_cycles=job.max_cycles)
+    driver = Driver(planned)
+    running = 0
+    for cycle in range(planned.max_cycles):
+        if running >= limit and cycle not in planned.resets:
+            planned.resets[cycle] = length
+            driver.last_reset = max(driver.last_reset, cycle)
+        inputs = driver.inputs(cycle)
+        if inputs["rst"]:
+            model.reset()
+            driver.observe(cycle, inputs, None)
+            running = 0
+            continue
+        outputs, _ = model.cycle(valid=inputs["valid"], payload=inputs["payload"],
+                                 tick=inputs["tick"])
+        driver.observe(cycle, inputs, outputs)
+        ended = outputs["done"] or outputs["error"]
+        running = running + 1 if outputs["busy"] and not ended else 0
+        if driver.finished:
+            return planned
     raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
 
 

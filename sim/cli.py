@@ -1,0 +1,81 @@
+"""The ``kontur`` command line.
+
+``kontur trace line X Y`` prints the steps of a segment, one ``dx dy`` line per step and
+nothing else on standard output (with ``--cycles``: ``cycle dx dy``). Messages, refusals
+included, go to standard error; a refused command exits with status 2.
+"""
+
+import argparse
+import sys
+
+from .models.errors import InputError
+from .runners import ENGINES
+from .stimulus import record_moves
+
+__all__ = ["main"]
+
+
+def _add_engine_options(parser, variants, default_variant):
+    parser.add_argument("--variant", choices=variants, default=default_variant,
+                        help=f"core variant (default {default_variant})")
+    parser.add_argument("--engine", choices=ENGINES, default="model",
+                        help="golden model, or the RTL in Amaranth's simulator, Icarus or "
+                             "Verilator (default model)")
+    parser.add_argument("--width", type=int, default=None,
+                        help="register width in bits")
+    parser.add_argument("--vcd", metavar="FILE", default=None,
+                        help="write the waveform of the RTL run to FILE")
+    parser.add_argument("--cycles", action="store_true",
+                        help="prefix every step with its clock number")
+
+
+def _parser():
+    parser = argparse.ArgumentParser(
+        prog="kontur",
+        description="CNC contour interpolators of Soviet patents, as RTL and golden models.")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    trace = commands.add_parser("trace", help="print the steps of one command")
+    kinds = trace.add_subparsers(dest="kind", required=True)
+    line = kinds.add_parser("line", help="segment from the origin to (X, Y) (SU 1571551)")
+    line.add_argument("x", type=int, metavar="X")
+    line.add_argument("y", type=int, metavar="Y")
+    _add_engine_options(line, ("device", "exact"), "exact")
+
+    commands.add_parser("demo", help="show the cores at work on a built-in program")
+    return parser
+
+
+def _print_moves(record, cycles, out):
+    lines = []
+    for cycle, dx, dy in record_moves(record):
+        lines.append(f"{cycle} {dx} {dy}" if cycles else f"{dx} {dy}")
+    if lines:
+        out.write("\n".join(lines) + "\n")
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    import logging
+    logging.getLogger("cocotb_tools").setLevel(logging.ERROR)   # keep stderr for our messages
+    try:
+        if args.command == "trace":
+            from .trace import trace
+            payload = {"x": args.x, "y": args.y}
+            record = trace(args.kind, payload, variant=args.variant, engine=args.engine,
+                           width=args.width, vcd=args.vcd)
+            _print_moves(record, args.cycles, sys.stdout)
+        elif args.command == "demo":
+            from .demo import demo
+            return demo(sys.stdout)
+    except InputError as error:
+        print(f"kontur: refused: {error}", file=sys.stderr)
+        return 2
+    except (ValueError, RuntimeError) as error:
+        print(f"kontur: {error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,27 @@
+"""Shared test configuration: simulator selection and build directories."""
+
+import os
+
+import pytest
+
+from .utils import BUILD_DIR
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "cocotb: runs the generated Verilog under cocotb (Icarus or Verilator)")
+
+
+def selected_simulators():
+    """The cocotb simulators of this run: ``$SIM`` if set, else both."""
+    sim = os.environ.get("SIM", "")
+    if not sim:
+        return ["icarus", "verilator"]
+    if sim not in ("icarus", "verilator"):
+        raise pytest.UsageError(f"SIM must be 'icarus' or 'verilator', not {sim!r}")
+    return [sim]
+
+
+def cocotb_build_dir(simulator, name):
+    """Build directory of one design on one simulator (one per parameter set)."""
+    return BUILD_DIR / "cocotb" / simulator / name

@@ -1,0 +1,94 @@
+"""The ``kontur`` command line, run as a program: output format, engines, refusals, waveforms."""
+
+import subprocess
+import sys
+
+import pytest
+
+from sim.models.linear import steps
+from sim.waves import sample_vcd
+
+from .conftest import selected_simulators
+from .utils import BUILD_DIR
+
+
+def kontur(*args):
+    return subprocess.run([sys.executable, "-m", "sim.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def expected_lines(path):
+    return "".join(f"{dx} {dy}\n" for dx, dy in path)
+
+
+def test_trace_line_model_output_is_steps_only():
+    run = kontur("trace", "line", 7, -3)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == expected_lines(steps(7, -3))
+
+
+def test_trace_line_variants_and_width():
+    run = kontur("trace", "line", -64, 62, "--variant", "device", "--width", "8")
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == expected_lines(steps(-64, 62, variant="device", width=8))
+
+
+def test_trace_line_cycles():
+    run = kontur("trace", "line", 3, 2, "--cycles")
+    assert run.returncode == 0
+    lines = run.stdout.splitlines()
+    assert [tuple(map(int, line.split()[1:])) for line in lines] == steps(3, 2)
+    assert [int(line.split()[0]) for line in lines] == [2, 3, 4]   # one step per clock
+
+
+def test_trace_line_zero_length():
+    run = kontur("trace", "line", 0, 0)
+    assert run.returncode == 0 and run.stdout == ""
+
+
+@pytest.mark.parametrize("engine", ["model", "amaranth"])
+def test_trace_line_refused(engine):
+    run = kontur("trace", "line", 65536, 1, "--engine", engine)
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert "|X| = 65536 is too wide for the 16-bit registers (at most 65535)" in run.stderr
+
+
+def test_trace_line_does_not_fit_frame():
+    run = kontur("trace", "line", 1 << 40, 0, "--engine", "amaranth")
+    assert run.returncode == 2 and run.stdout == ""
+    assert "does not fit the frame's 32-bit signed coordinates" in run.stderr
+
+
+def test_trace_line_amaranth_vcd():
+    vcd = BUILD_DIR / "waves" / "cli_amaranth.vcd"
+    vcd.parent.mkdir(parents=True, exist_ok=True)
+    run = kontur("trace", "line", -5, 9, "--engine", "amaranth", "--vcd", vcd)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == expected_lines(steps(-5, 9))
+    clocks = sample_vcd(vcd, {"step": "engine.step"})
+    assert sum(1 for c in clocks if c["step"]) == 9
+
+
+def test_bad_usage():
+    run = kontur("trace", "line", 1, 1, "--engine", "spice")
+    assert run.returncode == 2 and "invalid choice" in run.stderr
+    run = kontur("trace", "line", 1, 1, "--vcd", "x.vcd")
+    assert run.returncode == 1 and "--vcd needs an RTL engine" in run.stderr
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("simulator", selected_simulators())
+def test_trace_line_cocotb(simulator):
+    vcd = BUILD_DIR / "waves" / f"cli_{simulator}.vcd"
+    vcd.parent.mkdir(parents=True, exist_ok=True)
+    run = kontur("trace", "line", 11, -4, "--engine", simulator, "--cycles", "--vcd", vcd)
+    assert run.returncode == 0, run.stderr
+    model = kontur("trace", "line", 11, -4, "--cycles")
+    assert run.stdout == model.stdout
+    clocks = sample_vcd(vcd, {"step": "step", "dir": "dir"})
+    moves = [(i, c["step"], c["dir"]) for i, c in enumerate(clocks) if c["step"]]
+    assert [m[0] for m in moves] == [int(line.split()[0]) for line in run.stdout.splitlines()]
+    refused = kontur("trace", "line", 1, -70000, "--engine", simulator)
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert "refused by the RTL" in refused.stderr
