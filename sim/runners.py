@@ -147,9 +147,10 @@ class CocotbBuild:
         if simulator == "verilator":
             # Amaranth's Verilog mixes widths freely; the width lint is about style, not bugs.
             build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC"]
-        self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
-                          timescale=("1ns", "1ps"), build_args=build_args, waves=waves,
-                          log_file=self.build_dir / "build.log")
+        with _waves_env(True if waves else None):
+            self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
+                              timescale=("1ns", "1ps"), build_args=build_args, waves=waves,
+                              log_file=self.build_dir / "build.log")
 
     def run(self, job, *, name="job", vcd=None):
         """Run ``job``; return the record. With ``vcd`` (a build made with ``waves``) the run's
@@ -164,12 +165,14 @@ class CocotbBuild:
         job_file.write_text(json.dumps({"job": job.to_json(), "fields": self.fields}))
         if record_file.exists():
             record_file.unlink()
-        results = self.runner.test(
-            hdl_toplevel="engine", test_module="sim.cocotb_player", build_dir=self.build_dir,
-            test_dir=self.build_dir, waves=vcd is not None, plusargs=plusargs,
-            extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
-            results_xml=str(self.build_dir / f"{name}.results.xml"),
-            log_file=self.build_dir / f"{name}.log")
+        with _waves_env(True if vcd is not None else None):
+            self.runner.test(
+                hdl_toplevel="engine", test_module="sim.cocotb_player",
+                build_dir=self.build_dir, test_dir=self.build_dir, waves=vcd is not None,
+                plusargs=plusargs,
+                extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
+                results_xml=str(self.build_dir / f"{name}.results.xml"),
+                log_file=self.build_dir / f"{name}.log")
         if not record_file.exists():
             raise RuntimeError(f"cocotb run on {self.simulator} produced no record; "
                                f"see {self.build_dir / (name + '.log')}")
@@ -179,6 +182,25 @@ class CocotbBuild:
         if vcd is not None and self.simulator == "verilator":
             shutil.copyfile(self.build_dir / "dump.vcd", vcd)
         return data["record"]
+
+
+class _waves_env:
+    """Set ``WAVES`` for the runner's calls: cocotb lets the environment override its
+    ``waves`` argument, and ``make`` exports ``WAVES`` (0 by default)."""
+
+    def __init__(self, waves):
+        self.waves = waves
+
+    def __enter__(self):
+        self.saved = os.environ.get("WAVES")
+        if self.waves is not None:
+            os.environ["WAVES"] = "1" if self.waves else "0"
+
+    def __exit__(self, *exc):
+        if self.saved is None:
+            os.environ.pop("WAVES", None)
+        else:
+            os.environ["WAVES"] = self.saved
 
 
 def _vcd_icarus():
