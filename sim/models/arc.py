@@ -20,12 +20,11 @@ against the path for every lattice point with r2 <= 20000, integer and not; see 
 
 import math
 
-from .circular import (CORE_VARIANTS, FaithfulCoreModel, FastCoreModel, core_inputs, floor_f,
-                       native_steps)
+from .circular import CORE_VARIANTS, FaithfulCoreModel, FastCoreModel, core_inputs, native_moves
 from .errors import InputError
 
-__all__ = ["check_arc", "plan_arc", "arc_steps", "quadrant", "native", "ArcEngineModel",
-           "setup_latency", "round_sqrt"]
+__all__ = ["check_arc", "plan_arc", "arc_steps", "points_ahead", "quadrant", "native",
+           "ArcEngineModel", "setup_latency", "round_sqrt"]
 
 
 def round_sqrt(r2):
@@ -146,13 +145,27 @@ def plan_arc(x0, y0, x1, y1, cw, width):
 
 def arc_steps(x0, y0, x1, y1, *, cw=False, width=24):
     """Return the steps ``(dx, dy)`` of the arc (step-level golden model)."""
-    plan = plan_arc(x0, y0, x1, y1, cw, width)
-    steps = []
+    return list(_plan_moves(plan_arc(x0, y0, x1, y1, cw, width)))
+
+
+def _plan_moves(plan):
     for run in plan["runs"]:
         sx, sy = run["start"]
-        for move, _ in native_steps(sx, sy, plan["r2"], end=run["end"]):
-            steps.append(real_step(int(move in "DX"), int(move in "DY"), run["q"], plan["cw"]))
-    return steps
+        for move, _ in native_moves(sx, sy, plan["r2"], end=run["end"]):
+            yield real_step(int(move in "DX"), int(move in "DY"), run["q"], plan["cw"])
+
+
+def points_ahead(x0, y0, count, *, cw=False, width=24):
+    """The first ``count`` lattice points the arc from ``(x0, y0)`` visits (around the circle)."""
+    plan = plan_arc(x0, y0, x0, y0, cw, width)
+    x, y = x0, y0
+    points = []
+    for dx, dy in _plan_moves(plan):
+        if len(points) == count:
+            break
+        x, y = x + dx, y + dy
+        points.append((x, y))
+    return points
 
 
 def setup_latency(width):

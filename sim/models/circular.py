@@ -19,9 +19,11 @@ a step every generator period, delays and the sector switch-over correction as i
 for register.
 """
 
+from hdl.circular_timing import FaithfulTiming
+
 from .codes import mask, ones_add, ones_count, ones_decode, ones_encode, shift_code, sign_extend
 
-__all__ = ["native_steps", "native_path", "f4_initial", "floor_f", "FaithfulTiming",
+__all__ = ["native_steps", "native_moves", "native_path", "f4_initial", "floor_f", "FaithfulTiming",
            "FaithfulCoreModel", "FastCoreModel", "core_inputs", "CORE_VARIANTS"]
 
 CORE_VARIANTS = ("faithful", "fast")
@@ -45,11 +47,15 @@ def native_steps(x, y, r2, *, end=None):
 
     Runs until X = 0, or until the position equals ``end``. Each item is ``(move, f4)``.
     """
+    return list(native_moves(x, y, r2, end=end))
+
+
+def native_moves(x, y, r2, *, end=None):
+    """Generate the moves of :func:`native_steps` one by one."""
     if x < 1 or y < 0:
         raise ValueError(f"native start must have X >= 1 and Y >= 0, not ({x}, {y})")
     sector = 2 if y >= x else 1
     f4 = f4_initial(x, y, r2)
-    moves = []
     while x > 0 and (x, y) != end:
         if sector == 1:
             if f4 >= 0:
@@ -72,10 +78,9 @@ def native_steps(x, y, r2, *, end=None):
                 x -= 1
                 f4 += 4 * (2 * x - 1)
                 move = "X"
-        moves.append((move, f4))
+        yield move, f4
     if end is not None and (x, y) != end:
         raise AssertionError(f"the path from the start never reaches the end point {end}")
-    return moves
 
 
 def native_path(x, y, r2, *, end=None):
@@ -108,67 +113,6 @@ class _CoreBase:
         self.cw = width + 1                  # counters 7 and 8
         self.aw = width + 4                  # adder 1
         self.reset()
-
-
-class FaithfulTiming:
-    """Generator period, delay lengths and extender length of the faithful core, checked.
-
-    The defaults are the structural minimum: the shortest timing for which every ordering the
-    structure relies on holds (see ``docs/circular.md``). The same checks are made by the RTL's
-    constructor, with the same messages.
-    """
-
-    def __init__(self, period=4, delay12=3, delay13=1, delay14=1, taps19=(1, 3, 3),
-                 taps26=(1, 1, 1, 2), extender=3):
-        self.period = period
-        self.delay12, self.delay13, self.delay14 = delay12, delay13, delay14
-        self.taps19 = tuple(taps19)
-        self.taps26 = tuple(taps26)
-        self.extender = extender
-        for message in timing_problems(self):
-            raise ValueError(message)
-
-
-def timing_problems(t):
-    """Yield a message for every structural ordering the timing ``t`` breaks (first first)."""
-    p, d12, d13, d14 = t.period, t.delay12, t.delay13, t.delay14
-    b1, b2, b3 = t.taps19
-    a1, a2, a3, a4 = t.taps26
-    e = t.extender
-    checks = [
-        (min(d12, d13, d14, b1, a1, e) >= 1,
-         "every delay, tap and the extender length must be at least 1 clock"),
-        (p >= max(d12, d13, d14) + 1,
-         f"the generator period must exceed every operand delay (12, 13, 14): at least "
-         f"{max(d12, d13, d14) + 1} clocks, not {p}"),
-        (b1 < b2 <= b3,
-         f"delay 19 taps must satisfy tap 1 < tap 2 <= tap 3 (counter 7 is corrected before "
-         f"and after adder 1 reads it), not {t.taps19}"),
-        (a1 <= a3 and a2 <= a3 < a4,
-         f"delay 26 taps must satisfy tap 1 <= tap 3, tap 2 <= tap 3 < tap 4 (trigger 16 is "
-         f"set after adder 1 reads counter 7 and before counter 7 counts down), "
-         f"not {t.taps26}"),
-        (d12 >= 2 + a3,
-         f"delay 12 must be at least delay 26 tap 3 + 2 = {a3 + 2} clocks: the diagonal that "
-         f"lands on X = Y is read after counter 8 and trigger 16 are switched, not {d12}"),
-        (d12 < 1 + b2,
-         f"delay 12 must be shorter than delay 19 tap 2 + 1 = {b2 + 1} clocks: the diagonal "
-         f"is added before the X - Y = -1 correction (Table 2), not {d12}"),
-        (d12 != 1 + a2 and d14 != 1 + a2,
-         "delays 12 and 14 must not end in the clock of delay 26 tap 2 + 1: the commutator "
-         "passes one channel at a time"),
-        (p >= a3 + 2,
-         f"the generator period must be at least delay 26 tap 3 + 2 = {a3 + 2} clocks "
-         f"(trigger 16 is set before the next pulse), not {p}"),
-        (p - 1 <= e <= 2 * p - 2,
-         f"the extender must hold AND 10 and 11 off for exactly the next generator pulse: "
-         f"{p - 1} to {2 * p - 2} clocks, not {e}"),
-        (2 + b2 <= 2 * p and 1 + b3 < 2 * p and 2 + a2 <= 2 * p and 1 + a4 < 2 * p,
-         "the switch-over correction must be over within two generator periods"),
-    ]
-    for ok, message in checks:
-        if not ok:
-            yield message
 
 
 class FaithfulCoreModel(_CoreBase):

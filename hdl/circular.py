@@ -1,0 +1,422 @@
+"""Circular interpolator of patent SU 1665343: the faithful core and a one-step-per-clock core."""
+
+from amaranth import *
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from .circular_timing import FaithfulTiming
+from .elements import (AccumulatingAdder, Commutator, DelayElement, PulseExtender,
+                       PulseGenerator, ReversibleCounter, Trigger)
+from .elements._checks import check_positive, check_width
+
+__all__ = ["CircularInterpolator", "CircularInterpolatorFast", "FaithfulTiming"]
+
+
+def _core_signature(width):
+    """Ports shared by both cores: the patent's inputs 29-34, outputs 35 and 36."""
+    return {
+        "in29":  In(signed(width + 4)),   # ⌊F⌋ at the start, into adder 1
+        "in30":  In(signed(width + 1)),   # counter 7: Y (sector 1) or X - 1 (sector 2)
+        "in31":  In(signed(width + 1)),   # counter 8: X - Y - 1 (sector 1) or X - Y (sector 2)
+        "in32":  In(1),                   # end of work: stop, clear triggers and accumulators
+        "in33":  In(1),                   # initialisation: load 29-31 and 34, set trigger 4
+        "in34":  In(1),                   # |Y| >= |X|: set trigger 16 (start in sector 2)
+        "tick":  In(1),                   # enable of the clock-pulse generator (feed rate)
+        "step":  Out(2),                  # bit 0: output 36 (X), bit 1: output 35 (Y)
+        "ready": Out(1),
+        "busy":  Out(1),
+        "done":  Out(1),
+        "error": Out(1),
+    }
+
+
+_CORE_MEMBERS = """
+    Members
+    -------
+    in29 : :py:`In(signed(width + 4))`
+        ``⌊F⌋`` at the start point (``F = ⌊F⌋ + 0.75`` always), as a two's complement number.
+    in30 : :py:`In(signed(width + 1))`
+        Initial counter 7: ``Y`` in sector 1 (``X > Y``), ``X - 1`` in sector 2.
+    in31 : :py:`In(signed(width + 1))`
+        Initial counter 8: ``X - Y - 1`` in sector 1, ``X - Y`` in sector 2 (two's complement).
+    in32 : :py:`In(1)`
+        End of work: the run stops at the end of this clock (its steps of this clock are made).
+    in33 : :py:`In(1)`
+        Initialisation (start): loads inputs 29-31 and 34 and sets trigger 4.
+    in34 : :py:`In(1)`
+        ``Y >= X`` at the start point: trigger 16 starts in sector 2.
+    tick : :py:`In(1)`
+        Enable of the clock-pulse generator: tie high for the generator's own rate.
+    step : :py:`Out(2)`
+        Step pulses in native coordinates: bit 0 is output 36 (X falls by one), bit 1 is
+        output 35 (Y rises by one); both for a diagonal.
+    ready : :py:`Out(1)`
+        A start (input 33) is accepted in this clock.
+    busy : :py:`Out(1)`
+        Trigger 4: a run is in progress.
+    done : :py:`Out(1)`
+        The run stops at the end of this clock.
+    error : :py:`Out(1)`
+        A start while :py:`ready` was low was refused in this clock.
+"""
+
+
+class CircularInterpolator(wiring.Component):
+    """The circular interpolator of SU 1665343 (Fig. 1): a whole quadrant in one run.
+
+    Every element of the block diagram is here under its number: accumulating adder 1 (ones'
+    complement, end-around carry), AND 2, 3, 10, 11, 22, 23, mode trigger 4, generator 5,
+    commutator 6 (three channels of 2x3 AND/OR 37, inputs shifted one bit up, least significant
+    bits from triggers 4 and 16), reversible counters 7 (two's complement) and 8 (ones'
+    complement, with its weight-2 subtract input), "separating OR" 9, delay elements 12, 13, 14,
+    19 (3 taps) and 26 (4 taps), OR 15, 17, 18, 20, 21, 24, 27, 28, sector trigger 16, pulse
+    extender 25. Outputs 35 (Y) and 36 (X) are the two bits of :py:`step`.
+
+    A run starts with a pulse on input 33 while :py:`ready` is high: adder 1, counters 7 and 8
+    and trigger 16 take inputs 29, 30, 31 and 34 in that clock. From then on each pulse of
+    generator 5 makes one step (Y, X or diagonal), and the operand of that step reaches adder 1
+    through the commutator after delay 12, 13 or 14 (the counters have counted by then). When a
+    sector-1 step makes ``X - Y <= 0`` the run switches to sector 2 and corrects F by ``X + Y``
+    (the X = Y variant through AND 22 and delay 26, the X - Y = -1 variant through AND 23 and
+    delay 19), with extender 25 holding AND 10 and 11 off for one generator period: a quadrant
+    takes one period more than it has steps. The run stops when counter 7 turns negative (the
+    step that reached X = 0 has been made) or on input 32; :py:`done` pulses in the stopping
+    clock, adder 1, the counters, trigger 16, the delay lines and the extender are cleared, and
+    a new run may be started in that same clock.
+
+    The diagonal whose step makes X = Y must add ``2(X' - Y') - 1 = -1`` (the patent leaves
+    this transfer open). Here, as the patent states for the X - Y = -1 variant, the delay-12
+    strobe of the diagonal that causes the switch-over reaches the commutator after the
+    switch-over has corrected counter 8 and set trigger 16: counter 8 then holds ``-1 + 1``,
+    which a ones'-complement counter forms as -0 (``1…1``), and with the least significant bit
+    from the inverse output of trigger 16 (0) the commutator's code is ``1…10``: -1. Delay 12
+    is long enough for this by construction (see :class:`FaithfulTiming`).
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Register width: counters 7 and 8 hold magnitudes up to ``2**width - 1`` (with a sign
+        bit); adder 1 has ``width + 4`` bits.
+    timing : :class:`FaithfulTiming`
+        Generator period, delays 12, 13, 14, taps of 19 and 26, extender length, in clocks.
+        Default: the structural minimum (period 4, delays 3, 1, 1, taps (1, 3, 3) and
+        (1, 1, 1, 2), extender 3).
+    {members}
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``width`` is not an integer of at least 2, or ``timing`` not a
+        :class:`FaithfulTiming`.
+    """
+
+    def __init__(self, *, width=24, timing=None):
+        check_width("Register width", width, minimum=2)
+        if timing is None:
+            timing = FaithfulTiming()
+        if not isinstance(timing, FaithfulTiming):
+            raise TypeError(f"Timing must be a FaithfulTiming, not {timing!r}")
+        self._width = width
+        self._timing = timing
+        aw, cw = width + 4, width + 1
+        self.adder1 = AccumulatingAdder(aw, ones_complement=True)
+        self.trigger4 = Trigger(priority="set")
+        self.generator5 = PulseGenerator(timing.period)
+        self.commutator6 = Commutator(cw, aw, channels=3, shift=1)
+        self.counter7 = ReversibleCounter(cw)
+        self.counter8 = ReversibleCounter(cw, ones_complement=True)
+        self.delay12 = DelayElement(timing.delay12)
+        self.delay13 = DelayElement(timing.delay13)
+        self.delay14 = DelayElement(timing.delay14)
+        self.trigger16 = Trigger(priority="set")
+        self.delay19 = DelayElement(timing.taps19)
+        self.extender25 = PulseExtender(timing.extender)
+        self.delay26 = DelayElement(timing.taps26)
+        super().__init__(_core_signature(width))
+
+    @property
+    def width(self):
+        return self._width
+
+    @property
+    def timing(self):
+        return self._timing
+
+    def elaborate(self, platform):
+        m = Module()
+        for name in ("adder1", "trigger4", "generator5", "commutator6", "counter7", "counter8",
+                     "delay12", "delay13", "delay14", "trigger16", "delay19", "extender25",
+                     "delay26"):
+            m.submodules[name] = getattr(self, name)
+        adder1, trigger4, generator5 = self.adder1, self.trigger4, self.generator5
+        commutator6, counter7, counter8 = self.commutator6, self.counter7, self.counter8
+        delay12, delay13, delay14 = self.delay12, self.delay13, self.delay14
+        trigger16, delay19, extender25, delay26 = (self.trigger16, self.delay19,
+                                                   self.extender25, self.delay26)
+
+        # ---- run control: trigger 4, inputs 32 and 33 -------------------------------------------
+        stop = Signal()       # counter 7 negative (inverse output of its sign bit), or input 32
+        start = Signal()      # input 33, accepted
+        clear = Signal()      # input 32 / counter 7 sign: triggers and accumulators to zero
+        m.d.comb += [
+            stop.eq(trigger4.q & (counter7.q[-1] | self.in32)),
+            self.ready.eq(trigger4.q_n | stop),
+            start.eq(self.in33 & self.ready),
+            self.error.eq(self.in33 & ~self.ready),
+            clear.eq(stop),
+            trigger4.set.eq(start),
+            trigger4.reset.eq(stop),
+            generator5.en.eq(self.tick),
+            self.busy.eq(trigger4.q),
+            self.done.eq(stop),
+        ]
+
+        # ---- AND 2, 3, 10, 11: the step decision ------------------------------------------------
+        and2 = Signal()       # sector 1, F < 0: diagonal
+        and3 = Signal()       # sector 1, F >= 0: Y step
+        and10 = Signal()      # sector 2, F >= 0: diagonal
+        and11 = Signal()      # sector 2, F < 0: X step
+        or9 = Signal()        # "separating OR": the diagonals of both sectors
+        running = trigger4.q & generator5.o
+        m.d.comb += [
+            and2.eq(adder1.sign & running & trigger16.q_n),
+            and3.eq(adder1.sign_n & running & trigger16.q_n),
+            and10.eq(adder1.sign_n & running & trigger16.q & extender25.o_n),
+            and11.eq(adder1.sign & running & trigger16.q & extender25.o_n),
+            or9.eq(and2 | and10),
+        ]
+
+        # ---- sector switch-over: AND 22 (X = Y), AND 23 (X - Y = -1), OR 24, extender 25 ----
+        # AND 22 decodes counter 8 = -1 (1…10 in ones' complement; the patent's "all direct
+        # outputs" would be -0), AND 23 counter 8 = -2 (1…101), both gated by trigger 16's
+        # inverse output. Each sends one pulse, at the front of the decoded state: the delay
+        # line and the counters react to a pulse's front, and the state lasts until corrected.
+        cw = self._width + 1
+        decode22 = Signal()
+        decode23 = Signal()
+        front22 = Signal()
+        front23 = Signal()
+        and22 = Signal()
+        and23 = Signal()
+        or24 = Signal()
+        m.d.comb += [
+            decode22.eq((counter8.q.as_unsigned() == (1 << cw) - 2) & trigger16.q_n),
+            decode23.eq((counter8.q.as_unsigned() == (1 << cw) - 3) & trigger16.q_n),
+            and22.eq(decode22 & ~front22),
+            and23.eq(decode23 & ~front23),
+            or24.eq(and22 | and23),
+        ]
+        m.d.sync += [front22.eq(decode22), front23.eq(decode23)]
+
+        # ---- the ORs ----------------------------------------------------------------------------
+        or15 = Signal()       # commutator A2: delay 13, delay 19 tap 2, delay 26 tap 2
+        or17 = Signal()       # counter 7 count input
+        or18 = Signal()       # trigger 16 set
+        or20 = Signal()       # counter 8 subtract 1
+        or21 = Signal()       # counter 8 add 1
+        or27 = Signal()       # output 35, Y
+        or28 = Signal()       # output 36, X
+        m.d.comb += [
+            or15.eq(delay13.o[0] | delay19.o[1] | delay26.o[1]),
+            or17.eq(or9 | and3 | and11 | delay19.o[0] | delay19.o[2] | delay26.o[3]),
+            or18.eq(and23 | delay26.o[2] | (start & self.in34)),
+            or20.eq(and3 | and11),
+            or21.eq(and23 | delay26.o[0]),
+            or27.eq(or9 | and3),
+            or28.eq(or9 | and11),
+            self.step.eq(Cat(or28, or27)),
+        ]
+
+        # ---- delay elements 12, 13, 14, 19, 26 and extender 25 ----------------------------------
+        flush = start | clear
+        m.d.comb += [
+            delay12.i.eq(or9),
+            delay13.i.eq(and11),
+            delay14.i.eq(and3),
+            delay19.i.eq(and23),
+            delay26.i.eq(and22),
+            extender25.i.eq(or24),
+        ]
+        for element in (delay12, delay13, delay14, delay19, delay26, extender25):
+            m.d.comb += element.clr.eq(flush)
+
+        # ---- trigger 16 (sector) ---------------------------------------------------------------
+        # Takes input 34 at the start; otherwise cleared on a stop, set by OR 18.
+        m.d.comb += [
+            trigger16.set.eq(Mux(start, self.in34, or18 & ~clear)),
+            trigger16.reset.eq(Mux(start, ~self.in34, clear)),
+        ]
+
+        # ---- counters 7 and 8 ------------------------------------------------------------------
+        # Inputs 29-31 arrive as two's complement numbers; counter 8 and adder 1 work in ones'
+        # complement, which writes a negative number one less.
+        m.d.comb += [
+            counter7.d.eq(self.in30),
+            counter7.load.eq(start),
+            counter7.clr.eq(clear),
+            counter7.up.eq(or17 & trigger16.q_n),       # count mode chosen by trigger 16
+            counter7.down.eq(or17 & trigger16.q),
+            counter8.d.eq(self.in31 - self.in31[-1]),
+            counter8.load.eq(start),
+            counter8.clr.eq(clear),
+            counter8.down.eq(or20),
+            counter8.down2.eq(or9),
+            counter8.up.eq(or21),
+        ]
+
+        # ---- commutator 6 and adder 1 ----------------------------------------------------------
+        m.d.comb += [
+            commutator6.b[0].eq(counter8.q),             # A1: 2·CT8 + ~T16
+            commutator6.lsb[0].eq(trigger16.q_n),
+            commutator6.a[0].eq(delay12.o[0]),
+            commutator6.b[1].eq(counter7.q),             # A2: 2·CT7 + T16
+            commutator6.lsb[1].eq(trigger16.q),
+            commutator6.a[1].eq(or15),
+            commutator6.b[2].eq(counter7.q_n),           # A3: ones' complement of 2·CT7 + 1
+            commutator6.lsb[2].eq(trigger4.q_n),
+            commutator6.a[2].eq(delay14.o[0]),
+            adder1.d.eq(self.in29 - self.in29[-1]),
+            adder1.load.eq(start),
+            adder1.clr.eq(clear),
+            adder1.b.eq(commutator6.o),
+            adder1.add.eq(commutator6.strobe),
+        ]
+        return m
+
+
+class CircularInterpolatorFast(wiring.Component):
+    """The SU 1665343 trajectory at one step per clock.
+
+    The same registers as the patent's structure (adder, counters 7 and 8, triggers 4 and 16,
+    generator 5) and the same inputs and outputs as :class:`CircularInterpolator`, but each
+    step's operand and, on the switch-over step, the ``X + Y`` correction are formed in the
+    clock of the step, so a quadrant takes exactly as many generator pulses as it has steps and
+    a run can follow another with no idle clock: :py:`done` pulses in the clock of the last step
+    (counter 7's underflow output looks ahead at the count). The numbers are two's complement.
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Register width, as for :class:`CircularInterpolator`.
+    period : :class:`int`
+        Generator period in :py:`tick` clocks (1: a step every clock).
+    {members}
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``width`` is not an integer of at least 2 or ``period`` not a positive integer.
+    """
+
+    def __init__(self, *, width=24, period=1):
+        check_width("Register width", width, minimum=2)
+        check_positive("Generator period", period)
+        self._width = width
+        self._period = period
+        aw, cw = width + 4, width + 1
+        self.adder1 = AccumulatingAdder(aw)
+        self.trigger4 = Trigger(priority="set")
+        self.generator5 = PulseGenerator(period)
+        self.counter7 = ReversibleCounter(cw)
+        self.counter8 = ReversibleCounter(cw)
+        self.trigger16 = Trigger(priority="set")
+        super().__init__(_core_signature(width))
+
+    @property
+    def width(self):
+        return self._width
+
+    @property
+    def period(self):
+        return self._period
+
+    def elaborate(self, platform):
+        m = Module()
+        for name in ("adder1", "trigger4", "generator5", "counter7", "counter8", "trigger16"):
+            m.submodules[name] = getattr(self, name)
+        adder1, trigger4, generator5 = self.adder1, self.trigger4, self.generator5
+        counter7, counter8, trigger16 = self.counter7, self.counter8, self.trigger16
+        aw, cw = self._width + 4, self._width + 1
+
+        move = Signal()                   # a step is made in this clock
+        sector2 = trigger16.q
+        step_x = Signal()                 # X falls (output 36)
+        step_y = Signal()                 # Y rises (output 35)
+        diagonal = Signal()
+        m.d.comb += [
+            generator5.en.eq(self.tick),
+            move.eq(generator5.o & trigger4.q),
+            step_x.eq(move & (sector2 | adder1.sign)),
+            step_y.eq(move & (~sector2 | adder1.sign_n)),
+            diagonal.eq(step_x & step_y),
+            self.step.eq(Cat(step_x, step_y)),
+        ]
+
+        # Counters after the step itself (before any switch-over correction).
+        ct7 = Signal(signed(cw + 1))      # Y' in sector 1, X' - 1 in sector 2
+        ct8 = Signal(signed(cw + 1))      # X' - Y' - 1 in sector 1, X' - Y' in sector 2
+        m.d.comb += [
+            ct7.eq(Mux(sector2, counter7.q - 1, counter7.q + 1)),
+            ct8.eq(counter8.q - 1 - diagonal),
+        ]
+        increment = Signal(signed(aw))
+        with m.If(~sector2 & ~diagonal):
+            m.d.comb += increment.eq(-(2 * ct7 + 1))     # Y: F -= 2Y' + 1
+        with m.Elif(~sector2):
+            m.d.comb += increment.eq(2 * ct8 + 1)        # D: F += 2(X' - Y') - 1
+        with m.Elif(diagonal):
+            m.d.comb += increment.eq(2 * ct8 - 1)        # D: F += 2(X' - Y') - 1
+        with m.Else():
+            m.d.comb += increment.eq(2 * ct7 + 1)        # X: F += 2X' - 1
+
+        # Switch-over in the same clock: F += X' + Y', counter 7 becomes X' - 1.
+        at_diagonal = Signal()            # X' = Y' (counter 8 would read -1)
+        past_diagonal = Signal()          # X' - Y' = -1 (counter 8 would read -2)
+        switch = Signal()
+        correction = Signal(signed(aw))
+        m.d.comb += [
+            at_diagonal.eq(move & ~sector2 & (ct8 == -1)),
+            past_diagonal.eq(move & ~sector2 & (ct8 == -2)),
+            switch.eq(at_diagonal | past_diagonal),
+            correction.eq(Mux(at_diagonal, 2 * ct7, Mux(past_diagonal, 2 * ct7 - 1, 0))),
+        ]
+
+        stop = Signal()
+        start = Signal()
+        m.d.comb += [
+            stop.eq(trigger4.q & (counter7.underflow | self.in32)),
+            self.ready.eq(trigger4.q_n | stop),
+            start.eq(self.in33 & self.ready),
+            self.error.eq(self.in33 & ~self.ready),
+            trigger4.set.eq(start),
+            trigger4.reset.eq(stop),
+            self.busy.eq(trigger4.q),
+            self.done.eq(stop),
+
+            adder1.d.eq(self.in29),
+            adder1.load.eq(start),
+            adder1.clr.eq(stop),
+            adder1.b.eq(increment + correction),
+            adder1.add.eq(move),
+
+            counter7.d.eq(self.in30),
+            counter7.load.eq(start),
+            counter7.clr.eq(stop),
+            counter7.up.eq(move & ~sector2),
+            counter7.down.eq((move & sector2) | at_diagonal),
+            counter7.down2.eq(past_diagonal),
+
+            counter8.d.eq(self.in31),
+            counter8.load.eq(start),
+            counter8.clr.eq(stop),
+            counter8.down.eq(move & ~diagonal),
+            counter8.down2.eq(diagonal),
+            counter8.up.eq(switch),
+
+            trigger16.set.eq(Mux(start, self.in34, switch & ~stop)),
+            trigger16.reset.eq(Mux(start, ~self.in34, stop)),
+        ]
+        return m
+
+
+CircularInterpolator.__doc__ = CircularInterpolator.__doc__.replace("{members}", _CORE_MEMBERS)
+CircularInterpolatorFast.__doc__ = CircularInterpolatorFast.__doc__.replace("{members}",
+                                                                            _CORE_MEMBERS)
