@@ -2,8 +2,12 @@
 
 import unittest
 
+from amaranth.sim import Simulator
+
+from hdl.circular import CircularInterpolator
 from hdl.linear import LineEngine
-from sim.models.codes import from_code
+from sim.models.circular import core_inputs, f4_initial, floor_f
+from sim.models.codes import from_code, mask, ones_decode
 from sim.runners import run_amaranth
 from sim.stimulus import Job
 from sim.waves import check_trace, sample_vcd
@@ -35,6 +39,57 @@ class LinearTableWaveTestCase(unittest.TestCase):
             c2 = from_code(clock["c2"], width + 1) + 1      # counter 2 holds C2 - 1
             rows.append([move, f, c1, c2])
         check_trace(GOLDEN / "su1571551_table.trace", ["move", "F", "C1", "C2"], rows)
+
+
+class CircularTable2WaveTestCase(unittest.TestCase):
+    def test_table_2_from_vcd(self):
+        width = 24
+        aw, cw = width + 4, width + 1
+        dut = CircularInterpolator(width=width)
+        in29, in30, in31, in34 = core_inputs(12, 0, floor_f(f4_initial(12, 0, 144)))
+
+        async def testbench(ctx):
+            ctx.set(dut.tick, 1)
+            for port, value in ((dut.in29, in29), (dut.in30, in30), (dut.in31, in31),
+                                (dut.in34, in34), (dut.in33, 1)):
+                ctx.set(port, value)
+            await ctx.tick()
+            ctx.set(dut.in33, 0)
+            await ctx.tick().until(dut.done)
+            await ctx.tick()
+
+        vcd = BUILD_DIR / "waves" / "su1665343_table2.vcd"
+        vcd.parent.mkdir(parents=True, exist_ok=True)
+        sim = Simulator(dut)
+        sim.add_clock(1e-6)
+        sim.add_testbench(testbench)
+        with sim.write_vcd(str(vcd)):
+            sim.run()
+
+        clocks = sample_vcd(vcd, {"step": "step", "sign": "adder1.sign", "f": "adder1.q",
+                                  "ct7": "counter7.q", "ct8": "counter8.q",
+                                  "code": "commutator6.o", "strobe": "commutator6.strobe",
+                                  "busy": "trigger4.q", "done": "done"})
+        columns = {"move": [], "CT7": [], "CT8": [], "code": [], "F": []}
+
+        def keep(name, value):
+            if not columns[name] or columns[name][-1] != value:
+                columns[name].append(value)
+
+        for clock in clocks[1:]:                      # from the clock after the start
+            if clock["step"]:
+                move = {1: "X", 2: "Y", 3: "D"}[clock["step"]]
+                columns["move"].append(move + ("-" if clock["sign"] else "+"))
+            keep("CT7", from_code(clock["ct7"], cw))
+            keep("CT8", ones_decode(clock["ct8"], cw))
+            keep("F", ones_decode(clock["f"], aw) + 0.75)
+            if clock["strobe"]:
+                code = clock["code"]
+                columns["code"].append("-0" if code == mask(aw) else ones_decode(code, aw))
+            if clock["done"]:
+                break
+        rows = [[name, *values] for name, values in columns.items()]
+        check_trace(GOLDEN / "su1665343_table2.trace", ["column", "values"], rows)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,169 @@
+# amaranth: UnusedElaboratable=no
+"""The SU 1665343 RTL against the golden cycle model in Amaranth's simulator, clock for clock."""
+
+import random
+import unittest
+
+from hdl.arc import ArcEngine
+from hdl.circular import CircularInterpolator, CircularInterpolatorFast, FaithfulTiming
+from sim.models.arc import ArcEngineModel, arc_steps, points_ahead
+from sim.models.circular import core_inputs, f4_initial, floor_f, native_steps
+from sim.models.codes import ones_decode
+from sim.runners import run_amaranth
+from sim.stimulus import Job, first_difference, record_steps, run_model
+
+from .utils import simulate
+
+
+def state_signals(engine):
+    core = engine.core
+    return {"adder1": core.adder1.q, "counter7": core.counter7.q, "counter8": core.counter8.q,
+            "trigger4": core.trigger4.q, "trigger16": core.trigger16.q}
+
+
+def decode_state(engine, record):
+    """The faithful core's adder 1 and counter 8 hold ones' complement codes: decode them."""
+    if engine.variant == "faithful":
+        for entry in record:
+            if not entry["rst"]:
+                entry["adder1"] = ones_decode(entry["adder1"], engine.width + 4)
+                entry["counter8"] = ones_decode(entry["counter8"], engine.width + 1)
+    return record
+
+
+def random_arcs(rng, count, limit, *, longest=300):
+    """Arcs of every quadrant and direction, end points taken along the path."""
+    frames = []
+    while len(frames) < count:
+        x0, y0 = rng.randint(-limit, limit), rng.randint(-limit, limit)
+        if (x0, y0) == (0, 0):
+            continue
+        cw = rng.randrange(2)
+        x1, y1 = points_ahead(x0, y0, rng.randint(1, longest), cw=cw)[-1]
+        frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw})
+    return frames
+
+
+class ArcEngineTestCase(unittest.TestCase):
+    def check(self, job, *, variant, width=24, timing=None, state=True):
+        engine = ArcEngine(variant=variant, width=width, timing=timing)
+        model = ArcEngineModel(variant=variant, width=width, timing=timing)
+        expected = run_model(model, job, state=state)
+        actual = run_amaranth(engine, job, state=state_signals(engine) if state else None)
+        if state:
+            decode_state(engine, actual)
+        self.assertIsNone(first_difference(expected, actual))
+        return actual
+
+    def every_radius(self, variant):
+        frames = [{"x0": r, "y0": 0, "x1": r, "y1": 0, "cw": 0} for r in range(1, 65)]
+        frames += [{"x0": 0, "y0": -r, "x1": 0, "y1": -r, "cw": 1} for r in range(1, 65)]
+        record = self.check(Job(frames=frames), variant=variant)
+        self.assertEqual(record_steps(record),
+                         [s for f in frames for s in arc_steps(f["x0"], f["y0"], f["x1"],
+                                                               f["y1"], cw=f["cw"])])
+        self.assertEqual(sum(e["done"] for e in record), len(frames))
+
+    def test_every_radius_to_64_faithful(self):
+        self.every_radius("faithful")
+
+    def test_every_radius_to_64_fast(self):
+        self.every_radius("fast")
+
+    def test_random_arcs_gaps_resets_ticks(self):
+        rng = random.Random(12)
+        frames = random_arcs(rng, 40, 40)
+        frames[7] = {"x0": 5, "y0": 0, "x1": 2, "y1": 4, "cw": 0}          # off the circle
+        frames[8] = {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 1}          # R = 0
+        frames[9] = {"x0": 1 << 24, "y0": 0, "x1": 1 << 24, "y1": 0, "cw": 0}   # too wide
+        frames[10] = {"x0": 3, "y0": 4, "x1": 3, "y1": 4, "cw": 1}         # full circle
+        gaps = [rng.choice([0, 0, 0, 5, 90, 200]) for _ in frames]
+        for variant in ("faithful", "fast"):
+            for tick in ([1], [1, 0, 1]):
+                with self.subTest(variant=variant, tick=tick):
+                    job = Job(frames=frames, gaps=gaps, tick=tick, resets={1500: 2, 4000: 1})
+                    record = self.check(job, variant=variant)
+                    self.assertGreaterEqual(sum(e.get("error", 0) for e in record), 2)
+
+    def test_non_integer_radii(self):
+        rng = random.Random(5)
+        frames = []
+        for _ in range(25):
+            x0, y0 = rng.randint(1, 30), rng.randint(-30, 30)     # r2 rarely a square
+            frames.append({"x0": x0, "y0": y0, "x1": x0, "y1": y0, "cw": rng.randrange(2)})
+        for variant in ("faithful", "fast"):
+            self.check(Job(frames=frames), variant=variant)
+
+    def test_longer_faithful_timing(self):
+        timing = FaithfulTiming(period=6, delay12=4, delay13=2, delay14=2, taps19=(2, 4, 5),
+                                taps26=(1, 2, 2, 3), extender=6)
+        frames = [{"x0": r, "y0": 0, "x1": 0, "y1": r, "cw": 0} for r in (1, 4, 10, 11, 12, 23)]
+        self.check(Job(frames=frames), variant="faithful", timing=timing)
+
+    def test_large_radii_width_32(self):
+        rng = random.Random(32)
+        frames = []
+        for _ in range(6):
+            small, large = rng.randint(0, 400), rng.randint(1 << 28, (1 << 31) - 1)
+            x0, y0 = rng.choice([(small, large), (large, -small), (-small, -large)])
+            cw = rng.randrange(2)
+            x1, y1 = points_ahead(x0, y0, rng.randint(1, 600), cw=cw, width=32)[-1]
+            frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw})
+        frames.append({"x0": (1 << 32) - 1, "y0": 1 << 20, "x1": 0, "y1": 0, "cw": 0})  # too wide
+        for variant in ("faithful", "fast"):
+            self.check(Job(frames=frames), variant=variant, width=32, state=False)
+
+    def test_parameters_wrong(self):
+        with self.assertRaisesRegex(ValueError,
+                r"^Variant must be one of 'faithful', 'fast', not 'exact'$"):
+            ArcEngine(variant="exact")
+        with self.assertRaisesRegex(ValueError, r"^Coordinate width must be at least 25, not 24$"):
+            ArcEngine(width=24, coord_width=24)
+        with self.assertRaisesRegex(TypeError, r"^Timing must be a FaithfulTiming, not 4$"):
+            CircularInterpolator(timing=4)
+        with self.assertRaisesRegex(TypeError,
+                r"^Generator period must be a positive integer, not 0$"):
+            CircularInterpolatorFast(period=0)
+
+
+class CoreTestCase(unittest.TestCase):
+    """The cores on their own, inputs 29-34 driven directly."""
+
+    def run_core(self, dut, r, intrude_at=None):
+        in29, in30, in31, in34 = core_inputs(r, 0, floor_f(f4_initial(r, 0, r * r)))
+        moves, errors = [], []
+
+        async def testbench(ctx):
+            ctx.set(dut.tick, 1)
+            for port, value in ((dut.in29, in29), (dut.in30, in30), (dut.in31, in31),
+                                (dut.in34, in34)):
+                ctx.set(port, value)
+            ctx.set(dut.in33, 1)
+            await ctx.tick()
+            ctx.set(dut.in33, 0)
+            for clock in range(1, 2000):
+                ctx.set(dut.in33, int(clock == intrude_at))
+                step = ctx.get(dut.step)
+                errors.append(ctx.get(dut.error))
+                if step:
+                    moves.append({1: "X", 2: "Y", 3: "D"}[step])
+                if ctx.get(dut.done):
+                    break
+                await ctx.tick()
+
+        simulate(dut, testbench, name=f"circular_core_{type(dut).__name__}_{r}_{intrude_at}")
+        return "".join(moves), errors
+
+    def test_start_while_running_is_refused(self):
+        for make in (CircularInterpolator, CircularInterpolatorFast):
+            clean, errors = self.run_core(make(), 12)
+            self.assertEqual(clean, "".join(m for m, _ in native_steps(12, 0, 144)))
+            self.assertEqual(sum(errors), 0)
+            hit, errors = self.run_core(make(), 12, intrude_at=9)
+            self.assertEqual(hit, clean)
+            self.assertEqual(sum(errors), 1)
+            self.assertEqual(errors[8], 1)
+
+
+if __name__ == "__main__":
+    unittest.main()
