@@ -1,8 +1,9 @@
 """The ``kontur`` command line.
 
-``kontur trace line X Y`` prints the steps of a segment, one ``dx dy`` line per step and
-nothing else on standard output (with ``--cycles``: ``cycle dx dy``). Messages, refusals
-included, go to standard error; a refused command exits with status 2.
+``kontur trace line X Y`` and ``kontur trace arc X0 Y0 X1 Y1`` print the steps of a segment
+or an arc, one ``dx dy`` line per step and nothing else on standard output (with ``--cycles``:
+``cycle dx dy``). Messages, refusals included, go to standard error; a refused command exits
+with status 2.
 """
 
 import argparse
@@ -41,6 +42,15 @@ def _parser():
     line.add_argument("x", type=int, metavar="X")
     line.add_argument("y", type=int, metavar="Y")
     _add_engine_options(line, ("device", "exact"), "exact")
+    arc = kinds.add_parser("arc", help="arc around the origin from (X0, Y0) to (X1, Y1), a full "
+                                       "circle when they are equal (SU 1665343)")
+    for name in ("x0", "y0", "x1", "y1"):
+        arc.add_argument(name, type=int, metavar=name.upper())
+    rotation = arc.add_mutually_exclusive_group()
+    rotation.add_argument("--ccw", dest="cw", action="store_false",
+                          help="counter-clockwise (default)")
+    rotation.add_argument("--cw", dest="cw", action="store_true", help="clockwise")
+    _add_engine_options(arc, ("faithful", "fast"), "faithful")
 
     commands.add_parser("demo", help="show the cores at work on a built-in program")
     return parser
@@ -57,11 +67,15 @@ def _print_moves(record, cycles, out):
 def main(argv=None):
     args = _parser().parse_args(argv)
     import logging
-    logging.getLogger("cocotb_tools").setLevel(logging.ERROR)   # keep stderr for our messages
+    logging.getLogger().setLevel(logging.ERROR)    # the simulator runners' chatter off stderr
     try:
         if args.command == "trace":
             from .trace import trace
-            payload = {"x": args.x, "y": args.y}
+            if args.kind == "line":
+                payload = {"x": args.x, "y": args.y}
+            else:
+                payload = {"x0": args.x0, "y0": args.y0, "x1": args.x1, "y1": args.y1,
+                           "cw": int(args.cw)}
             record = trace(args.kind, payload, variant=args.variant, engine=args.engine,
                            width=args.width, vcd=args.vcd)
             _print_moves(record, args.cycles, sys.stdout)

@@ -6,8 +6,8 @@ is written to ``KONTUR_RECORD`` in the format of :func:`sim.stimulus.run_model`,
 be compared with the golden cycle model entry for entry.
 
 Clock ``n`` is the interval before the ``n + 1``-th rising edge: inputs are driven at its
-start, outputs sampled once they have settled (``ReadOnly``), exactly as the Amaranth runner
-and the model do.
+start (for clock 0, at 1 ns), outputs sampled once they have settled (``ReadOnly``), exactly as
+the Amaranth runner and the model do.
 """
 
 import json
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import cocotb
 from cocotb.clock import Clock
-from cocotb.triggers import ReadOnly, RisingEdge
+from cocotb.triggers import ReadOnly, RisingEdge, Timer
 
 from sim.stimulus import Driver, Job
 
@@ -38,6 +38,10 @@ async def play(dut):
     record = []
     try:
         Clock(dut.clk, 10, unit="ns").start(start_high=False)
+        # Let time-zero events settle before clock 0 is sampled: Icarus evaluates the
+        # "always @*" blocks Amaranth emits (FSM outputs) only after cocotb's first read-only
+        # phase. The first rising edge is at 5 ns.
+        await Timer(1, unit="ns")
         driver = Driver(job)
         outputs_by_port = {"ready": dut.cmd__ready, "step": dut.step, "dir": dut.dir,
                            "busy": dut.busy, "done": dut.done, "error": dut.error}

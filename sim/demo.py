@@ -105,7 +105,7 @@ def _rtl_checks(out, checks):
 def demo(out):
     """Run the demo, writing to ``out``; return the exit status (0: everything agreed)."""
     import logging
-    logging.getLogger("cocotb_tools").setLevel(logging.ERROR)
+    logging.getLogger().setLevel(logging.ERROR)
     from hdl.linear import LineEngine
     job, records = _line_section(out)
     checks = [(f"line-{variant}", (lambda v=variant: LineEngine(variant=v)), job,

@@ -142,11 +142,16 @@ class CocotbBuild:
         if not source.exists() or source.read_text() != text:
             source.write_text(text)
         self.waves = waves
-        self.runner = _vcd_icarus() if (waves and simulator == "icarus") else get_runner(simulator)
+        self.runner = _icarus() if simulator == "icarus" else get_runner(simulator)
         build_args = []
+        if simulator == "icarus":
+            # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run every
+            # "always @*" block at time zero is an event there; under -g2012 (cocotb's default)
+            # it is not, and FSM outputs would read X until their state first changes.
+            build_args = ["-g2005"]
         if simulator == "verilator":
-            # Amaranth's Verilog mixes widths freely; the width lint is about style, not bugs.
-            build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC"]
+            # Lint of generated code: Amaranth mixes widths freely and leaves FSM cases open.
+            build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE"]
         with _waves_env(True if waves else None):
             self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
                               timescale=("1ns", "1ps"), build_args=build_args, waves=waves,
@@ -157,9 +162,6 @@ class CocotbBuild:
         waveform is written there, as VCD."""
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
-        plusargs = []
-        if vcd is not None and self.simulator == "icarus":
-            plusargs = [f"+dumpfile_path={Path(vcd).resolve()}"]
         job_file = self.build_dir / f"{name}.job.json"
         record_file = self.build_dir / f"{name}.record.json"
         job_file.write_text(json.dumps({"job": job.to_json(), "fields": self.fields}))
@@ -169,7 +171,6 @@ class CocotbBuild:
             self.runner.test(
                 hdl_toplevel="engine", test_module="sim.cocotb_player",
                 build_dir=self.build_dir, test_dir=self.build_dir, waves=vcd is not None,
-                plusargs=plusargs,
                 extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
                 results_xml=str(self.build_dir / f"{name}.results.xml"),
                 log_file=self.build_dir / f"{name}.log")
@@ -179,8 +180,9 @@ class CocotbBuild:
         data = json.loads(record_file.read_text())
         if data.get("failure"):
             raise RuntimeError(f"cocotb run on {self.simulator} failed: {data['failure']}")
-        if vcd is not None and self.simulator == "verilator":
-            shutil.copyfile(self.build_dir / "dump.vcd", vcd)
+        if vcd is not None:
+            dump = "dump.vcd" if self.simulator == "verilator" else "engine.vcd"
+            shutil.copyfile(self.build_dir / dump, vcd)
         return data["record"]
 
 
@@ -203,11 +205,22 @@ class _waves_env:
             os.environ["WAVES"] = self.saved
 
 
-def _vcd_icarus():
-    """The cocotb Icarus runner, dumping VCD instead of FST (``--vcd`` promises a VCD file)."""
+def _icarus():
+    """The cocotb Icarus runner, dumping VCD (not FST) from a Verilog-2005 dump module.
+
+    cocotb's own dump module declares a SystemVerilog ``string``, which ``-g2005`` rejects; this
+    one writes ``engine.vcd`` in the build directory when waves are on.
+    """
     from cocotb_tools.runner import Icarus
 
     class IcarusVcd(Icarus):
+        def _create_iverilog_dump_file(self):
+            path = str(self.build_dir / f"{self.hdl_toplevel}.vcd").replace("\\", "\\\\")
+            self.iverilog_dump_file.write_text(
+                "module cocotb_iverilog_dump();\n"
+                f'initial begin $dumpfile("{path}"); $dumpvars(0, {self.hdl_toplevel}); end\n'
+                "endmodule\n")
+
         def _test_command(self):
             return [["-vcd" if arg == "-fst" else arg for arg in cmd]
                     for cmd in super()._test_command()]
@@ -217,9 +230,10 @@ def _vcd_icarus():
 
 def _payload_fields(engine):
     """``{field: [offset, width, signed]}`` of the engine's ``cmd`` payload layout."""
+    from amaranth import Shape
     from amaranth.lib import data
     layout = data.Layout.cast(engine.cmd.payload.shape())
-    return {name: [field.offset, field.shape.width, field.shape.signed]
+    return {name: [field.offset, Shape.cast(field.shape).width, Shape.cast(field.shape).signed]
             for name, field in layout}
 
 

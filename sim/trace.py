@@ -46,7 +46,24 @@ def _line_kind():
                 lambda width: max(32, width + 1))
 
 
-KINDS = {"line": _line_kind()}
+def _arc_kind():
+    from .models import arc, circular
+
+    def make_rtl(variant, width):
+        from hdl.arc import ArcEngine
+        return ArcEngine(variant=variant, width=width)
+
+    def make_model(variant, width):
+        return arc.ArcEngineModel(variant=variant, width=width)
+
+    def check(payload, width):
+        arc.check_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"], width)
+
+    return Kind("arc", circular.CORE_VARIANTS, "faithful", 24, make_rtl, make_model, check,
+                lambda width: max(32, width + 1))
+
+
+KINDS = {"line": _line_kind(), "arc": _arc_kind()}
 
 
 def build_dir(kind, variant, width, simulator, waves=False):
