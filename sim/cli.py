@@ -50,6 +50,7 @@ def _parser():
     rotation.add_argument("--ccw", dest="cw", action="store_false",
                           help="counter-clockwise (default)")
     rotation.add_argument("--cw", dest="cw", action="store_true", help="clockwise")
+    arc.set_defaults(cw=False)            # store_false alone would default to True
     _add_engine_options(arc, ("faithful", "fast"), "faithful")
 
     commands.add_parser("demo", help="show the cores at work on a built-in program")

@@ -5,6 +5,7 @@ import sys
 
 import pytest
 
+from sim.models.arc import arc_steps
 from sim.models.linear import steps
 from sim.waves import sample_vcd
 
@@ -92,3 +93,59 @@ def test_trace_line_cocotb(simulator):
     refused = kontur("trace", "line", 1, -70000, "--engine", simulator)
     assert refused.returncode == 2 and refused.stdout == ""
     assert "refused by the RTL" in refused.stderr
+
+
+def test_trace_arc_model():
+    run = kontur("trace", "arc", 5, 0, -3, 4)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == expected_lines(arc_steps(5, 0, -3, 4))
+    run = kontur("trace", "arc", 5, 0, -3, 4, "--cw", "--variant", "fast")
+    assert run.stdout == expected_lines(arc_steps(5, 0, -3, 4, cw=True))
+
+
+def test_trace_arc_full_circle_and_cycles():
+    run = kontur("trace", "arc", 0, -7, 0, -7, "--cycles")
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert [tuple(map(int, line.split()[1:])) for line in lines] == arc_steps(0, -7, 0, -7)
+    fast = kontur("trace", "arc", 0, -7, 0, -7, "--cycles", "--variant", "fast").stdout
+    clocks = [int(line.split()[0]) for line in fast.splitlines()]
+    assert clocks == list(range(clocks[0], clocks[0] + len(clocks)))   # one step per clock
+
+
+@pytest.mark.parametrize("engine", ["model", "amaranth"])
+def test_trace_arc_refused(engine):
+    run = kontur("trace", "arc", 4, 0, 2, 4, "--engine", engine)
+    assert run.returncode == 2 and run.stdout == ""
+    assert "is not on the circle through the start point" in run.stderr
+    run = kontur("trace", "arc", 0, 0, 1, 1, "--engine", engine, "--variant", "fast")
+    assert run.returncode == 2 and "radius R = 0" in run.stderr
+    run = kontur("trace", "arc", 300, 0, 300, 0, "--width", "8", "--engine", engine)
+    assert run.returncode == 2 and "too wide for the 8-bit registers" in run.stderr
+
+
+def test_trace_arc_amaranth():
+    for variant in ("faithful", "fast"):
+        run = kontur("trace", "arc", -2, 3, 3, 2, "--cw", "--engine", "amaranth", "--cycles",
+                     "--variant", variant)
+        model = kontur("trace", "arc", -2, 3, 3, 2, "--cw", "--cycles", "--variant", variant)
+        assert run.returncode == 0, run.stderr
+        assert run.stdout == model.stdout
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("simulator", selected_simulators())
+def test_trace_arc_cocotb(simulator):
+    vcd = BUILD_DIR / "waves" / f"cli_arc_{simulator}.vcd"
+    vcd.parent.mkdir(parents=True, exist_ok=True)
+    for variant in ("faithful", "fast"):
+        run = kontur("trace", "arc", 6, -1, 6, -1, "--engine", simulator, "--cycles",
+                     "--variant", variant, "--vcd", vcd)
+        assert run.returncode == 0, run.stderr
+        assert run.stdout == kontur("trace", "arc", 6, -1, 6, -1, "--cycles",
+                                    "--variant", variant).stdout
+        clocks = sample_vcd(vcd, {"step": "step"})
+        assert [i for i, c in enumerate(clocks) if c["step"]] == \
+            [int(line.split()[0]) for line in run.stdout.splitlines()]
+    refused = kontur("trace", "arc", 4, 0, 2, 4, "--engine", simulator)
+    assert refused.returncode == 2 and "refused by the RTL" in refused.stderr
