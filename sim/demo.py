@@ -1,20 +1,34 @@
 """``kontur demo``: the cores at work on a built-in program.
 
-Every figure printed is measured in this run: the golden model and the RTL (Amaranth's
-simulator, Icarus, Verilator) trace the same program and are compared clock for clock.
+Every figure printed is measured in this run: the golden models and the RTL (Amaranth's
+simulator, Icarus, Verilator) trace the same commands and are compared clock for clock.
 """
 
+import logging
 import math
 import time
 
+from .models.arc import ArcEngineModel
 from .models.linear import LineEngineModel
 from .runners import ROOT, CocotbBuild, run_amaranth
-from .stimulus import Job, first_difference, record_moves, record_steps, run_model
+from .stimulus import Job, first_difference, record_moves, run_model
 
-__all__ = ["demo", "ascii_plot", "deviation"]
+__all__ = ["demo", "ascii_plot", "deviation", "walk", "OCTAGON", "PROGRAM"]
 
 # A closed octagon: one segment in each octant, chosen where the patent's device strays.
 OCTAGON = [(14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4)]
+
+# A slot with a round hole: lines and arcs, each command continuing from where the last ended.
+# Lines are relative moves; arcs give the start and end relative to the centre.
+PROGRAM = [
+    ("line", {"x": 24, "y": 0}),
+    ("arc", {"x0": 0, "y0": -7, "x1": 0, "y1": 7, "cw": 0}),      # right end, centre (24, 7)
+    ("line", {"x": -24, "y": 0}),
+    ("arc", {"x0": 0, "y0": 7, "x1": 0, "y1": -7, "cw": 0}),      # left end, centre (0, 7)
+    ("line", {"x": 8, "y": 7}),                                    # to the hole
+    ("arc", {"x0": -4, "y0": 0, "x1": -4, "y1": 0, "cw": 1}),     # hole, centre (12, 7)
+    ("line", {"x": -8, "y": -7}),                                  # back home
+]
 
 
 def deviation(start, end, points):
@@ -48,68 +62,142 @@ def ascii_plot(points, marks=None):
     return "\n".join(" ".join(row).rstrip() for row in grid)
 
 
-def _line_section(out):
-    frames = [{"x": x, "y": y} for x, y in OCTAGON]
-    job = Job(frames=frames)
-    out.write("SU 1571551 linear interpolator: an octagon, one segment in each octant\n\n")
-    out.write("  segment    steps  clocks  max deviation (steps)     bound 0.5·cos α\n")
-    out.write("                            exact      device\n")
+def _moves_by_frame(record):
+    """Split a record's moves per frame (a frame ends with ``done``)."""
+    frames, current = [], []
+    for entry in record:
+        if entry["rst"]:
+            continue
+        if entry["step"]:
+            current.append(record_moves([entry])[0])
+        if entry["done"]:
+            frames.append(current)
+            current = []
+    return frames
+
+
+def _linear_section(out):
+    job = Job(frames=[{"x": x, "y": y} for x, y in OCTAGON])
     records = {v: run_model(LineEngineModel(variant=v), job) for v in ("exact", "device")}
+    out.write("1. SU 1571551 linear interpolator: an octagon, one segment in each octant\n\n")
+    out.write("   segment    steps  clocks   max deviation (steps)   bound 0.5 cos α\n")
+    out.write("                               exact     device\n")
+    per_frame = {v: _moves_by_frame(records[v]) for v in records}
     position = (0, 0)
-    moves = {v: record_moves(records[v]) for v in records}
-    index = {v: 0 for v in records}
-    path = []
-    for x, y in OCTAGON:
+    for i, (x, y) in enumerate(OCTAGON):
         end = (position[0] + x, position[1] + y)
-        n = max(abs(x), abs(y))
-        devs = {}
-        for variant in ("exact", "device"):
-            chunk = moves[variant][index[variant]:index[variant] + n]
-            index[variant] += n
-            points = walk(position, [(dx, dy) for _, dx, dy in chunk])
-            devs[variant] = deviation(position, end, points)
-            if variant == "exact":
-                clocks = chunk[-1][0] - chunk[0][0] + 1
-                path += points
-        bound = 0.5 * n / math.hypot(x, y)
-        out.write(f"  ({x:3}, {y:3})  {n:5}  {clocks:6}  {devs['exact']:9.3f}  "
-                  f"{devs['device']:9.3f}   {bound:10.3f}\n")
+        devs = {v: deviation(position, end, walk(position, [(dx, dy) for _, dx, dy in
+                                                             per_frame[v][i]]))
+                for v in records}
+        moves = per_frame["exact"][i]
+        bound = 0.5 * max(abs(x), abs(y)) / math.hypot(x, y)
+        out.write(f"   ({x:3}, {y:3})  {len(moves):5}  {moves[-1][0] - moves[0][0] + 1:6}"
+                  f"   {devs['exact']:7.3f}   {devs['device']:7.3f}      {bound:7.3f}\n")
         position = end
-    out.write(f"\n  back at the start: {position == (0, 0)}; "
-              f"one step per clock, no idle clock between segments\n\n")
-    out.write(ascii_plot(path, {(0, 0): "o"}) + "\n\n")
-    return job, records
+    out.write("\n   one step per clock, no idle clock between segments; the patent's device "
+              "exceeds\n   the bound its own patent claims, equation (1) never does\n\n")
+    return [(f"line-{v}", "line", v, job, records[v]) for v in ("exact", "device")]
 
 
-def _rtl_checks(out, checks):
-    out.write("RTL against the golden cycle model, clock for clock:\n")
+def _circular_section(out):
+    out.write("2. SU 1665343 circular interpolator: Table 2's radius, R = 12, a full circle\n\n")
+    out.write("   variant    steps  clocks  clocks/step  max radial error\n")
+    checks = []
+    job = Job(frames=[{"x0": 12, "y0": 0, "x1": 12, "y1": 0, "cw": 0}])
+    for variant in ("faithful", "fast"):
+        record = run_model(ArcEngineModel(variant=variant), job)
+        moves = record_moves(record)
+        points = walk((12, 0), [(dx, dy) for _, dx, dy in moves])
+        error = max(abs(math.hypot(x, y) - 12) for x, y in points)
+        clocks = moves[-1][0] - moves[0][0] + 1
+        out.write(f"   {variant:<9} {len(moves):6}  {clocks:6}  {clocks / len(moves):11.2f}"
+                  f"  {error:16.3f}\n")
+        checks.append((f"circle-{variant}", "arc", variant, job, record))
+    out.write("\n   faithful: a step per generator period (4 clocks) and one period for each of\n"
+              "   the 4 sector switch-overs; fast: one step per clock, switch-overs included\n\n")
+    return checks
+
+
+def _program_section(out):
+    out.write("3. A program: a slot with a round hole, lines (exact) and arcs (faithful)\n\n")
+    out.write("   command                                steps  max error (steps)\n")
+    position = (0, 0)
+    path = []
+    line_frames, arc_frames = [], []
+    for kind, payload in PROGRAM:
+        if kind == "line":
+            record = run_model(LineEngineModel(), Job(frames=[payload]))
+            end = (position[0] + payload["x"], position[1] + payload["y"])
+            points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
+            error = deviation(position, end, points)
+            text = f"line to ({payload['x']:+}, {payload['y']:+})"
+            line_frames.append(payload)
+        else:
+            record = run_model(ArcEngineModel(), Job(frames=[payload]))
+            centre = (position[0] - payload["x0"], position[1] - payload["y0"])
+            points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
+            radius = math.hypot(payload["x0"], payload["y0"])
+            error = max(abs(math.hypot(x - centre[0], y - centre[1]) - radius)
+                        for x, y in points)
+            turn = "cw" if payload["cw"] else "ccw"
+            text = (f"arc {turn} about ({centre[0]}, {centre[1]}), "
+                    f"R {radius:g}" + (" (full circle)" if payload["x0"] == payload["x1"]
+                                       and payload["y0"] == payload["y1"] else ""))
+            arc_frames.append(payload)
+        out.write(f"   {text:<38} {len(points):5}  {error:17.3f}\n")
+        path += points
+        position = points[-1]
+    out.write(f"\n   back at the start: {position == (0, 0)}\n\n")
+    out.write("   " + ascii_plot(path, {(0, 0): "o"}).replace("\n", "\n   ") + "\n\n")
+    checks = []
+    for variant in ("exact", "device"):
+        job = Job(frames=line_frames)
+        checks.append((f"program-lines-{variant}", "line", variant, job,
+                       run_model(LineEngineModel(variant=variant), job)))
+    for variant in ("faithful", "fast"):
+        job = Job(frames=arc_frames)
+        checks.append((f"program-arcs-{variant}", "arc", variant, job,
+                       run_model(ArcEngineModel(variant=variant), job)))
+    return checks
+
+
+def _make_engine(kind, variant):
+    if kind == "line":
+        from hdl.linear import LineEngine
+        return LineEngine(variant=variant)
+    from hdl.arc import ArcEngine
+    return ArcEngine(variant=variant)
+
+
+def _rtl_section(out, checks):
+    out.write("4. The RTL against the golden cycle model, clock for clock\n\n")
     all_equal = True
-    for label, make_engine, job, expected in checks:
+    for label, kind, variant, job, expected in checks:
+        row = []
         for simulator in ("amaranth", "icarus", "verilator"):
             started = time.monotonic()
-            engine = make_engine()
+            engine = _make_engine(kind, variant)
             if simulator == "amaranth":
                 actual = run_amaranth(engine, job)
             else:
                 build = CocotbBuild(engine, simulator,
-                                    ROOT / "build" / "demo" / simulator / label)
-                actual = build.run(job, name="demo")
+                                    ROOT / "build" / "demo" / simulator / f"{kind}_{variant}")
+                actual = build.run(job, name=label)
             difference = first_difference(expected, actual)
             all_equal &= difference is None
-            verdict = "identical" if difference is None else f"DIFFERENT: {difference}"
-            out.write(f"  {label:<22} {simulator:<10} {len(actual):6} clocks  {verdict}"
-                      f"  ({time.monotonic() - started:.1f} s)\n")
+            verdict = "same" if difference is None else f"DIFFERENT ({difference})"
+            row.append(f"{simulator} {verdict} ({time.monotonic() - started:.1f} s)")
+        out.write(f"   {label:<24} {len(expected):6} clocks: " + ", ".join(row) + "\n")
     return all_equal
 
 
 def demo(out):
     """Run the demo, writing to ``out``; return the exit status (0: everything agreed)."""
-    import logging
     logging.getLogger().setLevel(logging.ERROR)
-    from hdl.linear import LineEngine
-    job, records = _line_section(out)
-    checks = [(f"line-{variant}", (lambda v=variant: LineEngine(variant=v)), job,
-               records[variant]) for variant in ("exact", "device")]
-    ok = _rtl_checks(out, checks)
-    out.write("\nall engines agree\n" if ok else "\nTHE ENGINES DISAGREE\n")
+    checks = _linear_section(out)
+    checks += _circular_section(out)
+    checks += _program_section(out)
+    ok = _rtl_section(out, checks)
+    out.write("\nall engines agree with the golden models\n" if ok else
+              "\nTHE ENGINES DISAGREE\n")
     return 0 if ok else 1
