@@ -316,6 +316,16 @@ class DemoTopTestCase(unittest.TestCase):
                      "set_frequency clk12_0__io 12.0"):
             self.assertIn(line, pcf)
 
+    def test_arc_engine_elaborates_for_icebreaker(self):
+        from hdl.arc import ArcEngine
+        circle = {"x0": 10, "y0": 0, "x1": 10, "y1": 0, "cw": 0}
+        platform = constraints.platform("icebreaker")
+        plan = platform.build(DemoTop(ArcEngine, program=[circle]), name="top", do_build=False)
+        self.assertIn("set_io stepper_0__step__io[0] 4", plan.files["top.pcf"])
+        plan = constraints.platform("icebreaker").build(
+            PinnedTop(ShiftInTop(ArcEngine()), "shift_in"), name="top", do_build=False)
+        self.assertIn("set_io shift_in_0__sdi__io ", plan.files["top.pcf"])
+
     def test_shift_in_elaborates_for_icebreaker(self):
         platform = constraints.platform("icebreaker")
         plan = platform.build(PinnedTop(ShiftInTop(LineEngine()), "shift_in"), name="top",
