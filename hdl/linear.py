@@ -153,8 +153,10 @@ class LinearInterpolator(wiring.Component):
         # AND 9 fires when counter 1 holds 0 and counter 2 holds -1 (all inverse outputs of
         # counter 1, all direct outputs of counter 2). In the patent it resets trigger 14 as soon
         # as the counters settle after the last step, before the generator's next pulse; with a
-        # generator pulse in every clock the same timing needs AND 9 to decode the counters'
-        # next contents (their count logic's output), so it fires in the clock of the last step.
+        # generator pulse in every clock the same timing needs AND 9 to see the counters' next
+        # contents, so it fires in the clock of the last step. It decodes them from the present
+        # contents and the pulse now passing (a long step ends the frame from 1 and -1, a
+        # combined step from 0 and 0), which keeps the counters' carry chains off this path.
         and9_run = Signal()   # the running frame makes its last step now
         and9_load = Signal()  # a zero-length frame: its counters are exhausted when loaded
         and9 = Signal()
@@ -163,7 +165,9 @@ class LinearInterpolator(wiring.Component):
         start = Signal()      # input 26, accepted
         go = Signal()         # a frame with steps starts running
         m.d.comb += [
-            and9_run.eq(trigger14.q & ~counter1.q_next.any() & counter2.q_next.all()),
+            and9_run.eq(trigger14.q & (
+                (and5 & (counter1.q == 1) & counter2.q.all()) |
+                (and6 & ~counter1.q.any() & ~counter2.q.any()))),
             empty.eq(~self.in22.any() & ~self.in23.any()),
             # At most one frame ends per clock: a zero-length frame waits for an idle clock.
             self.ready.eq(trigger14.q_n | (and9_run & ~empty)),

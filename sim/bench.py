@@ -33,13 +33,20 @@ BUILD_ROOT = ROOT / "build" / "bench"
 SEED = 1
 
 #: ``(core, width, variant)`` rows of :func:`area`.
-AREA_DESIGNS = [(core, width, variant)
-                for core in ("LinearInterpolator", "LineEngine")
-                for width in (16, 32)
-                for variant in ("device", "exact")]
+AREA_DESIGNS = ([(core, width, variant)
+                 for core in ("LinearInterpolator", "LineEngine")
+                 for width in (16, 32)
+                 for variant in ("device", "exact")]
+                + [(core, 24, variant)
+                   for core, variants in (("CircularInterpolator", ("faithful",)),
+                                          ("CircularInterpolatorFast", ("fast",)),
+                                          ("ArcEngine", ("faithful", "fast")))
+                   for variant in variants])
 
-#: ``(width, variant)`` rows of :func:`speed` (``LineEngine`` in ``ShiftInTop``).
-SPEED_DESIGNS = [(width, variant) for width in (16, 32) for variant in ("device", "exact")]
+#: ``(engine, width, variant)`` rows of :func:`speed` (the engine in ``ShiftInTop``).
+SPEED_DESIGNS = ([("LineEngine", width, variant) for width in (16, 32)
+                  for variant in ("device", "exact")]
+                 + [("ArcEngine", 24, variant) for variant in ("faithful", "fast")])
 
 # Amaranth's name for each tool's variable, and the PyPI build used by default.
 _TOOLS = {
@@ -240,8 +247,15 @@ def measure_speed(engine, build_dir, *, seed=SEED):
 # ---- tables --------------------------------------------------------------------------------
 
 def _core(core, width, variant):
+    from hdl.arc import ArcEngine
+    from hdl.circular import CircularInterpolator, CircularInterpolatorFast
     from hdl.linear import LineEngine, LinearInterpolator
-    cls = {"LinearInterpolator": LinearInterpolator, "LineEngine": LineEngine}[core]
+    if core == "CircularInterpolator":
+        return CircularInterpolator(width=width)
+    if core == "CircularInterpolatorFast":
+        return CircularInterpolatorFast(width=width)
+    cls = {"LinearInterpolator": LinearInterpolator, "LineEngine": LineEngine,
+           "ArcEngine": ArcEngine}[core]
     return cls(width=width, variant=variant)
 
 
@@ -303,28 +317,28 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
     """Print the speed table: ``LineEngine`` in ``ShiftInTop``, placed and routed on the
     iCEBreaker's UP5K-SG48 with nextpnr seed ``seed``; return the rows as dicts.
 
-    ``designs`` is a list of ``(width, variant)``; by default :data:`SPEED_DESIGNS`.
+    ``designs`` is a list of ``(engine, width, variant)``; by default :data:`SPEED_DESIGNS`.
     """
     from amaranth.lib import data
-    from hdl.linear import LineEngine
 
     out = sys.stdout if out is None else out
     build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "speed"
     designs = SPEED_DESIGNS if designs is None else designs
     versions = tool_versions()
-    out.write(f"Speed on the iCEBreaker (iCE40UP5K-SG48): LineEngine in ShiftInTop, "
+    out.write(f"Speed on the iCEBreaker (iCE40UP5K-SG48): each engine in ShiftInTop, "
               f"{versions['yosys']}, {versions['nextpnr-ice40']}, seed {seed}\n\n")
     results, rows = [], []
-    for width, variant in designs:
-        engine = LineEngine(width=width, variant=variant)
+    for name, width, variant in designs:
+        engine = _core(name, width, variant)
         frame_bits = data.Layout.cast(engine.cmd.payload.shape()).size
-        result = measure_speed(engine, build_root / f"line_w{width}_{variant}", seed=seed)
+        result = measure_speed(engine, build_root / f"{name.lower()}_w{width}_{variant}",
+                               seed=seed)
         # One clock domain here; were there several, the slowest would bound the design.
         _, (mhz, verdict, target) = min(result["fmax"].items(), key=lambda item: item[1][0])
         used, available = result["lc"]
         result.update(width=width, variant=variant, mhz=mhz, frame_bits=frame_bits)
         results.append(result)
-        rows.append(["LineEngine", width, variant, frame_bits, used, available, f"{mhz:.2f}",
+        rows.append([name, width, variant, frame_bits, used, available, f"{mhz:.2f}",
                      f"{verdict or '-'} at {target:g} MHz" if target else "-", seed,
                      f"{result['seconds']:.1f}"])
     _table(out, ["engine", "width", "variant", "frame bits", "LC", "of", "Fmax MHz", "constraint",
@@ -337,16 +351,21 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
 
 
 def main(argv=None):
-    """``kontur bench [area|speed]``: print the tables (both without an argument).
+    """``kontur bench [accuracy|area|speed]``: print the tables (all three without an argument).
 
     Returns the exit status: 0, or 2 with a message on standard error for a bad argument or a
     missing/failing tool.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv not in ([], ["area"], ["speed"]):
-        sys.stderr.write(f"usage: kontur bench [area|speed], not {' '.join(argv)!r}\n")
+    if argv not in ([], ["accuracy"], ["area"], ["speed"]):
+        sys.stderr.write(f"usage: kontur bench [accuracy|area|speed], not {' '.join(argv)!r}\n")
         return 2
     try:
+        if argv in ([], ["accuracy"]):
+            from .accuracy import main as accuracy
+            accuracy(sys.stdout)
+        if argv == []:
+            sys.stdout.write("\n")
         if argv in ([], ["area"]):
             area(sys.stdout)
         if argv == []:

@@ -54,6 +54,13 @@ def _parser():
     _add_engine_options(arc, ("faithful", "fast"), "faithful")
 
     commands.add_parser("demo", help="show the cores at work on a built-in program")
+    bench = commands.add_parser("bench", help="measure accuracy (models), area and speed "
+                                              "(Yosys, nextpnr on the iCE40UP5K); print tables")
+    bench.add_argument("what", nargs="?", choices=("accuracy", "area", "speed"),
+                       help="one table only (default: all three)")
+    build = commands.add_parser("build", help="build the demo bitstream (never programs)")
+    build.add_argument("--board", choices=("icebreaker",), default="icebreaker")
+    build.add_argument("--build-dir", default=None, help="default: build/<board>")
     return parser
 
 
@@ -83,6 +90,13 @@ def main(argv=None):
         elif args.command == "demo":
             from .demo import demo
             return demo(sys.stdout)
+        elif args.command == "bench":
+            from .bench import main as bench
+            return bench([args.what] if args.what else [])
+        elif args.command == "build":
+            from .build import main as build
+            return build(["--board", args.board]
+                         + (["--build-dir", args.build_dir] if args.build_dir else []))
     except InputError as error:
         print(f"kontur: refused: {error}", file=sys.stderr)
         return 2

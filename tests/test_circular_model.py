@@ -3,12 +3,15 @@
 import math
 import random
 import unittest
+from unittest import mock
 
 from hdl.circular_timing import FaithfulTiming
 from sim.models.arc import (ArcEngineModel, arc_steps, check_arc, plan_arc, points_ahead,
                             round_sqrt)
+from sim.models import circular
 from sim.models.circular import (FaithfulCoreModel, FastCoreModel, core_inputs, f4_initial,
                                  floor_f, native_path, native_steps)
+from sim.models.codes import mask
 from sim.models.errors import InputError
 from sim.stimulus import Job, record_steps, run_model
 
@@ -318,6 +321,19 @@ class TimingTestCase(unittest.TestCase):
             unchecked = FaithfulTiming(**parameters, check=False)
             moves, _ = core_moves(FaithfulCoreModel(timing=unchecked), r, 0, r * r)
             self.assertNotEqual(moves, "".join(m for m, _ in native_steps(r, 0, r * r)))
+
+    def test_plain_ones_complement_adder_breaks_r_5(self):
+        # Adder 1 forms its ones'-complement sum so that zero is +0. A plain adder with an
+        # end-around carry turns 3 + (-3) into -0, reads it as negative and at R = 5 steps
+        # diagonally from (5, 1) to (4, 2), 0.53 of a step off the circle.
+        def plain(a, b, width):
+            total = (a & mask(width)) + (b & mask(width))
+            return (total & mask(width)) + (total >> width)
+
+        with mock.patch.object(circular, "ones_add", plain):
+            moves, _ = core_moves(FaithfulCoreModel(), 5, 0, 25)
+        self.assertEqual("".join(m for m, _ in native_steps(5, 0, 25)), "YYDDDXX")
+        self.assertEqual(moves[:2], "YD")
 
     def test_literal_reading_breaks_the_bound(self):
         # Delay 12 read before the X = Y switch-over has set trigger 16 (the patent's text
