@@ -145,7 +145,8 @@ class ToolTestCase(unittest.TestCase):
         stderr = io.StringIO()
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
-        self.assertEqual(stderr.getvalue(), "usage: kontur bench [area|speed], not 'fast'\n")
+        self.assertEqual(stderr.getvalue(),
+                         "usage: kontur bench [accuracy|area|speed], not 'fast'\n")
 
 
 class AreaTestCase(unittest.TestCase):
