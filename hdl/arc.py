@@ -1,11 +1,11 @@
 """Any arc, from the SU 1665343 quadrant core: every quadrant, both directions, full circles."""
 
 from amaranth import *
-from amaranth.lib import data, stream, wiring
-from amaranth.lib.wiring import In, Out
+from amaranth.lib import data, wiring
 
-from .circular import CircularInterpolator, CircularInterpolatorFast, FaithfulTiming
+from .circular import CircularInterpolator, CircularInterpolatorFast
 from .elements._checks import check_choice, check_positive, check_width
+from .engine import engine_members, frame_coord_width
 
 __all__ = ["ArcEngine", "ARC_VARIANTS"]
 
@@ -87,12 +87,7 @@ class ArcEngine(wiring.Component):
         check_choice("Variant", variant, ARC_VARIANTS)
         check_width("Register width", width, minimum=2)
         check_positive("Generator period", period)
-        if coord_width is None:
-            coord_width = max(32, width + 1)
-        check_width("Coordinate width", coord_width, minimum=2)
-        if coord_width < width + 1:
-            raise ValueError(f"Coordinate width must be at least {width + 1}, "
-                             f"not {coord_width!r}")
+        coord_width = frame_coord_width(width, coord_width)
         self._variant = variant
         self._width = width
         self._coord_width = coord_width
@@ -100,15 +95,7 @@ class ArcEngine(wiring.Component):
             self.core = CircularInterpolator(width=width, timing=timing)
         else:
             self.core = CircularInterpolatorFast(width=width, period=period)
-        super().__init__({
-            "cmd":   In(stream.Signature(self.Frame(coord_width))),
-            "tick":  In(1),
-            "step":  Out(2),
-            "dir":   Out(2),
-            "busy":  Out(1),
-            "done":  Out(1),
-            "error": Out(1),
-        })
+        super().__init__(engine_members(self.Frame(coord_width)))
 
     @property
     def variant(self):

@@ -1,12 +1,13 @@
 """Linear interpolator of patent SU 1571551: the patent's device, and the engine around it."""
 
 from amaranth import *
-from amaranth.lib import data, stream, wiring
+from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
 
 from .elements import (AccumulatingAdder, Commutator, PulseGenerator, ReversibleCounter,
                        Trigger)
 from .elements._checks import check_choice, check_positive, check_width
+from .engine import engine_members, frame_coord_width
 
 __all__ = ["LinearInterpolator", "LineEngine", "LINEAR_VARIANTS"]
 
@@ -130,8 +131,6 @@ class LinearInterpolator(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        w = self._width
-
         m.submodules.counter1 = counter1 = self.counter1
         m.submodules.counter2 = counter2 = self.counter2
         m.submodules.adder3 = adder3 = self.adder3
@@ -302,26 +301,13 @@ class LineEngine(wiring.Component):
         check_width("Register width", width, minimum=2)
         check_choice("Variant", variant, LINEAR_VARIANTS)
         check_positive("Generator period", period)
-        if coord_width is None:
-            coord_width = max(32, width + 1)
-        check_width("Coordinate width", coord_width, minimum=2)
-        if coord_width < width + 1:
-            raise ValueError(f"Coordinate width must be at least {width + 1}, "
-                             f"not {coord_width!r}")
+        coord_width = frame_coord_width(width, coord_width)
         self._width = width
         self._variant = variant
         self._period = period
         self._coord_width = coord_width
         self.core = LinearInterpolator(width=width, variant=variant, period=period)
-        super().__init__({
-            "cmd":   In(stream.Signature(self.Frame(coord_width))),
-            "tick":  In(1),
-            "step":  Out(2),
-            "dir":   Out(2),
-            "busy":  Out(1),
-            "done":  Out(1),
-            "error": Out(1),
-        })
+        super().__init__(engine_members(self.Frame(coord_width)))
 
     @property
     def width(self):

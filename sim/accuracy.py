@@ -7,19 +7,13 @@ the RTL too. Every number is computed in the run that prints it.
 import math
 import time
 
-from .models.arc import ArcEngineModel, arc_steps, round_sqrt
+from .geometry import radial_error, walk
+from .models.arc import ArcEngineModel, round_sqrt
 from .models.circular import native_path
 from .models.linear import LineEngineModel, steps
 from .stimulus import Job, record_moves, run_model
 
 __all__ = ["main", "linear_table", "circular_table", "throughput_table"]
-
-
-def _visited(moves):
-    x = y = 0
-    for dx, dy in moves:
-        x, y = x + dx, y + dy
-        yield x, y
 
 
 def linear_table(limit=64):
@@ -33,7 +27,7 @@ def linear_table(limit=64):
             long = max(abs(x), abs(y))
             norm = math.hypot(x, y)
             ratio = dist = 0.0
-            for px, py in _visited(steps(x, y, variant=variant)):
+            for px, py in walk((0, 0), steps(x, y, variant=variant)):
                 cross = abs(px * y - py * x)
                 ratio = max(ratio, 2 * cross / long)       # deviation / (0.5 cos α)
                 dist = max(dist, cross / norm)
@@ -50,7 +44,7 @@ def circular_table(limit=2000):
     rows = []
     worst = (0.0, None)
     for r in range(1, limit + 1):
-        error = max(abs(math.hypot(x, y) - r) for x, y in native_path(r, 0, r * r))
+        error = radial_error(native_path(r, 0, r * r), r * r)
         if error > worst[0]:
             worst = (error, r)
     rows.append((f"integer R = 1..{limit}, quadrant", limit, worst[0], worst[1]))
@@ -58,7 +52,7 @@ def circular_table(limit=2000):
     count = 0
     for r2 in range(2, 4 * limit, 3):
         rn = round_sqrt(r2)
-        error = max(abs(math.hypot(x, y) - math.sqrt(r2)) for x, y in native_path(rn, 0, r2))
+        error = radial_error(native_path(rn, 0, r2), r2)
         if error > worst[0]:
             worst = (error, f"sqrt({r2})")
         count += 1

@@ -8,12 +8,13 @@ import logging
 import math
 import time
 
+from .geometry import radial_error, segment_deviation, walk
 from .models.arc import ArcEngineModel
 from .models.linear import LineEngineModel
 from .runners import ROOT, CocotbBuild, run_amaranth
 from .stimulus import Job, first_difference, record_moves, run_model
 
-__all__ = ["demo", "ascii_plot", "deviation", "walk", "OCTAGON", "PROGRAM"]
+__all__ = ["demo", "ascii_plot", "OCTAGON", "PROGRAM"]
 
 # A closed octagon: one segment in each octant, chosen where the patent's device strays.
 OCTAGON = [(14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4)]
@@ -29,23 +30,6 @@ PROGRAM = [
     ("arc", {"x0": -4, "y0": 0, "x1": -4, "y1": 0, "cw": 1}),     # hole, centre (12, 7)
     ("line", {"x": -8, "y": -7}),                                  # back home
 ]
-
-
-def deviation(start, end, points):
-    """Largest distance, in steps, of ``points`` from the segment ``start``-``end``."""
-    (x0, y0), (x1, y1) = start, end
-    length = math.hypot(x1 - x0, y1 - y0)
-    return max(abs((x - x0) * (y1 - y0) - (y - y0) * (x1 - x0)) / length for x, y in points)
-
-
-def walk(start, moves):
-    """Points visited from ``start`` by ``moves`` (``(dx, dy)`` pairs)."""
-    x, y = start
-    points = []
-    for dx, dy in moves:
-        x, y = x + dx, y + dy
-        points.append((x, y))
-    return points
 
 
 def ascii_plot(points, marks=None):
@@ -86,7 +70,7 @@ def _linear_section(out):
     position = (0, 0)
     for i, (x, y) in enumerate(OCTAGON):
         end = (position[0] + x, position[1] + y)
-        devs = {v: deviation(position, end, walk(position, [(dx, dy) for _, dx, dy in
+        devs = {v: segment_deviation(position, end, walk(position, [(dx, dy) for _, dx, dy in
                                                              per_frame[v][i]]))
                 for v in records}
         moves = per_frame["exact"][i]
@@ -108,7 +92,7 @@ def _circular_section(out):
         record = run_model(ArcEngineModel(variant=variant), job)
         moves = record_moves(record)
         points = walk((12, 0), [(dx, dy) for _, dx, dy in moves])
-        error = max(abs(math.hypot(x, y) - 12) for x, y in points)
+        error = radial_error(points, 144)
         clocks = moves[-1][0] - moves[0][0] + 1
         out.write(f"   {variant:<9} {len(moves):6}  {clocks:6}  {clocks / len(moves):11.2f}"
                   f"  {error:16.3f}\n")
@@ -129,7 +113,7 @@ def _program_section(out):
             record = run_model(LineEngineModel(), Job(frames=[payload]))
             end = (position[0] + payload["x"], position[1] + payload["y"])
             points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
-            error = deviation(position, end, points)
+            error = segment_deviation(position, end, points)
             text = f"line to ({payload['x']:+}, {payload['y']:+})"
             line_frames.append(payload)
         else:
@@ -137,8 +121,7 @@ def _program_section(out):
             centre = (position[0] - payload["x0"], position[1] - payload["y0"])
             points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
             radius = math.hypot(payload["x0"], payload["y0"])
-            error = max(abs(math.hypot(x - centre[0], y - centre[1]) - radius)
-                        for x, y in points)
+            error = radial_error(points, radius ** 2, centre)
             turn = "cw" if payload["cw"] else "ccw"
             text = (f"arc {turn} about ({centre[0]}, {centre[1]}), "
                     f"R {radius:g}" + (" (full circle)" if payload["x0"] == payload["x1"]

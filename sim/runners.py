@@ -10,7 +10,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from .stimulus import OUTPUTS, Driver, Job
+from .stimulus import Driver
 
 __all__ = ["run_amaranth", "run_cocotb", "CocotbBuild", "ENGINES", "SIMULATORS",
            "verilator_environment", "ensure_simulator"]

@@ -7,7 +7,6 @@ raises its ``error`` strobe, which is turned into the same :exc:`InputError` her
 """
 
 from dataclasses import dataclass
-from pathlib import Path
 
 from .models.errors import InputError
 from .runners import ENGINES, ROOT, CocotbBuild, run_amaranth

@@ -6,27 +6,15 @@ import unittest
 from unittest import mock
 
 from hdl.circular_timing import FaithfulTiming
-from sim.models.arc import (ArcEngineModel, arc_steps, check_arc, plan_arc, points_ahead,
+from sim.models.arc import (ArcEngineModel, arc_steps, check_arc, points_ahead,
                             round_sqrt)
+from sim.geometry import radial_error, walk
 from sim.models import circular
 from sim.models.circular import (FaithfulCoreModel, FastCoreModel, core_inputs, f4_initial,
                                  floor_f, native_path, native_steps)
 from sim.models.codes import mask
 from sim.models.errors import InputError
 from sim.stimulus import Job, record_steps, run_model
-
-
-def walk(start, steps):
-    x, y = start
-    points = []
-    for dx, dy in steps:
-        x, y = x + dx, y + dy
-        points.append((x, y))
-    return points
-
-
-def radial_error(points, r2):
-    return max(abs(math.hypot(x, y) - math.sqrt(r2)) for x, y in points)
 
 
 def core_moves(model, x, y, r2):

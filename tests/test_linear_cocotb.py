@@ -26,7 +26,6 @@ def random_magnitude(rng, width):
 def linear_jobs(width, seed):
     rng = random.Random(seed)
     top = (1 << width) - 1
-    model = LineEngineModel(width=width)
     jobs = {}
 
     # Extremes: zero, one, the maximum in every direction, the first too wide values.

@@ -4,6 +4,7 @@ import itertools
 import random
 import unittest
 
+from sim.geometry import walk
 from sim.models.errors import InputError
 from sim.models.linear import LineEngineModel, check_line, patent_inputs, steps, table
 from sim.stimulus import Job, record_moves, record_steps, run_model
@@ -13,12 +14,7 @@ END_POINTS_64 = [(x, y) for x in range(-64, 65) for y in range(-64, 65) if (x, y
 
 def visited(path):
     """Points visited from the origin by the steps of ``path``."""
-    x = y = 0
-    points = []
-    for dx, dy in path:
-        x, y = x + dx, y + dy
-        points.append((x, y))
-    return points
+    return walk((0, 0), path)
 
 
 def excess(x_end, y_end, path):

@@ -106,13 +106,22 @@ def core_inputs(x, y, f_floor):
 
 
 class _CoreBase:
-    """What both core models share: inputs, the run/stop protocol, outputs."""
+    """What both core models share: widths and the registers both cores have."""
 
     def __init__(self, width):
         self.width = width
         self.cw = width + 1                  # counters 7 and 8
         self.aw = width + 4                  # adder 1
         self.reset()
+
+    def reset(self):
+        """Return every register to its reset value (the RTL's synchronous reset)."""
+        self.adder1 = 0
+        self.trigger4 = 0
+        self.phase = 0
+        self.counter7 = 0
+        self.counter8 = 0
+        self.trigger16 = 0
 
 
 class FaithfulCoreModel(_CoreBase):
@@ -129,13 +138,8 @@ class FaithfulCoreModel(_CoreBase):
         super().__init__(width)
 
     def reset(self):
+        super().reset()
         t = self.timing
-        self.adder1 = 0
-        self.trigger4 = 0
-        self.phase = 0
-        self.counter7 = 0
-        self.counter8 = 0
-        self.trigger16 = 0
         self.line12 = [0] * t.delay12
         self.line13 = [0] * t.delay13
         self.line14 = [0] * t.delay14
@@ -270,14 +274,6 @@ class FastCoreModel(_CoreBase):
     def __init__(self, width=24, period=1):
         self.period = period
         super().__init__(width)
-
-    def reset(self):
-        self.adder1 = 0
-        self.trigger4 = 0
-        self.phase = 0
-        self.counter7 = 0
-        self.counter8 = 0
-        self.trigger16 = 0
 
     def state(self):
         return {"adder1": self.adder1, "counter7": self.counter7, "counter8": self.counter8,
