@@ -7,12 +7,14 @@ import unittest
 from hdl.arc import ArcEngine
 from hdl.circular import CircularInterpolator, CircularInterpolatorFast, FaithfulTiming
 from sim.models.arc import ArcEngineModel, arc_steps, points_ahead
-from sim.models.circular import core_inputs, f4_initial, floor_f, native_steps
+from sim.models.circular import (FaithfulCoreModel, FastCoreModel, core_inputs, f4_initial,
+                                 floor_f, native_steps)
 from sim.models.codes import ones_decode
+from sim.models.errors import InputError
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 
-from .utils import simulate
+from .utils import compare_core
 
 
 def state_signals(engine):
@@ -127,42 +129,70 @@ class ArcEngineTestCase(unittest.TestCase):
 
 
 class CoreTestCase(unittest.TestCase):
-    """The cores on their own, inputs 29-34 driven directly."""
+    """The cores on their own, inputs 29-34 driven directly, against the core models."""
 
-    def run_core(self, dut, r, intrude_at=None):
-        in29, in30, in31, in34 = core_inputs(r, 0, floor_f(f4_initial(r, 0, r * r)))
-        moves, errors = [], []
+    def schedule(self, starts, stops, clocks):
+        """Per-clock inputs: a start (input 33) at each clock of ``starts`` (native start point
+        and r2), input 32 at each clock of ``stops``; inputs 29-31, 34 stay until the next."""
+        current = (0, 0, 0, 0)
+        rows = []
+        for clock in range(clocks):
+            row = {"tick": 1, "in32": int(clock in stops)}
+            if clock in starts:
+                x, y, r2 = starts[clock]
+                current = core_inputs(x, y, floor_f(f4_initial(x, y, r2)))
+                row["in33"] = 1
+            row.update(zip(("in29", "in30", "in31", "in34"), current))
+            rows.append(row)
+        return rows
 
-        async def testbench(ctx):
-            ctx.set(dut.tick, 1)
-            for port, value in ((dut.in29, in29), (dut.in30, in30), (dut.in31, in31),
-                                (dut.in34, in34)):
-                ctx.set(port, value)
-            ctx.set(dut.in33, 1)
-            await ctx.tick()
-            ctx.set(dut.in33, 0)
-            for clock in range(1, 2000):
-                ctx.set(dut.in33, int(clock == intrude_at))
-                step = ctx.get(dut.step)
-                errors.append(ctx.get(dut.error))
-                if step:
-                    moves.append({1: "X", 2: "Y", 3: "D"}[step])
-                if ctx.get(dut.done):
-                    break
-                await ctx.tick()
+    def run_core(self, make_dut, make_model, starts, stops, clocks):
+        dut, model = make_dut(), make_model()
+        state = {"adder1": dut.adder1.q, "counter7": dut.counter7.q,
+                 "counter8": dut.counter8.q, "trigger4": dut.trigger4.q,
+                 "trigger16": dut.trigger16.q}
+        decode = {}
+        if isinstance(dut, CircularInterpolator):
+            decode = {"adder1": lambda v: ones_decode(v, dut.width + 4),
+                      "counter8": lambda v: ones_decode(v, dut.width + 1)}
+        return compare_core(self, dut, model, self.schedule(starts, stops, clocks), state=state,
+                            decode=decode, name=f"circular_core_{type(dut).__name__}")
 
-        simulate(dut, testbench, name=f"circular_core_{type(dut).__name__}_{r}_{intrude_at}")
-        return "".join(moves), errors
+    def first_done(self, make_model, x, y, r2):
+        model = make_model()
+        for clock, inputs in enumerate(self.schedule({0: (x, y, r2)}, (), 10_000)):
+            outputs, _, _ = model.cycle(**inputs)
+            if clock and outputs["done"]:
+                return clock
+        raise AssertionError("no stop")
 
-    def test_start_while_running_is_refused(self):
-        for make in (CircularInterpolator, CircularInterpolatorFast):
-            clean, errors = self.run_core(make(), 12)
-            self.assertEqual(clean, "".join(m for m, _ in native_steps(12, 0, 144)))
-            self.assertEqual(sum(errors), 0)
-            hit, errors = self.run_core(make(), 12, intrude_at=9)
-            self.assertEqual(hit, clean)
-            self.assertEqual(sum(errors), 1)
-            self.assertEqual(errors[8], 1)
+    def check_core(self, make_dut, make_model):
+        # R = 12 from (12, 0); a start while it runs (refused); the next run, R = 10 from a
+        # sector-2 point, started in the clock the first stops; stopped by input 32 in the
+        # middle, with a new run (R = 4, the Y-step switch-over) started in the same clock.
+        end = self.first_done(make_model, 12, 0, 144)
+        starts = {0: (12, 0, 144), 9: (5, 5, 50), end: (6, 8, 100), end + 20: (4, 0, 16)}
+        outputs = self.run_core(make_dut, make_model, starts, {end + 20}, end + 150)
+        self.assertEqual([c for c, o in enumerate(outputs) if o["error"]], [9])
+        moves = "".join({1: "X", 2: "Y", 3: "D"}[o["step"]] for o in outputs[:end + 1]
+                        if o["step"])
+        self.assertEqual(moves, "".join(m for m, _ in native_steps(12, 0, 144)))
+
+    def test_faithful_core(self):
+        self.check_core(CircularInterpolator, FaithfulCoreModel)
+
+    def test_fast_core(self):
+        self.check_core(CircularInterpolatorFast, FastCoreModel)
+
+    def test_strict_models_raise(self):
+        for model in (FaithfulCoreModel(strict=True), FastCoreModel(strict=True)):
+            inputs = dict(zip(("in29", "in30", "in31", "in34"),
+                              core_inputs(12, 0, floor_f(f4_initial(12, 0, 144)))))
+            model.cycle(in33=1, **inputs)
+            with self.assertRaisesRegex(InputError,
+                    r"^start \(input 33\) while a run is in progress and not stopping in "
+                    r"this clock: refused$"):
+                model.cycle(in33=1, **inputs)
 
 
 if __name__ == "__main__":

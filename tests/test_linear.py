@@ -5,11 +5,12 @@ import random
 import unittest
 
 from hdl.linear import LineEngine, LinearInterpolator
-from sim.models.linear import LineEngineModel, patent_inputs, steps, table
+from sim.models.errors import InputError
+from sim.models.linear import LinearCoreModel, LineEngineModel, patent_inputs, steps, table
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 
-from .utils import simulate
+from .utils import compare_core
 
 
 def state_signals(engine):
@@ -102,53 +103,60 @@ class LineEngineTestCase(unittest.TestCase):
 
 
 class LinearInterpolatorTestCase(unittest.TestCase):
-    """The patent-level core on its own: inputs 22-26 driven directly."""
+    """The patent-level core on its own, inputs 22-26 driven directly, against the core model."""
 
-    def run_core(self, x, y, intrude_at=None, intruder=(9, 9)):
-        dut = LinearInterpolator(width=8, variant="exact")
-        moves, errors = [], []
+    @staticmethod
+    def schedule(starts, clocks, tick=(1,)):
+        """Per-clock inputs: a start (input 26) at each clock of ``starts`` with that frame's
+        inputs 22-25, which stay on the inputs until the next start."""
+        current = (0, 0, 0, 0)
+        rows = []
+        for clock in range(clocks):
+            row = {"tick": tick[clock % len(tick)]}
+            if clock in starts:
+                current = patent_inputs(*starts[clock])
+                row["in26"] = 1
+            row.update(zip(("in22", "in23", "in24", "in25"), current))
+            rows.append(row)
+        return rows
 
-        async def testbench(ctx):
-            def present(px, py):
-                in22, in23, in24, in25 = patent_inputs(px, py)
-                ctx.set(dut.in22, in22)
-                ctx.set(dut.in23, in23)
-                ctx.set(dut.in24, in24)
-                ctx.set(dut.in25, in25)
-            ctx.set(dut.tick, 1)
-            present(x, y)
-            ctx.set(dut.in26, 1)
-            await ctx.tick()
-            ctx.set(dut.in26, 0)
-            for clock in range(1, 40):
-                if clock == intrude_at:
-                    present(*intruder)
-                    ctx.set(dut.in26, 1)
-                step = ctx.get(dut.step)
-                errors.append(ctx.get(dut.error))
-                if step:
-                    moves.append(step)
-                if ctx.get(dut.done):
-                    break
-                await ctx.tick()
-                ctx.set(dut.in26, 0)
-                present(x, y)
+    def run_core(self, variant, starts, clocks, tick=(1,), period=1):
+        dut = LinearInterpolator(width=8, variant=variant, period=period)
+        model = LinearCoreModel(width=8, variant=variant, period=period)
+        state = {"adder3": dut.adder3.q, "counter1": dut.counter1.q, "counter2": dut.counter2.q,
+                 "trigger14": dut.trigger14.q, "trigger15": dut.trigger15.q}
+        return compare_core(self, dut, model, self.schedule(starts, clocks, tick), state=state,
+                            name=f"linear_core_{variant}_{period}")
 
-        simulate(dut, testbench, name=f"core_{x}_{y}_{intrude_at}")
-        return moves, errors
+    def test_starts_refusals_and_back_to_back(self):
+        # (7, 3) runs in clocks 1-7; a start in clock 3 is refused; (2, 1) starts in the last
+        # clock of (7, 3) and runs in 8-9; a zero-length frame in (2, 1)'s last clock is refused
+        # (one frame ends per clock) and accepted when idle; then (-5, 5) and (0, 4).
+        starts = {0: (7, 3), 3: (9, 9), 7: (2, 1), 9: (0, 0), 11: (0, 0), 12: (-5, 5),
+                  17: (0, 4)}
+        for variant in ("device", "exact"):
+            outputs = self.run_core(variant, starts, 24)
+            errors = [c for c, o in enumerate(outputs) if o["error"]]
+            dones = [c for c, o in enumerate(outputs) if o["done"]]
+            self.assertEqual(errors, [3, 9])
+            self.assertEqual(dones, [7, 9, 11, 17, 21])
+            moves = [o["step"] for o in outputs if o["step"]]
+            self.assertEqual(len(moves), 7 + 2 + 5 + 4)
 
-    def test_start_while_running_is_refused(self):
-        clean, clean_errors = self.run_core(7, 3)
-        self.assertEqual(len(clean), 7)
-        self.assertEqual(sum(clean_errors), 0)
-        hit, errors = self.run_core(7, 3, intrude_at=3)
-        self.assertEqual(hit, clean)                # the running frame is untouched
-        self.assertEqual(errors[2], 1)              # the refusal is flagged in that clock
-        self.assertEqual(sum(errors), 1)
+    def test_generator_period_and_tick(self):
+        starts = {0: (6, -4), 30: (3, 3)}
+        for variant in ("device", "exact"):
+            self.run_core(variant, starts, 50, tick=(1, 0, 1), period=2)
 
-    def test_start_in_last_clock_is_accepted(self):
-        _, errors = self.run_core(2, 1, intrude_at=2)   # clock 2 is (2, 1)'s last step
-        self.assertEqual(sum(errors), 0)
+    def test_strict_model_raises(self):
+        model = LinearCoreModel(width=8, strict=True)
+        inputs = dict(zip(("in22", "in23", "in24", "in25"), patent_inputs(7, 3)))
+        model.cycle(in26=1, **inputs)
+        model.cycle(**inputs)
+        with self.assertRaisesRegex(InputError,
+                r"^start of frame \(input 26\) while a frame is running and not in its last "
+                r"step: refused$"):
+            model.cycle(in26=1, **inputs)
 
 
 if __name__ == "__main__":

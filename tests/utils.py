@@ -33,3 +33,34 @@ def simulate(dut, testbench, *, name, traces=()):
             sim.run()
     else:
         sim.run()
+
+
+def compare_core(testcase, dut, model, schedule, *, state=None, decode=None, name):
+    """Drive ``dut`` and the cycle ``model`` with the same per-clock inputs; assert they agree.
+
+    ``schedule`` is a list of dicts, port name to value, one per clock (missing ports are 0).
+    Every output of ``model.cycle`` and every register of ``state`` (name to signal; ``decode``
+    maps a name to a function applied to the RTL's value) must agree in every clock. Returns
+    the model's outputs, clock by clock.
+    """
+    state = state or {}
+    decode = decode or {}
+    ports = sorted({port for inputs in schedule for port in inputs})
+    seen = []
+
+    async def testbench(ctx):
+        for clock, inputs in enumerate(schedule):
+            for port in ports:
+                ctx.set(getattr(dut, port), inputs.get(port, 0))
+            outputs, registers = model.cycle(**{p: inputs.get(p, 0) for p in ports})[:2]
+            for key, expected in outputs.items():
+                testcase.assertEqual(ctx.get(getattr(dut, key)), expected,
+                                     f"clock {clock}: output {key}")
+            for key, signal in state.items():
+                value = decode.get(key, lambda v: v)(ctx.get(signal))
+                testcase.assertEqual(value, registers[key], f"clock {clock}: register {key}")
+            seen.append(outputs)
+            await ctx.tick()
+
+    simulate(dut, testbench, name=name)
+    return seen

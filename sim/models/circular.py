@@ -22,6 +22,7 @@ for register.
 from hdl.circular_timing import FaithfulTiming
 
 from .codes import mask, ones_add, ones_count, ones_decode, ones_encode, shift_code, sign_extend
+from .errors import InputError
 
 __all__ = ["native_steps", "native_moves", "native_path", "f4_initial", "floor_f", "FaithfulTiming",
            "FaithfulCoreModel", "FastCoreModel", "core_inputs", "CORE_VARIANTS"]
@@ -106,13 +107,21 @@ def core_inputs(x, y, f_floor):
 
 
 class _CoreBase:
-    """What both core models share: widths and the registers both cores have."""
+    """What both core models share: widths, the registers both cores have, and the refusal of
+    a start (input 33) while a run is in progress: the ``error`` output, as in the RTL, or with
+    ``strict`` an :exc:`InputError`."""
 
-    def __init__(self, width):
+    def __init__(self, width, strict=False):
         self.width = width
+        self.strict = strict
         self.cw = width + 1                  # counters 7 and 8
         self.aw = width + 4                  # adder 1
         self.reset()
+
+    def _refuse(self, in33, ready):
+        if in33 and not ready and self.strict:
+            raise InputError("start (input 33) while a run is in progress and not stopping "
+                             "in this clock: refused")
 
     def reset(self):
         """Return every register to its reset value (the RTL's synchronous reset)."""
@@ -133,9 +142,9 @@ class FaithfulCoreModel(_CoreBase):
     decodes (their pulses are taken at the front, as the delay line reacts to a pulse's front).
     """
 
-    def __init__(self, width=24, timing=None):
+    def __init__(self, width=24, timing=None, *, strict=False):
         self.timing = timing or FaithfulTiming()
-        super().__init__(width)
+        super().__init__(width, strict)
 
     def reset(self):
         super().reset()
@@ -192,7 +201,7 @@ class FaithfulCoreModel(_CoreBase):
         and23 = decode23 & (1 - self.prev23)
         or15 = d13 | tap19[1] | tap26[1]
         or17 = or9 | and3 | and11 | tap19[0] | tap19[2] | tap26[3]
-        or18 = and23 | tap26[2] | (in33 & in34)
+        or18 = and23 | tap26[2]                              # (input 34: at the start only)
         or20 = and3 | and11
         or21 = and23 | tap26[0]
         or24 = and22 | and23
@@ -212,6 +221,7 @@ class FaithfulCoreModel(_CoreBase):
 
         stop = t4 & (int(self.counter7 < 0) | in32)          # counter 7 underflow, or input 32
         ready = (1 - t4) | stop
+        self._refuse(in33, ready)
         start = in33 & ready
         outputs = {"step": or28 | or27 << 1, "ready": ready, "busy": t4, "done": stop,
                    "error": in33 & (1 - ready)}
@@ -271,9 +281,9 @@ class FastCoreModel(_CoreBase):
     same clock, so a quadrant takes exactly as many clocks as it has steps.
     """
 
-    def __init__(self, width=24, period=1):
+    def __init__(self, width=24, period=1, *, strict=False):
         self.period = period
-        super().__init__(width)
+        super().__init__(width, strict)
 
     def state(self):
         return {"adder1": self.adder1, "counter7": self.counter7, "counter8": self.counter8,
@@ -325,6 +335,7 @@ class FastCoreModel(_CoreBase):
         step, (f, ct7, ct8, switch, gen), underflow = self._advance(tick)
         stop = t4 & (underflow | in32)
         ready = (1 - t4) | stop
+        self._refuse(in33, ready)
         start = in33 & ready
         outputs = {"step": step, "ready": ready, "busy": t4, "done": stop,
                    "error": in33 & (1 - ready)}

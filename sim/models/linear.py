@@ -22,7 +22,8 @@ holds the integer part ``⌊F⌋`` (the half of ``F0`` never changes the sign te
 
 from .errors import InputError
 
-__all__ = ["VARIANTS", "check_line", "patent_inputs", "table", "steps", "LineEngineModel"]
+__all__ = ["VARIANTS", "check_line", "patent_inputs", "table", "steps", "LinearCoreModel",
+           "LineEngineModel"]
 
 VARIANTS = ("device", "exact")
 
@@ -98,24 +99,23 @@ def steps(x, y, *, variant="exact", width=16):
     return result
 
 
-class LineEngineModel:
-    """Clock-by-clock model of :class:`hdl.linear.LineEngine`.
+class LinearCoreModel:
+    """Clock-by-clock model of :class:`hdl.linear.LinearInterpolator`: the patent's inputs 22-26.
 
-    Call :meth:`cycle` once per clock with the inputs of that clock; it returns the outputs
-    during that clock and the contents of the named registers, then advances to the next clock.
+    With ``strict`` a start of frame (input 26) while :meth:`ready` is low raises
+    :exc:`InputError`; otherwise it is refused as the RTL refuses it, with the ``error`` output.
     """
 
-    def __init__(self, *, variant="exact", width=16, period=1, coord_width=None):
+    def __init__(self, *, variant="exact", width=16, period=1, strict=False):
         _check_variant(variant)
         self.variant = variant
         self.width = width
         self.period = period
-        self.coord_width = coord_width if coord_width is not None else max(32, width + 1)
+        self.strict = strict
         self.reset()
 
     def reset(self):
         """Return every register to its reset value (the RTL's synchronous reset)."""
-        self.prep = None                 # frame register of the engine: None or a dict
         self.counter1 = 0
         self.counter2 = 0
         self.adder3 = 0
@@ -124,61 +124,52 @@ class LineEngineModel:
         self.trigger14 = 0
         self.trigger15 = 0
         self.phase = 0                   # generator 4
-        self.dir = 0
-
-    def _prepare(self, payload):
-        x, y = payload["x"], payload["y"]
-        limit = (1 << self.width) - 1
-        bad = int(abs(x) > limit or abs(y) > limit)
-        in22, in23, in24, in25 = (0, 0, 0, 0) if bad else patent_inputs(x, y)
-        return {"in22": in22, "in23": in23, "in24": in24, "in25": in25, "bad": bad,
-                "dir": int(x < 0) | int(y < 0) << 1}
 
     def state(self):
         """Contents of the named registers."""
         return {"adder3": self.adder3, "counter1": self.counter1, "counter2": self.counter2,
                 "trigger14": self.trigger14, "trigger15": self.trigger15}
 
-    def cycle(self, *, valid=0, payload=None, tick=1):
-        # ---- combinational: node 18 (generator 4, AND 5, AND 6) --------------------------------
+    def _pulses(self, tick):
+        """Node 18: generator 4, AND 5 (F >= 0, long step), AND 6 (F < 0, combined step)."""
         gen4 = int(bool(tick) and self.phase == 0)
         sign = int(self.adder3 < 0)
-        and5 = gen4 & self.trigger14 & (1 - sign)          # F >= 0: long step (output 16)
-        and6 = gen4 & self.trigger14 & sign                # F < 0: diagonal (output 17)
-        # ---- node 21 (AND 9, OR 13, trigger 14): AND 9 on the counters' next contents ----------
-        c1_next = self.counter1 - and5
-        c2_next = self.counter2 - and6
-        and9_run = int(self.trigger14 and c1_next == 0 and c2_next == -1)
-        p = self.prep
-        empty = int(p is not None and p["in22"] == 0 and p["in23"] == 0)
-        core_ready = int(not self.trigger14 or (and9_run and not empty))
-        take = int(p is not None and core_ready)
-        start = take & (1 - p["bad"]) if take else 0       # input 26, "start of frame"
-        refuse = take & p["bad"] if take else 0
+        return gen4 & self.trigger14 & (1 - sign), gen4 & self.trigger14 & sign
+
+    def _and9_run(self, and5, and6):
+        """AND 9 on the counters' contents after this clock's pulse: the frame's last step."""
+        return int(self.trigger14 and self.counter1 - and5 == 0
+                   and self.counter2 - and6 == -1)
+
+    def ready(self, in22, in23, tick=1):
+        """Whether a start of frame is accepted in this clock (one frame ends per clock)."""
+        empty = in22 == 0 and in23 == 0
+        return int(not self.trigger14 or (self._and9_run(*self._pulses(tick)) and not empty))
+
+    def cycle(self, *, in22=0, in23=0, in24=0, in25=0, in26=0, tick=1):
+        """One clock; returns ``(outputs, state)``, then advances."""
+        and5, and6 = self._pulses(tick)
+        and9_run = self._and9_run(and5, and6)
+        ready = self.ready(in22, in23, tick)
+        if in26 and not ready and self.strict:
+            raise InputError("start of frame (input 26) while a frame is running and not in "
+                             "its last step: refused")
+        start = in26 & ready
+        empty = int(in22 == 0 and in23 == 0)
         and9_load = start & empty
         go = start & (1 - empty)
         and9 = and9_run | and9_load
-        # ---- node 20 (AND 7, AND 8, OR 10, OR 11) ----------------------------------------------
-        x_step = (and5 & self.trigger15) | and6
-        y_step = (and5 & (1 - self.trigger15)) | and6
-        cmd_ready = int(p is None or take)
-        outputs = {
-            "ready": cmd_ready,
-            "step": x_step | y_step << 1,
-            "dir": self.dir,
-            "busy": int(p is not None or bool(self.trigger14)),
-            "done": and9,
-            "error": refuse,
-        }
+        x_step = (and5 & self.trigger15) | and6            # node 20: OR 10
+        y_step = (and5 & (1 - self.trigger15)) | and6      # OR 11
+        outputs = {"step": x_step | y_step << 1, "ready": ready, "busy": self.trigger14,
+                   "done": and9, "error": in26 & (1 - ready)}
         state = self.state()
 
-        # ---- clock edge -------------------------------------------------------------------------
         if go:
-            self.counter1 = p["in22"]
-            self.counter2 = p["in23"] - 1          # OR 13: the start pulse subtracts one
-            self.adder3 = p["in24"]
-            self.reg22, self.reg23 = p["in22"], p["in23"]
-            self.dir = p["dir"]
+            self.counter1 = in22
+            self.counter2 = in23 - 1               # OR 13: the start pulse subtracts one
+            self.adder3 = in24
+            self.reg22, self.reg23 = in22, in23
         elif and9:
             self.counter1 = self.counter2 = self.adder3 = 0
         else:
@@ -186,11 +177,60 @@ class LineEngineModel:
                 self.adder3 += ~self.counter2 if self.variant == "device" else -self.reg23
             if and6:   # multiplexer 12, channel 2: F += C1 (device) or F += |X|-|Y| (exact)
                 self.adder3 += self.counter1 if self.variant == "device" else self.reg22
-            self.counter1, self.counter2 = c1_next, c2_next
+            self.counter1 -= and5
+            self.counter2 -= and6
         self.trigger14 = 1 if go else 0 if and9 else self.trigger14
-        self.trigger15 = 1 if (go and p["in25"]) else 0 if and9 else self.trigger15
+        self.trigger15 = 1 if (go and in25) else 0 if and9 else self.trigger15
         if tick:
             self.phase = (self.phase + 1) % self.period
+        return outputs, state
+
+
+class LineEngineModel:
+    """Clock-by-clock model of :class:`hdl.linear.LineEngine`: a frame register, the direction
+    register and :class:`LinearCoreModel`.
+
+    Call :meth:`cycle` once per clock with the inputs of that clock; it returns the outputs
+    during that clock and the contents of the core's named registers, then advances.
+    """
+
+    def __init__(self, *, variant="exact", width=16, period=1, coord_width=None):
+        self.variant = variant
+        self.width = width
+        self.coord_width = coord_width if coord_width is not None else max(32, width + 1)
+        self.core = LinearCoreModel(variant=variant, width=width, period=period)
+        self.reset()
+
+    def reset(self):
+        """Return every register to its reset value (the RTL's synchronous reset)."""
+        self.core.reset()
+        self.prep = None                 # frame register: None or a dict
+        self.dir = 0
+
+    def _prepare(self, payload):
+        x, y = payload["x"], payload["y"]
+        limit = (1 << self.width) - 1
+        bad = int(abs(x) > limit or abs(y) > limit)
+        # A refused frame presents zeros, so it waits for the core to be idle.
+        in22, in23, in24, in25 = (0, 0, 0, 0) if bad else patent_inputs(x, y)
+        return {"in22": in22, "in23": in23, "in24": in24, "in25": in25, "bad": bad,
+                "dir": int(x < 0) | int(y < 0) << 1}
+
+    def state(self):
+        return self.core.state()
+
+    def cycle(self, *, valid=0, payload=None, tick=1):
+        p = self.prep or {"in22": 0, "in23": 0, "in24": 0, "in25": 0, "bad": 0, "dir": 0}
+        take = int(self.prep is not None and self.core.ready(p["in22"], p["in23"], tick))
+        start = take & (1 - p["bad"])
+        core, state = self.core.cycle(in22=p["in22"], in23=p["in23"], in24=p["in24"],
+                                      in25=p["in25"], in26=start, tick=tick)
+        cmd_ready = int(self.prep is None or take)
+        outputs = {"ready": cmd_ready, "step": core["step"], "dir": self.dir,
+                   "busy": int(self.prep is not None or bool(core["busy"])),
+                   "done": core["done"], "error": take & p["bad"]}
+        if start and (p["in22"] or p["in23"]):
+            self.dir = p["dir"]
         if valid and cmd_ready:
             self.prep = self._prepare(payload)
         elif take:
