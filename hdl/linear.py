@@ -339,15 +339,28 @@ class LineEngine(wiring.Component):
         y = self.cmd.payload.y
         ax = Signal(self._coord_width)
         ay = Signal(self._coord_width)
-        x_ge_y = Signal()
         m.d.comb += [
             ax.eq(Mux(x < 0, -x, x)),
             ay.eq(Mux(y < 0, -y, y)),
-            x_ge_y.eq(ax >= ay),
         ]
-        longer = Mux(x_ge_y, ax, ay)[:w]
-        shorter = Mux(x_ge_y, ay, ax)[:w]
         too_wide = (ax >> w).any() | (ay >> w).any()
+        # Every candidate is formed in parallel from the magnitudes and the comparison only
+        # selects: one carry chain after the absolute values instead of three in a row.
+        mx, my = ax[:w], ay[:w]
+        x_minus_y = Signal(signed(w + 2))         # |x| - |y|; its sign is the comparison
+        y_minus_x = Signal(signed(w + 2))
+        f0_x_long = Signal(signed(w + 3))         # 2·F0 when X is the long axis: |x| - 2|y|
+        f0_y_long = Signal(signed(w + 3))
+        m.d.comb += [
+            x_minus_y.eq(mx - my),
+            y_minus_x.eq(my - mx),
+            f0_x_long.eq(mx - (my << 1)),
+            f0_y_long.eq(my - (mx << 1)),
+        ]
+        x_ge_y = ~x_minus_y[-1]
+        longer_minus_shorter = Mux(x_ge_y, x_minus_y, y_minus_x)[:w]
+        shorter = Mux(x_ge_y, my, mx)
+        twice_f0 = Mux(x_ge_y, f0_x_long, f0_y_long)
 
         take = Signal()
         m.d.comb += [
@@ -359,9 +372,9 @@ class LineEngine(wiring.Component):
                 full.eq(1),
                 bad.eq(too_wide),
                 # A refused frame presents zeros, so it waits for the core to be idle.
-                in22.eq(Mux(too_wide, 0, longer - shorter)),
+                in22.eq(Mux(too_wide, 0, longer_minus_shorter)),
                 in23.eq(Mux(too_wide, 0, shorter)),
-                in24.eq(Mux(too_wide, 0, (longer - (shorter << 1)).as_signed() >> 1)),
+                in24.eq(Mux(too_wide, 0, twice_f0 >> 1)),
                 in25.eq(~too_wide & x_ge_y),
                 frame_dir.eq(Cat(x < 0, y < 0)),
             ]

@@ -164,7 +164,8 @@ def _rtl_section(out, checks):
                 actual = run_amaranth(engine, job)
             else:
                 build = CocotbBuild(engine, simulator,
-                                    ROOT / "build" / "demo" / simulator / f"{kind}_{variant}")
+                                    ROOT / "build" / "demo" / simulator / f"{kind}_{variant}",
+                                    quiet=True)
                 actual = build.run(job, name=label)
             difference = first_difference(expected, actual)
             all_equal &= difference is None

@@ -5,6 +5,7 @@ cycle model and the three simulators are compared entry for entry.
 """
 
 import json
+import logging
 import os
 import shutil
 import sys
@@ -122,7 +123,7 @@ class CocotbBuild:
         Directory of this build; give each engine and parameter set its own.
     """
 
-    def __init__(self, engine, simulator, build_dir, *, waves=False):
+    def __init__(self, engine, simulator, build_dir, *, waves=False, quiet=False):
         from amaranth.back import verilog
         from cocotb_tools.runner import get_runner
 
@@ -143,6 +144,8 @@ class CocotbBuild:
             source.write_text(text)
         self.waves = waves
         self.runner = _icarus() if simulator == "icarus" else get_runner(simulator)
+        if quiet:                             # the runner's own notes ("Skipping compilation")
+            self.runner.log.setLevel(logging.ERROR)
         build_args = []
         if simulator == "icarus":
             # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run every

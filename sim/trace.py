@@ -109,7 +109,7 @@ def trace(kind, payload, *, variant=None, engine="model", width=None, vcd=None):
         record = run_amaranth(rtl, job, vcd=vcd)
     else:
         build = CocotbBuild(rtl, engine, build_dir(kind, variant, width, engine, vcd is not None),
-                            waves=vcd is not None)
+                            waves=vcd is not None, quiet=True)
         record = build.run(job, vcd=vcd)
 
     refused = any(entry.get("error") for entry in record)
