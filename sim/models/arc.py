@@ -224,11 +224,9 @@ class ArcEngineModel:
 
         # The run's end point is reached by a step in this clock (look-ahead on the position).
         step, stopping = core.peek(tick)
-        reached = 0
-        if running and run["end"] is not None and step:
-            x, y = self.position
-            nxt = (x - (step & 1), y + (step >> 1 & 1))
-            reached = int(nxt == run["end"])
+        x, y = self.position
+        after = (x - (step & 1), y + (step >> 1 & 1))    # native position after this step
+        reached = int(running and run["end"] is not None and step != 0 and after == run["end"])
         core_done = stopping or reached
         last_run = running and self.run_index == len(self.plan["runs"]) - 1
         arc_done = int(running and core_done and last_run)
@@ -261,9 +259,8 @@ class ArcEngineModel:
                   "done": arc_done, "error": int(bool(refuse))}
 
         # ---- clock edge -------------------------------------------------------------------
-        if running and step:
-            x, y = self.position
-            self.position = (x - (step & 1), y + (step >> 1 & 1))
+        if running:
+            self.position = after
         if load is not None:
             plan, index = load
             self.plan, self.run_index = plan, index
@@ -275,8 +272,6 @@ class ArcEngineModel:
             self.plan = None
         if take:
             self.setup_left, self.setup_plan = None, None
-            if refuse and arc_done:
-                self.plan = None
         elif self.setup_left:
             self.setup_left -= 1
         if accepted:
