@@ -8,10 +8,10 @@ import unittest
 from pathlib import Path
 
 from amaranth import *
-from amaranth.lib import data, stream, wiring
-from amaranth.lib.wiring import In, Out
+from amaranth.lib import data, wiring
 
 import constraints
+from hdl.engine import engine_members
 from hdl.linear import LineEngine
 from hdl.top import OCTAGON, DemoTop, PinnedTop, ProgramPlayer, ShiftInTop
 from sim import demo
@@ -36,15 +36,7 @@ class RecordingEngine(wiring.Component):
     """A stand-in engine with the arc-like payload :data:`ARC`: takes every frame, never steps."""
 
     def __init__(self, layout=ARC):
-        super().__init__({
-            "cmd":   In(stream.Signature(layout)),
-            "tick":  In(1),
-            "step":  Out(2),
-            "dir":   Out(2),
-            "busy":  Out(1),
-            "done":  Out(1),
-            "error": Out(1),
-        })
+        super().__init__(engine_members(layout))
 
     def elaborate(self, platform):
         m = Module()
