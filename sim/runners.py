@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .stimulus import Driver
 
-__all__ = ["run_amaranth", "run_cocotb", "CocotbBuild", "ENGINES", "SIMULATORS",
+__all__ = ["run_amaranth", "CocotbBuild", "ENGINES", "SIMULATORS",
            "verilator_environment", "ensure_simulator"]
 
 ENGINES = ("model", "amaranth", "icarus", "verilator")
@@ -108,7 +108,8 @@ def ensure_simulator(simulator):
             raise RuntimeError("Icarus Verilog is not installed (run 'make test', or "
                                "'apt-get install iverilog')")
     else:
-        raise ValueError(f"Simulator must be one of 'icarus', 'verilator', not {simulator!r}")
+        raise ValueError(f"Simulator must be one of {', '.join(map(repr, SIMULATORS))}, "
+                         f"not {simulator!r}")
 
 
 class CocotbBuild:
@@ -238,9 +239,3 @@ def _payload_fields(engine):
     layout = data.Layout.cast(engine.cmd.payload.shape())
     return {name: [field.offset, Shape.cast(field.shape).width, Shape.cast(field.shape).signed]
             for name, field in layout}
-
-
-def run_cocotb(engine, job, simulator, *, build_dir, vcd=None):
-    """Build ``engine`` for ``simulator`` (or reuse the build) and run ``job``; return the record."""
-    build = CocotbBuild(engine, simulator, build_dir, waves=vcd is not None)
-    return build.run(job, vcd=vcd)

@@ -14,10 +14,8 @@ state the caller asked for).
 
 from dataclasses import dataclass, field, asdict
 
-__all__ = ["Job", "Driver", "run_model", "plan_resets", "OUTPUTS", "record_steps",
-           "record_moves", "first_difference"]
-
-OUTPUTS = ("ready", "step", "dir", "busy", "done", "error")
+__all__ = ["Job", "Driver", "run_model", "plan_resets", "record_steps", "record_moves",
+           "first_difference"]
 
 
 @dataclass

@@ -4,6 +4,8 @@ import os
 
 import pytest
 
+from sim.runners import SIMULATORS
+
 from .utils import BUILD_DIR
 
 
@@ -16,9 +18,10 @@ def selected_simulators():
     """The cocotb simulators of this run: ``$SIM`` if set, else both."""
     sim = os.environ.get("SIM", "")
     if not sim:
-        return ["icarus", "verilator"]
-    if sim not in ("icarus", "verilator"):
-        raise pytest.UsageError(f"SIM must be 'icarus' or 'verilator', not {sim!r}")
+        return list(SIMULATORS)
+    if sim not in SIMULATORS:
+        raise pytest.UsageError(f"SIM must be one of {', '.join(map(repr, SIMULATORS))}, "
+                                f"not {sim!r}")
     return [sim]
 
 

@@ -185,13 +185,11 @@ class ArcEngineModel:
     quadrant is done) or by input 32 in the clock its step reaches the end point.
     """
 
-    def __init__(self, *, variant="faithful", width=24, coord_width=None, timing=None):
+    def __init__(self, *, variant="faithful", width=24, timing=None):
         if variant not in CORE_VARIANTS:
             raise ValueError(f"Variant must be one of 'faithful', 'fast', not {variant!r}")
         self.variant = variant
         self.width = width
-        self.coord_width = coord_width if coord_width is not None else max(32, width + 1)
-        self.timing = timing
         self.core = (FaithfulCoreModel(width, timing) if variant == "faithful"
                      else FastCoreModel(width))
         self.reset()

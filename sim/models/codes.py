@@ -15,20 +15,13 @@ The arithmetic here defines what the gateware elements do, bit for bit:
 """
 
 __all__ = [
-    "mask", "to_code", "from_code", "ones_encode", "ones_decode", "ones_add", "ones_sub", "ones_count",
+    "mask", "from_code", "ones_encode", "ones_decode", "ones_add", "ones_sub", "ones_count",
     "shift_code", "sign_extend",
 ]
 
 
 def mask(width):
     return (1 << width) - 1
-
-
-def to_code(value, width):
-    """Two's complement code of ``value`` in ``width`` bits (``value`` must fit)."""
-    if not -(1 << (width - 1)) <= value < (1 << (width - 1)):
-        raise OverflowError(f"{value} does not fit in {width} signed bits")
-    return value & mask(width)
 
 
 def from_code(code, width):

@@ -194,10 +194,9 @@ class LineEngineModel:
     during that clock and the contents of the core's named registers, then advances.
     """
 
-    def __init__(self, *, variant="exact", width=16, period=1, coord_width=None):
+    def __init__(self, *, variant="exact", width=16, period=1):
         self.variant = variant
         self.width = width
-        self.coord_width = coord_width if coord_width is not None else max(32, width + 1)
         self.core = LinearCoreModel(variant=variant, width=width, period=period)
         self.reset()
 
