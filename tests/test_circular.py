@@ -47,9 +47,9 @@ def random_arcs(rng, count, limit, *, longest=300):
 
 
 class ArcEngineTestCase(unittest.TestCase):
-    def check(self, job, *, variant, width=24, timing=None, state=True):
-        engine = ArcEngine(variant=variant, width=width, timing=timing)
-        model = ArcEngineModel(variant=variant, width=width, timing=timing)
+    def check(self, job, *, variant, width=24, timing=None, period=1, state=True):
+        engine = ArcEngine(variant=variant, width=width, timing=timing, period=period)
+        model = ArcEngineModel(variant=variant, width=width, timing=timing, period=period)
         expected = run_model(model, job, state=state)
         actual = run_amaranth(engine, job, state=state_signals(engine) if state else None)
         if state:
@@ -101,6 +101,14 @@ class ArcEngineTestCase(unittest.TestCase):
                                 taps26=(1, 2, 2, 3), extender=6)
         frames = [{"x0": r, "y0": 0, "x1": 0, "y1": r, "cw": 0} for r in (1, 4, 10, 11, 12, 23)]
         self.check(Job(frames=frames), variant="faithful", timing=timing)
+
+    def test_fast_generator_period(self):
+        frames = [{"x0": r, "y0": 0, "x1": 0, "y1": -r, "cw": 1} for r in (1, 4, 10, 12)]
+        for tick in ([1], [1, 1, 0]):
+            record = self.check(Job(frames=frames, tick=tick), variant="fast", period=3)
+            self.assertEqual(record_steps(record),
+                             [s for f in frames for s in arc_steps(f["x0"], f["y0"], f["x1"],
+                                                                   f["y1"], cw=f["cw"])])
 
     def test_large_radii_width_32(self):
         rng = random.Random(32)

@@ -185,13 +185,13 @@ class ArcEngineModel:
     quadrant is done) or by input 32 in the clock its step reaches the end point.
     """
 
-    def __init__(self, *, variant="faithful", width=24, timing=None):
+    def __init__(self, *, variant="faithful", width=24, timing=None, period=1):
         if variant not in CORE_VARIANTS:
             raise ValueError(f"Variant must be one of 'faithful', 'fast', not {variant!r}")
         self.variant = variant
         self.width = width
         self.core = (FaithfulCoreModel(width, timing) if variant == "faithful"
-                     else FastCoreModel(width))
+                     else FastCoreModel(width, period))
         self.reset()
 
     def reset(self):
