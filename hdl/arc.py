@@ -1,105 +1,169 @@
-"""Any arc, from the SU 1665343 quadrant core: every quadrant, both directions, full circles."""
+"""Any arc from a quadrant core: the core signature, the planner, and the engine around them."""
 
 from amaranth import *
-from amaranth.lib import data, wiring
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
 
-from .circular import CircularInterpolator, CircularInterpolatorFast
-from .elements._checks import check_choice, check_positive, check_width
-from .engine import engine_members, frame_coord_width
+from .elements._checks import check_width
+from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
-__all__ = ["ArcEngine", "ARC_VARIANTS"]
-
-ARC_VARIANTS = ("faithful", "fast")
+__all__ = ["ArcCoreSignature", "ArcPlanner", "ArcEngine"]
 
 
-class ArcEngine(wiring.Component):
-    """Arcs in, step/dir pulses out: the circular interpolator wrapped for any arc.
+class ArcCoreSignature(wiring.Signature):
+    """What a quadrant core offers the arc engine: native quadrant runs in, native steps out.
 
-    Each transfer on :py:`cmd` is one arc, relative to its centre: from the start ``(x0, y0)``
-    (the current position) to the end ``(x1, y1)``, clockwise if ``cw`` is set, a full circle
-    when the two points are equal. The radius is that of the start point, ``sqrt(x0² + y0²)``,
-    not necessarily an integer.
-
-    A setup unit checks the arc and plans it, with serial arithmetic: ``x0² + y0²`` and
-    ``x1² + y1²`` take ``width`` clocks each, the rounded square root of the first
-    ``width + 1``, forming the plan two more: the plan is ready ``3·width + 4`` clocks after the
-    arc was accepted, while the arc before it may still be running. A sequencer then runs the
-    core once per quadrant: each quadrant is mapped onto the core's native one (X falling,
-    Y rising) by signs and, where |x| rises, by swapping X and Y; the first run starts at the
-    start point, every later one at the axis point ``round(sqrt(x0² + y0²))`` where the
-    previous one ended, and the last run stops in the clock its step reaches the end point
-    (input 32). Arcs follow one another with no pause when each plan is ready in time.
-
-    Every accepted arc ends with exactly one pulse: :py:`done`, or :py:`error` if it is refused
-    before any step: a coordinate magnitude above ``2**width - 1``, a start point at the centre
-    (R = 0), a radius that rounds above ``2**width - 1``, or an end point not on the start
-    point's circle. An end point is on the circle when it is a point of the interpolated path,
-    i.e. within half a step of the circle along its larger coordinate ``M``:
-    ``-M < x0² + y0² - x1² - y1² <= M``.
+    The native quadrant is SU 1665343's: X falls, Y rises, from a start with ``X >= 1`` until
+    ``X = 0``. A run is given by its start ``(x, y)`` and ``residue = r2 - x² - y²``, where
+    ``r2`` is the square of the circle's radius (zero for a start on its own circle). The core
+    holds one run prepared while another runs, so that quadrants follow one another with no
+    idle clock.
 
     Parameters
     ----------
-    variant : ``"faithful"`` or ``"fast"``
-        :class:`~hdl.circular.CircularInterpolator` (the patent's structure and timing) or
-        :class:`~hdl.circular.CircularInterpolatorFast` (one step per clock).
     width : :class:`int`
-        Register width of the core.
-    coord_width : :class:`int`
-        Width of the signed coordinates in a frame; default ``max(32, width + 1)``.
-    timing : :class:`~hdl.circular.FaithfulTiming`
-        Timing of the faithful core (default: its structural minimum).
-    period : :class:`int`
-        Generator period of the fast core, in :py:`tick` clocks.
+        Register width: coordinates up to ``2**width - 1``.
 
     Members
     -------
-    cmd : :py:`In(stream.Signature(ArcEngine.Frame(coord_width)))`
-        Arcs.
-    tick : :py:`In(1)`
-        Feed-rate strobe for the core's generator.
+    cmd : :py:`In(stream.Signature(ArcCoreSignature.Run(width)))`
+        Quadrant runs. A run transferred in clock ``k`` may start in clock ``k + 1``.
+    feed : :py:`Out(FeedSignature())`
+        Permission for each step (:class:`~hdl.engine.FeedSignature`).
+    stop : :py:`In(1)`
+        End the running run at the end of this clock (its step of this clock is made): the
+        arc's end point is reached.
+    abort : :py:`In(1)`
+        No step in this clock; the running run ends (:py:`done`) and the prepared one is
+        dropped.
     step : :py:`Out(2)`
-        Step pulses, bit 0 X, bit 1 Y.
-    dir : :py:`Out(2)`
-        Directions, bit 0 X, bit 1 Y: 1 for the negative direction. Valid with :py:`step`.
-    busy : :py:`Out(1)`
-        An arc is being planned, waiting or running.
+        Native steps: bit 0 X falls by one, bit 1 Y rises by one; both for a diagonal.
+    start : :py:`Out(1)`
+        The prepared run starts in this clock (its steps from the next clock).
     done : :py:`Out(1)`
-        An arc ended.
-    error : :py:`Out(1)`
-        An arc was refused.
+        The running run ends in this clock.
+    busy : :py:`Out(1)`
+        A run is prepared or running.
 
     Raises
     ------
     :exc:`TypeError`
-        If a width or the period is not a positive integer (width at least 2).
-    :exc:`ValueError`
-        If ``variant`` is unknown or ``coord_width`` is smaller than ``width + 1``.
+        If ``width`` is not an integer of at least 2.
     """
 
     @staticmethod
-    def Frame(coord_width):
-        return data.StructLayout({"x0": signed(coord_width), "y0": signed(coord_width),
-                                  "x1": signed(coord_width), "y1": signed(coord_width),
-                                  "cw": 1})
+    def Run(width):
+        return data.StructLayout({"x": unsigned(width), "y": unsigned(width),
+                                  "residue": signed(width + 1)})
 
-    def __init__(self, *, variant="faithful", width=24, coord_width=None, timing=None,
-                 period=1):
-        check_choice("Variant", variant, ARC_VARIANTS)
+    def __init__(self, width):
         check_width("Register width", width, minimum=2)
-        check_positive("Generator period", period)
-        coord_width = frame_coord_width(width, coord_width)
-        self._variant = variant
         self._width = width
-        self._coord_width = coord_width
-        if variant == "faithful":
-            self.core = CircularInterpolator(width=width, timing=timing)
-        else:
-            self.core = CircularInterpolatorFast(width=width, period=period)
-        super().__init__(engine_members(self.Frame(coord_width)))
+        super().__init__({
+            "cmd":   In(stream.Signature(self.Run(width))),
+            "feed":  Out(FeedSignature()),
+            "stop":  In(1),
+            "abort": In(1),
+            "step":  Out(2),
+            "start": Out(1),
+            "done":  Out(1),
+            "busy":  Out(1),
+        })
 
     @property
-    def variant(self):
-        return self._variant
+    def width(self):
+        return self._width
+
+    def __eq__(self, other):
+        return type(other) is type(self) and other.width == self.width
+
+    def __hash__(self):
+        return hash((type(self), self._width))
+
+    def __repr__(self):
+        return f"ArcCoreSignature({self._width})"
+
+
+def _arc_frame(coord_width):
+    return data.StructLayout({"x0": signed(coord_width), "y0": signed(coord_width),
+                              "x1": signed(coord_width), "y1": signed(coord_width),
+                              "cw": 1})
+
+
+def _quadrant(x, y, clockwise):
+    """Quadrant 0-3 of a point; an axis point belongs to the quadrant the motion enters."""
+    ccw = Mux((x > 0) & (y >= 0), 0, Mux((x <= 0) & (y > 0), 1, Mux((x < 0) & (y <= 0), 2, 3)))
+    cwq = Mux((x >= 0) & (y > 0), 0, Mux((x < 0) & (y >= 0), 1, Mux((x <= 0) & (y < 0), 2, 3)))
+    return Mux(clockwise, cwq, ccw)
+
+
+def _x_falls(quadrant, clockwise):
+    """Whether |x| falls in ``quadrant`` (native X = |x|): even quadrants counter-clockwise."""
+    return ~quadrant[0] ^ clockwise
+
+
+class ArcPlanner(wiring.Component):
+    """Check an arc and plan its quadrant runs, with serial arithmetic; hold one plan.
+
+    Takes an arc on :py:`i` (the frame of :class:`ArcEngine`) while it holds no plan. It maps
+    the start and the end onto the native quadrant of the quadrant they lie in (the start's
+    quadrant is the first run's, the end's the last's), forms ``r2 = x0² + y0²`` and
+    ``x1² + y1²`` (``width`` clocks each, one multiplier bit a clock), checks the end point
+    (one clock), takes the rounded square root of ``r2`` with its remainder (``width + 1``
+    clocks), and forms the plan (one clock): it is offered on :py:`o` ``3·width + 4`` clocks
+    after the arc was taken, and held there until it is transferred.
+
+    A plan is refused (:py:`refused` set; nothing else in it counts) for a coordinate magnitude
+    above ``2**width - 1``, a start point at the centre (R = 0), a radius that rounds above
+    ``2**width - 1``, or an end point not on the start point's circle. An end point is on the
+    circle when it is a point of the interpolated path, i.e. within half a step of the circle
+    along its larger coordinate ``M``: ``-M < x0² + y0² - x1² - y1² <= M``.
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Register width of the core.
+    coord_width : :class:`int`
+        Width of the signed coordinates of a frame.
+
+    Members
+    -------
+    i : :py:`In(stream.Signature(ArcEngine.Frame(coord_width)))`
+        Arcs.
+    o : :py:`Out(stream.Signature(ArcPlanner.Plan(width)))`
+        Their plans, in order.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If a width is not an integer of at least 2.
+    :exc:`ValueError`
+        If ``coord_width`` is smaller than ``width + 1``.
+    """
+
+    @staticmethod
+    def Plan(width):
+        """The plan of an arc: its quadrant runs (see :class:`ArcEngine`)."""
+        point = data.StructLayout({"x": unsigned(width), "y": unsigned(width)})
+        return data.StructLayout({
+            "refused":  1,                    # the arc is refused; nothing else counts
+            "cw":       1,                    # clockwise
+            "quadrant": 2,                    # quadrant of the first run (0-3: I-IV)
+            "runs":     3,                    # number of quadrant runs, 1 to 5
+            "start":    point,                # native start of the first run
+            "end":      point,                # native end in the last run (y = 0: its axis)
+            "radius":   unsigned(width),      # Rn = round(sqrt(r2)): later runs start at (Rn, 0)
+            "residue":  signed(width + 1),    # r2 - Rn²
+        })
+
+    def __init__(self, *, width=24, coord_width=None):
+        check_width("Register width", width, minimum=2)
+        self._width = width
+        self._coord_width = frame_coord_width(width, coord_width)
+        super().__init__({
+            "i": In(stream.Signature(_arc_frame(self._coord_width))),
+            "o": Out(stream.Signature(self.Plan(width))),
+        })
 
     @property
     def width(self):
@@ -111,175 +175,221 @@ class ArcEngine(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        m.submodules.core = core = self.core
         w = self._width
-        aw, cw = w + 4, w + 1
+        frame = self.i.payload
+        plan = Signal(self.Plan(w))                  # the one plan, built in place
+        m.d.comb += self.o.payload.eq(plan)
 
-        # ======== setup unit: check the arc and plan its quadrant runs ===========================
-        p = self.cmd.payload
-        magnitude = [Mux(v < 0, -v, v)[:self._coord_width] for v in (p.x0, p.y0, p.x1, p.y1)]
-        too_wide_now = Cat(*[(v >> w).any() for v in magnitude]).any()
-
-        ax0, ay0, ax1, ay1 = (Signal(w, name=n) for n in ("ax0", "ay0", "ax1", "ay1"))
-        rotation = Signal()                          # 1: clockwise
-        q0 = Signal(2)
-        qe = Signal(2)
-        xs, ys, xe, ye = (Signal(w, name=n) for n in ("xs", "ys", "xe", "ye"))
+        magnitude = [Mux(v < 0, -v, v)[:self._coord_width]
+                     for v in (frame.x0, frame.y0, frame.x1, frame.y1)]
+        start_quadrant = _quadrant(frame.x0, frame.y0, frame.cw)
+        end_quadrant = Signal(2)                     # the quadrant of the last run
         too_wide = Signal()
         zero_radius = Signal()
 
-        # serial sum of squares and square root
-        mcand_x = Signal(2 * w)
-        mcand_y = Signal(2 * w)
-        mplier_x = Signal(w)
-        mplier_y = Signal(w)
-        acc = Signal(2 * w + 1)
-        r2 = Signal(2 * w + 1)
-        radicand = Signal(2 * w + 2)
-        root = Signal(w + 1)
-        rem = Signal(w + 3)
-        count = Signal(range(w + 1))
-        partial = (Mux(mplier_x[0], mcand_x, 0) + Mux(mplier_y[0], mcand_y, 0))
-        acc_next = acc + partial
+        # Serial sum of squares a² + b², one multiplier bit a clock: each clock adds the
+        # multiplicands whose multiplier bit is set to the upper half, then shifts the whole
+        # sum down one place; after `w` clocks it holds a² + b² (2w + 1 bits).
+        upper = Signal(w + 1)
+        lower = Signal(w)
+        bits_a = Signal(w)                           # multiplier bits, shifted out at the bottom
+        bits_b = Signal(w)
+        second = Signal()                            # 0: x0² + y0², 1: x1² + y1²
+        a = Mux(second, plan.end.x, plan.start.x)
+        b = Mux(second, plan.end.y, plan.start.y)
+        partial = Signal(w + 2)
+        m.d.comb += partial.eq(upper + Mux(bits_a[0], a, 0) + Mux(bits_b[0], b, 0))
+        square_sum = Cat(lower, upper)
 
-        # plan, stage A
-        rn = Signal(w + 1)
-        residue = Signal(signed(w + 3))             # r2 - rn²
+        r2 = Signal(2 * w + 2)                       # x0² + y0², then shifted out by the root
         on_circle = Signal()
-        # plan slot (stage B)
-        plan_valid = Signal()
-        plan = {
-            "error": Signal(name="plan_error"), "cw": Signal(name="plan_cw"),
-            "q0": Signal(2, name="plan_q0"), "runs": Signal(3, name="plan_runs"),
-            "in29": Signal(signed(aw), name="plan_in29"), "in30": Signal(signed(cw),
-                                                                         name="plan_in30"),
-            "in31": Signal(signed(cw), name="plan_in31"), "in34": Signal(name="plan_in34"),
-            "xs": Signal(w, name="plan_xs"), "ys": Signal(w, name="plan_ys"),
-            "axis29": Signal(signed(aw), name="plan_axis29"), "rn": Signal(w, name="plan_rn"),
-            "xe": Signal(w, name="plan_xe"), "ye": Signal(w, name="plan_ye"),
-        }
+        root = Signal(w + 1)                         # ⌊sqrt(r2)⌋, a bit a clock
+        remainder = Signal(w + 3)                    # r2 - root²
+        count = Signal(range(w + 1))
 
-        take = Signal()                              # the sequencer takes the plan this clock
-
-        def quadrant(x, y, clockwise):
-            """Quadrant 0-3; an axis point belongs to the quadrant the motion enters."""
-            ccw = Mux((x > 0) & (y >= 0), 0, Mux((x <= 0) & (y > 0), 1,
-                                                  Mux((x < 0) & (y <= 0), 2, 3)))
-            cwq = Mux((x >= 0) & (y > 0), 0, Mux((x < 0) & (y >= 0), 1,
-                                                  Mux((x <= 0) & (y < 0), 2, 3)))
-            return Mux(clockwise, cwq, ccw)
-
-        def type_a(q, clockwise):
-            """Quadrant run with X = |x| (|x| falls): even quadrants counter-clockwise."""
-            return ~q[0] ^ clockwise
-
-        q0_now = quadrant(p.x0, p.y0, p.cw)
-        qe_now = quadrant(p.x1, p.y1, p.cw)
-
-        with m.FSM(name="setup"):
+        with m.FSM(name="planner"):
             with m.State("Idle"):
-                m.d.comb += self.cmd.ready.eq(1)
-                with m.If(self.cmd.valid):
-                    a_s = type_a(q0_now, p.cw)
-                    a_e = type_a(qe_now, p.cw)
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(self.i.valid):
+                    x_falls_0 = _x_falls(start_quadrant, frame.cw)
+                    end_q = _quadrant(frame.x1, frame.y1, frame.cw)
+                    x_falls_1 = _x_falls(end_q, frame.cw)
                     m.d.sync += [
-                        ax0.eq(magnitude[0]), ay0.eq(magnitude[1]),
-                        ax1.eq(magnitude[2]), ay1.eq(magnitude[3]),
-                        rotation.eq(p.cw), q0.eq(q0_now), qe.eq(qe_now),
-                        xs.eq(Mux(a_s, magnitude[0], magnitude[1])),
-                        ys.eq(Mux(a_s, magnitude[1], magnitude[0])),
-                        xe.eq(Mux(a_e, magnitude[2], magnitude[3])),
-                        ye.eq(Mux(a_e, magnitude[3], magnitude[2])),
-                        too_wide.eq(too_wide_now),
-                        zero_radius.eq((p.x0 == 0) & (p.y0 == 0)),
-                        mcand_x.eq(magnitude[0][:w]), mplier_x.eq(magnitude[0][:w]),
-                        mcand_y.eq(magnitude[1][:w]), mplier_y.eq(magnitude[1][:w]),
-                        acc.eq(0),
-                        count.eq(0),
+                        plan.cw.eq(frame.cw),
+                        plan.quadrant.eq(start_quadrant),
+                        end_quadrant.eq(end_q),
+                        plan.start.x.eq(Mux(x_falls_0, magnitude[0], magnitude[1])),
+                        plan.start.y.eq(Mux(x_falls_0, magnitude[1], magnitude[0])),
+                        plan.end.x.eq(Mux(x_falls_1, magnitude[2], magnitude[3])),
+                        plan.end.y.eq(Mux(x_falls_1, magnitude[3], magnitude[2])),
+                        too_wide.eq(Cat(*[(v >> w).any() for v in magnitude]).any()),
+                        zero_radius.eq((frame.x0 == 0) & (frame.y0 == 0)),
+                        upper.eq(0), lower.eq(0), second.eq(0), count.eq(0),
+                        bits_a.eq(Mux(x_falls_0, magnitude[0], magnitude[1])),
+                        bits_b.eq(Mux(x_falls_0, magnitude[1], magnitude[0])),
                     ]
-                    m.next = "Square start"
-            with m.State("Square start"):           # x0² + y0², one bit a clock
+                    m.next = "Square"
+            with m.State("Square"):
                 m.d.sync += [
-                    acc.eq(acc_next), mcand_x.eq(mcand_x << 1), mcand_y.eq(mcand_y << 1),
-                    mplier_x.eq(mplier_x >> 1), mplier_y.eq(mplier_y >> 1),
+                    upper.eq(partial[1:]), lower.eq(Cat(lower[1:], partial[0])),
+                    bits_a.eq(bits_a >> 1), bits_b.eq(bits_b >> 1),
                     count.eq(count + 1),
                 ]
                 with m.If(count == w - 1):
-                    m.d.sync += [
-                        r2.eq(acc_next), acc.eq(0), count.eq(0),
-                        mcand_x.eq(ax1), mplier_x.eq(ax1), mcand_y.eq(ay1), mplier_y.eq(ay1),
-                    ]
-                    m.next = "Square end"
-            with m.State("Square end"):             # x1² + y1²
-                m.d.sync += [
-                    acc.eq(acc_next), mcand_x.eq(mcand_x << 1), mcand_y.eq(mcand_y << 1),
-                    mplier_x.eq(mplier_x >> 1), mplier_y.eq(mplier_y >> 1),
-                    count.eq(count + 1),
-                ]
-                with m.If(count == w - 1):
-                    m.d.sync += [radicand.eq(r2), root.eq(0), rem.eq(0), count.eq(0)]
-                    m.next = "Root"
-            with m.State("Root"):                   # ⌊sqrt(r2)⌋ and r2 - root², a bit a clock
-                shifted = Cat(radicand[-2:], rem)
+                    m.d.sync += [upper.eq(0), lower.eq(0), count.eq(0)]
+                    with m.If(~second):
+                        m.d.sync += [
+                            r2.eq(Cat(lower[1:], partial)), second.eq(1),
+                            bits_a.eq(plan.end.x), bits_b.eq(plan.end.y),
+                        ]
+                    with m.Else():
+                        m.d.sync += [upper.eq(partial[1:]), lower.eq(Cat(lower[1:],
+                                                                         partial[0]))]
+                        m.next = "Check end"
+            with m.State("Check end"):               # -M < r2 - (x1² + y1²) <= M
+                d = Signal(signed(2 * w + 3))
+                big = Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)
+                m.d.comb += d.eq(r2 - square_sum)
+                m.d.sync += [on_circle.eq((d > -big) & (d <= big)),
+                             root.eq(0), remainder.eq(0)]
+                m.next = "Root"
+            with m.State("Root"):                    # two radicand bits a clock, from the top
+                shifted = Cat(r2[-2:], remainder)
                 trial = Cat(Const(1, 2), root)
                 fits = shifted >= trial
                 m.d.sync += [
-                    radicand.eq(radicand << 2),
-                    rem.eq(Mux(fits, shifted - trial, shifted)),
+                    r2.eq(r2 << 2),
+                    remainder.eq(Mux(fits, shifted - trial, shifted)),
                     root.eq(Cat(fits, root)),
                     count.eq(count + 1),
                 ]
                 with m.If(count == w):
-                    m.next = "Plan A"
-            with m.State("Plan A"):
-                round_up = rem > root                 # sqrt(r2) >= root + 1/2
-                d = Signal(signed(2 * w + 3))
-                big = Mux(ax1 >= ay1, ax1, ay1)
-                m.d.comb += d.eq(r2 - acc)
+                    m.next = "Plan"
+            with m.State("Plan"):
+                round_up = remainder > root          # sqrt(r2) >= root + 1/2
+                rn = Signal(w + 1)
+                m.d.comb += rn.eq(root + round_up)
+                start, end = plan.start, plan.end
+                ahead = ((end_quadrant == plan.quadrant)
+                         & ((end.y > start.y) | ((end.y == start.y) & (end.x < start.x))))
+                turns = Mux(plan.cw, plan.quadrant - end_quadrant,
+                            end_quadrant - plan.quadrant)[:2]
+                quadrants = Mux((turns == 0) & ~ahead, 4, turns)
                 m.d.sync += [
-                    rn.eq(root + round_up),
-                    residue.eq(Mux(round_up, rem - 2 * root - 1, rem)),
-                    on_circle.eq((d > -big) & (d <= big)),
-                ]
-                m.next = "Plan B"
-            with m.State("Plan B"):
-                ahead = (qe == q0) & ((ye > ys) | ((ye == ys) & (xe < xs)))
-                k = Mux(rotation, q0 - qe, qe - q0)[:2]
-                quadrants = Mux((k == 0) & ~ahead, 4, k)
-                sector2 = ys >= xs
-                m.d.sync += [
-                    plan_valid.eq(1),
-                    plan["error"].eq(too_wide | zero_radius | rn[w] | ~on_circle),
-                    plan["cw"].eq(rotation),
-                    plan["q0"].eq(q0),
-                    plan["runs"].eq(quadrants + 1 - (ye == 0)),
-                    plan["in29"].eq(Mux(sector2, 2 * xs - ys - 2, xs - 2 * ys - 2)),
-                    plan["in30"].eq(Mux(sector2, xs - 1, ys)),
-                    plan["in31"].eq(Mux(sector2, xs - ys, xs - ys - 1)),
-                    plan["in34"].eq(sector2),
-                    plan["xs"].eq(xs), plan["ys"].eq(ys),
-                    plan["axis29"].eq(residue + rn - 2),
-                    plan["rn"].eq(rn),
-                    plan["xe"].eq(xe), plan["ye"].eq(ye),
+                    plan.refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
+                    plan.runs.eq(quadrants + 1 - (end.y == 0)),
+                    plan.radius.eq(rn[:w]),
+                    plan.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
                 ]
                 m.next = "Hold"
             with m.State("Hold"):
-                with m.If(take):
-                    m.d.sync += plan_valid.eq(0)
+                m.d.comb += self.o.valid.eq(1)
+                with m.If(self.o.ready):
                     m.next = "Idle"
-        setup_idle = self.cmd.ready
+        return m
 
-        # ======== sequencer: one core run per quadrant ===========================================
-        running = Signal()
-        run = Signal(3)                              # index of the current run
-        runs = Signal(3)
-        q = Signal(2)
+
+class ArcEngine(wiring.Component):
+    """Arcs in, step/dir out: the planner and the quadrant sequencer around any quadrant core.
+
+    Each transfer on :py:`cmd` is one arc, relative to its centre: from the start ``(x0, y0)``
+    (the current position) to the end ``(x1, y1)``, clockwise if ``cw`` is set, a full circle
+    when the two points are equal. The radius is that of the start point, ``sqrt(x0² + y0²)``,
+    not necessarily an integer.
+
+    :class:`ArcPlanner` checks and plans the arc while the arc before it may still run. The
+    sequencer then runs the core once per quadrant: each quadrant is mapped onto the core's
+    native one (X falling, Y rising) by signs and, where |x| rises, by swapping X and Y (the
+    directions therefore change at every quadrant); the first run starts at the start point,
+    every later one at the axis point ``(Rn, 0)``, ``Rn = round(sqrt(x0² + y0²))``, where the
+    previous one ended, and the last run stops (the core's :py:`stop`) in the clock its step
+    reaches the end point. Each run is handed to the core while the one before it runs, the
+    first run of the next arc while the last of this one runs, so quadrants and arcs follow one
+    another with no pause (each plan being ready in time). An arc offered to an idle engine at
+    clock ``k`` makes its first step at ``k + 3·width + 6`` at the earliest.
+
+    A refused arc (see :class:`ArcPlanner`) ends :attr:`~hdl.engine.Outcome.REFUSED` before
+    any step, once the arc before it has ended. Everything else is the common interface
+    (:class:`~hdl.engine.EngineSignature`); status positions are ``width + 2`` bits.
+
+    Parameters
+    ----------
+    core : :class:`~amaranth.lib.wiring.Component`
+        A quadrant core, whose signature is an :class:`ArcCoreSignature`. It becomes the
+        submodule ``core``.
+    coord_width : :class:`int`
+        Width of the signed coordinates in a frame; default ``max(32, width + 1)``.
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(ArcEngine.Frame(coord_width)))`
+        Arcs.
+    feed, motion, status, abort, busy
+        As :class:`~hdl.engine.EngineSignature`.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``core`` is not a component with an :class:`ArcCoreSignature`, or ``coord_width``
+        not an integer of at least 2.
+    :exc:`ValueError`
+        If ``coord_width`` is smaller than ``width + 1``.
+    """
+
+    @staticmethod
+    def Frame(coord_width):
+        return _arc_frame(coord_width)
+
+    def __init__(self, core, *, coord_width=None):
+        if (not isinstance(core, wiring.Component)
+                or not isinstance(core.signature, ArcCoreSignature)):
+            raise TypeError(f"Core must be a component with an ArcCoreSignature, not {core!r}")
+        width = core.signature.width
+        self._coord_width = frame_coord_width(width, coord_width)
+        self._core = core
+        self.planner = ArcPlanner(width=width, coord_width=self._coord_width)
+        super().__init__(EngineSignature(self.Frame(self._coord_width),
+                                         position_width=width + 2))
+
+    @property
+    def core(self):
+        return self._core
+
+    @property
+    def width(self):
+        return self._core.signature.width
+
+    @property
+    def coord_width(self):
+        return self._coord_width
+
+    def elaborate(self, platform):
+        m = Module()
+        w = self.width
+        m.submodules.core = core = self._core
+        m.submodules.planner = planner = ResetInserter(self.abort)(self.planner)
+        m.submodules.status = status = StatusUnit(position_width=w + 2,
+                                                  number_width=self.signature.number_width)
+        planner_o = self.planner.o
+        next_plan = planner_o.payload
+
+        m.d.comb += [
+            planner.i.payload.eq(self.cmd.payload),
+            planner.i.valid.eq(self.cmd.valid & status.room & ~self.abort),
+            self.cmd.ready.eq(planner.i.ready & status.room & ~self.abort),
+        ]
+
+        # ---- the arc being traced ---------------------------------------------------------
+        active = Signal()                 # an arc's run is running
+        later_runs = Signal(3)            # its runs still to start after the running one
+        to_offer = Signal(3)              # its runs not yet handed to the core
+        first_offered = Signal()          # the next plan's first run is prepared in the core
         clockwise = Signal()
-        axis29 = Signal(signed(aw))
+        quadrant = Signal(2)              # of the running run
         radius = Signal(w)
-        end_x = Signal(w)
-        end_y = Signal(w)
-        x = Signal(w + 1)                            # native position in the current run
+        residue = Signal(signed(w + 1))
+        end = Signal(ArcPlanner.Plan(w)["end"].shape)
+        x = Signal(w + 1)                 # native position in the running run
         y = Signal(w + 1)
         swap = Signal()
         direction = Signal(2)
@@ -287,63 +397,101 @@ class ArcEngine(wiring.Component):
         native = core.step
         x_next = x - native[0]
         y_next = y + native[1]
-        last_run = running & (run == runs - 1)
+        last_run = active & (later_runs == 0)
         reached = Signal()
         arc_done = Signal()
-        next_run = Signal()
+        begin = Signal()                  # the next plan's first run starts: the plan is taken
+        following = Signal()              # a later quadrant of this arc starts
         refuse = Signal()
-        begin = Signal()
         m.d.comb += [
-            reached.eq(last_run & (end_y != 0) & native.any() &
-                       (x_next == end_x) & (y_next == end_y)),
-            core.in32.eq(reached),
-            arc_done.eq(last_run & core.done),
-            next_run.eq(running & core.done & ~last_run),
-            take.eq(plan_valid & (~running | arc_done)),
-            refuse.eq(take & plan["error"]),
-            begin.eq(take & ~plan["error"]),
-            core.in33.eq(begin | next_run),
-            core.in29.eq(Mux(begin, plan["in29"], axis29)),
-            core.in30.eq(Mux(begin, plan["in30"], 0)),
-            core.in31.eq(Mux(begin, plan["in31"], radius - 1)),
-            core.in34.eq(begin & plan["in34"]),
-            core.tick.eq(self.tick),
+            reached.eq(last_run & (end.y != 0) & native.any()
+                       & (x_next == end.x) & (y_next == end.y)),
+            core.stop.eq(reached),
+            arc_done.eq(last_run & core.done & ~self.abort),
+            begin.eq(core.start & ~(active & (later_runs != 0))),
+            following.eq(core.start & active & (later_runs != 0)),
+            refuse.eq(planner_o.valid & next_plan.refused & ~core.busy & ~self.abort),
+            planner_o.ready.eq(begin | refuse),
         ]
 
-        def enter(quad, rot):
-            """Swap and direction registers for a run in quadrant ``quad``."""
-            a = type_a(quad, rot)
-            x_negative = (quad == 1) | (quad == 2)
-            y_negative = (quad == 2) | (quad == 3)
-            return [swap.eq(~a),
-                    direction.eq(Cat(Mux(a, ~x_negative, x_negative),
-                                     Mux(a, y_negative, ~y_negative)))]
+        # Runs handed to the core, in order: this arc's later quadrants (each from the axis),
+        # then the next plan's first run. In the clock a plan is taken its own later runs come
+        # first, from the plan itself.
+        offer_axis = Signal()
+        offer_first = Signal()
+        axis_radius = Mux(begin, next_plan.radius, radius)
+        axis_residue = Mux(begin, next_plan.residue, residue)
+        m.d.comb += [
+            offer_axis.eq(Mux(begin, next_plan.runs > 1, to_offer != 0)),
+            offer_first.eq(~offer_axis & ~begin & planner_o.valid & ~next_plan.refused
+                           & ~first_offered),
+            core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
+            core.cmd.payload.x.eq(Mux(offer_axis, axis_radius, next_plan.start.x)),
+            core.cmd.payload.y.eq(Mux(offer_axis, 0, next_plan.start.y)),
+            core.cmd.payload.residue.eq(Mux(offer_axis, axis_residue, 0)),
+        ]
+        offered = core.cmd.valid & core.cmd.ready
+        with m.If(begin):
+            m.d.sync += to_offer.eq(next_plan.runs - 1 - (offered & offer_axis))
+        with m.Elif(offered & offer_axis):
+            m.d.sync += to_offer.eq(to_offer - 1)
+        with m.If(begin):
+            m.d.sync += first_offered.eq(0)
+        with m.Elif(offered & offer_first):
+            m.d.sync += first_offered.eq(1)
+
+        def enter(q, rot):
+            """Swap and direction registers for a run in quadrant ``q``."""
+            x_falls = _x_falls(q, rot)
+            x_negative = (q == 1) | (q == 2)
+            y_negative = (q == 2) | (q == 3)
+            return [swap.eq(~x_falls),
+                    direction.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
+                                     Mux(x_falls, y_negative, ~y_negative)))]
 
         with m.If(begin):
             m.d.sync += [
-                running.eq(1), run.eq(0), runs.eq(plan["runs"]), q.eq(plan["q0"]),
-                clockwise.eq(plan["cw"]), axis29.eq(plan["axis29"]), radius.eq(plan["rn"]),
-                end_x.eq(plan["xe"]), end_y.eq(plan["ye"]),
-                x.eq(plan["xs"]), y.eq(plan["ys"]),
-                *enter(plan["q0"], plan["cw"]),
+                active.eq(1), later_runs.eq(next_plan.runs - 1),
+                clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
+                radius.eq(next_plan.radius), residue.eq(next_plan.residue),
+                end.eq(next_plan.end),
+                x.eq(next_plan.start.x), y.eq(next_plan.start.y),
+                *enter(next_plan.quadrant, next_plan.cw),
             ]
-        with m.Elif(next_run):
-            following = Mux(clockwise, q - 1, q + 1)[:2]
+        with m.Elif(following):
+            q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
-                run.eq(run + 1), q.eq(following), x.eq(radius), y.eq(0),
-                *enter(following, clockwise),
+                later_runs.eq(later_runs - 1), quadrant.eq(q_next), x.eq(radius), y.eq(0),
+                *enter(q_next, clockwise),
             ]
         with m.Else():
             with m.If(arc_done):
-                m.d.sync += running.eq(0)
-            with m.If(running):
+                m.d.sync += active.eq(0)
+            with m.If(active):
                 m.d.sync += [x.eq(x_next), y.eq(y_next)]
 
+        with m.If(self.abort):
+            m.d.sync += [active.eq(0), later_runs.eq(0), to_offer.eq(0),
+                         first_offered.eq(0)]
+
+        step = Signal(2)
         m.d.comb += [
-            self.step.eq(Mux(swap, Cat(native[1], native[0]), native)),
-            self.dir.eq(direction),
-            self.busy.eq(running | ~setup_idle),
-            self.done.eq(arc_done),
-            self.error.eq(refuse),
+            step.eq(Mux(swap, Cat(native[1], native[0]), native)),
+            core.feed.tick.eq(self.feed.tick),
+            self.feed.due.eq(core.feed.due),
+            self.feed.diagonal.eq(core.feed.diagonal),
+            core.abort.eq(self.abort),
+            self.motion.step.eq(step),
+            self.motion.dir.eq(direction),
+
+            status.motion.step.eq(step),
+            status.motion.dir.eq(direction),
+            status.accept.eq(self.cmd.valid & self.cmd.ready),
+            status.end.eq(arc_done | refuse | (self.abort & active)),
+            status.outcome.eq(Mux(refuse, Outcome.REFUSED,
+                                  Mux(self.abort, Outcome.ABORTED, Outcome.DONE))),
+            status.flush.eq(self.abort),
+            self.busy.eq(status.busy),
         ]
+        wiring.connect(m, wiring.flipped(self.status), status.status)
         return m

@@ -1,15 +1,19 @@
-"""Circular interpolator of patent SU 1665343: the faithful core and a one-step-per-clock core."""
+"""Circular interpolator of patent SU 1665343: the faithful core, a one-step-per-clock core,
+and each as an arc core."""
 
 from amaranth import *
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from .arc import ArcCoreSignature
 from .circular_timing import FaithfulTiming
 from .elements import (AccumulatingAdder, Commutator, DelayElement, PulseExtender,
                        PulseGenerator, ReversibleCounter, Trigger)
 from .elements._checks import check_positive, check_width
+from .engine import permit
 
-__all__ = ["CircularInterpolator", "CircularInterpolatorFast", "FaithfulTiming"]
+__all__ = ["CircularInterpolator", "CircularInterpolatorFast", "FaithfulArcCore", "FastArcCore",
+           "FaithfulTiming"]
 
 
 def _core_signature(width):
@@ -420,3 +424,118 @@ class CircularInterpolatorFast(wiring.Component):
 CircularInterpolator.__doc__ = CircularInterpolator.__doc__.replace("{members}", _CORE_MEMBERS)
 CircularInterpolatorFast.__doc__ = CircularInterpolatorFast.__doc__.replace("{members}",
                                                                             _CORE_MEMBERS)
+
+
+class _QuadrantCore(wiring.Component):
+    """A SU 1665343 interpolator as an arc core (:class:`~hdl.arc.ArcCoreSignature`).
+
+    A quadrant run taken from :py:`cmd`, the native start ``(x, y)`` and ``residue = r2 - x² -
+    y²``, is prepared in a register holding the patent's inputs 29, 30, 31 and 34 (``⌊F⌋ =
+    residue + x - 2y - 2`` in sector 1, ``residue + 2x - y - 2`` in sector 2, since the start's
+    own circle has ``r2 = x² + y² + residue``), and started by input 33 as soon as the
+    interpolator is ready: in the next clock when it is idle, in the clock the running quadrant
+    stops otherwise. :py:`stop` is input 32. The step permission drives generator 5
+    (:func:`~hdl.engine.permit`); the next step is diagonal when F is negative in sector 1 and
+    not negative in sector 2. :py:`abort` stops the run through input 32 with no step in that
+    clock and drops the prepared run.
+    """
+
+    def __init__(self, interpolator):
+        self.interpolator = interpolator
+        super().__init__(ArcCoreSignature(interpolator.width))
+
+    @property
+    def width(self):
+        return self.interpolator.width
+
+    def _feed(self, ip):
+        """``(running, free)`` for :func:`~hdl.engine.permit`."""
+        return ip.trigger4.q, 0
+
+    def elaborate(self, platform):
+        m = Module()
+        w = self.width
+        m.submodules.interpolator = ip = self.interpolator
+
+        x, y, residue = self.cmd.payload.x, self.cmd.payload.y, self.cmd.payload.residue
+        sector2 = y >= x
+        full = Signal()
+        in29 = Signal(signed(w + 4))
+        in30 = Signal(signed(w + 1))
+        in31 = Signal(signed(w + 1))
+        in34 = Signal()
+        take = Signal()
+        m.d.comb += [
+            take.eq(full & ip.ready & ~self.abort),
+            self.cmd.ready.eq(~full | take),
+        ]
+        with m.If(self.cmd.valid & self.cmd.ready):
+            m.d.sync += [
+                full.eq(1),
+                in29.eq(residue + Mux(sector2, 2 * x - y, x - 2 * y) - 2),
+                in30.eq(Mux(sector2, x - 1, y)),
+                in31.eq(Mux(sector2, x - y, x - y - 1)),
+                in34.eq(sector2),
+            ]
+        with m.Elif(take | self.abort):
+            m.d.sync += full.eq(0)
+
+        running, free = self._feed(ip)
+        enable = permit(m, self.feed, armed=ip.generator5.armed, running=running, free=free,
+                        abort=self.abort)
+        m.d.comb += [
+            ip.in29.eq(in29),
+            ip.in30.eq(in30),
+            ip.in31.eq(in31),
+            ip.in34.eq(in34),
+            ip.in33.eq(take),
+            ip.in32.eq(self.stop | self.abort),
+            ip.tick.eq(enable),
+            self.feed.diagonal.eq(Mux(ip.trigger16.q, ip.adder1.sign_n, ip.adder1.sign)),
+            self.step.eq(ip.step),
+            self.start.eq(take),
+            self.done.eq(ip.done),
+            self.busy.eq(full | ip.busy),
+        ]
+        return m
+
+
+class FaithfulArcCore(_QuadrantCore):
+    """:class:`CircularInterpolator` (the patent's structure and timing) as an arc core.
+
+    A step is due at generator 5's pulse, once every period (four clocks by default); the
+    pulse that extender 25 blocks after a switch-over makes no step and needs no permission.
+
+    Parameters
+    ----------
+    width, timing
+        As :class:`CircularInterpolator`.
+    """
+
+    def __init__(self, *, width=24, timing=None):
+        super().__init__(CircularInterpolator(width=width, timing=timing))
+
+    @property
+    def timing(self):
+        return self.interpolator.timing
+
+    def _feed(self, ip):
+        blocked = ip.trigger16.q & ip.extender25.o         # AND 10 and 11 held off
+        return ip.trigger4.q & ~blocked, ip.trigger4.q & blocked
+
+
+class FastArcCore(_QuadrantCore):
+    """:class:`CircularInterpolatorFast` (one step per clock) as an arc core.
+
+    Parameters
+    ----------
+    width, period
+        As :class:`CircularInterpolatorFast`.
+    """
+
+    def __init__(self, *, width=24, period=1):
+        super().__init__(CircularInterpolatorFast(width=width, period=period))
+
+    @property
+    def period(self):
+        return self.interpolator.period

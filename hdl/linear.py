@@ -1,15 +1,16 @@
-"""Linear interpolator of patent SU 1571551: the patent's device, and the engine around it."""
+"""Linear interpolator of patent SU 1571551: the patent's device, and the line core around it."""
 
 from amaranth import *
-from amaranth.lib import data, wiring
+from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .elements import (AccumulatingAdder, Commutator, PulseGenerator, ReversibleCounter,
                        Trigger)
 from .elements._checks import check_choice, check_positive, check_width
-from .engine import engine_members, frame_coord_width
+from .engine import permit
+from .line import LineCoreSignature
 
-__all__ = ["LinearInterpolator", "LineEngine", "LINEAR_VARIANTS"]
+__all__ = ["LinearInterpolator", "LinearCore", "LINEAR_VARIANTS"]
 
 LINEAR_VARIANTS = ("device", "exact")
 
@@ -242,111 +243,54 @@ class LinearInterpolator(wiring.Component):
         return m
 
 
-class LineEngine(wiring.Component):
-    """Signed line segments in, step/dir pulses out: :class:`LinearInterpolator` in a frame stream.
+class LinearCore(wiring.Component):
+    """:class:`LinearInterpolator` as a line core (:class:`~hdl.line.LineCoreSignature`).
 
-    Each transfer on :py:`cmd` is one segment, relative to the current position: the end point
-    ``(x, y)``. A frame register takes it (at most one frame waits there while another runs),
-    splits it into signs and magnitudes, checks that the magnitudes fit the registers and forms
-    the patent's inputs 22-25 for the next clock. The frame starts as soon as the core is ready:
-    frames follow one another with no idle clock between the last step of one and the first
-    step of the next. A frame is first offered at clock ``k`` and, the engine being idle, makes
-    its first step at ``k + 2``.
-
-    Every accepted frame ends with exactly one pulse: :py:`done` (made, possibly with no steps)
-    or :py:`error` (refused: a magnitude above ``2**width - 1``; nothing moves). Frames are
-    ended in the order they were accepted.
+    A segment taken from :py:`cmd` is prepared in a register holding the patent's inputs 22-25,
+    formed from the magnitudes in the clock it is taken (every candidate in parallel, the
+    comparison ``|X| >= |Y|`` only selecting), and started by input 26 as soon as the
+    interpolator is ready: in the next clock when it is idle, in the clock of the running
+    segment's last step otherwise. The step permission drives generator 4
+    (:func:`~hdl.engine.permit`): with the default period of 1 the step is made in the clock of
+    the permission; the next step is diagonal when adder 3 is negative. :py:`abort` clears the
+    interpolator (a synchronous reset of its registers: the patent has no stop input) and drops
+    the prepared segment.
 
     Parameters
     ----------
-    width : :class:`int`
-        Register width of the interpolator.
-    variant : ``"device"`` or ``"exact"``
-        Variant of :class:`LinearInterpolator`.
-    period : :class:`int`
-        Generator period in :py:`tick` clocks.
-    coord_width : :class:`int`
-        Width of the signed coordinates in a frame; default ``max(32, width + 1)``.
-
-    Members
-    -------
-    cmd : :py:`In(stream.Signature(LineEngine.Frame(coord_width)))`
-        Segments.
-    tick : :py:`In(1)`
-        Feed-rate strobe: a step is permitted in clocks where it is high.
-    step : :py:`Out(2)`
-        Step pulses, bit 0 X, bit 1 Y.
-    dir : :py:`Out(2)`
-        Directions, bit 0 X, bit 1 Y: 1 for the negative direction. Valid with :py:`step`.
-    busy : :py:`Out(1)`
-        A frame is waiting or running.
-    done : :py:`Out(1)`
-        A frame ended normally.
-    error : :py:`Out(1)`
-        A frame was refused.
+    width, variant, period
+        As :class:`LinearInterpolator`.
 
     Raises
     ------
-    :exc:`TypeError`
-        If a width or the period is not a positive integer.
-    :exc:`ValueError`
-        If ``variant`` is unknown or ``coord_width`` is smaller than ``width + 1``.
+    :exc:`TypeError`, :exc:`ValueError`
+        As :class:`LinearInterpolator`.
     """
 
-    @staticmethod
-    def Frame(coord_width):
-        return data.StructLayout({"x": signed(coord_width), "y": signed(coord_width)})
-
-    def __init__(self, *, width=16, variant="exact", period=1, coord_width=None):
-        check_width("Register width", width, minimum=2)
-        check_choice("Variant", variant, LINEAR_VARIANTS)
-        check_positive("Generator period", period)
-        coord_width = frame_coord_width(width, coord_width)
-        self._width = width
-        self._variant = variant
-        self._period = period
-        self._coord_width = coord_width
-        self.core = LinearInterpolator(width=width, variant=variant, period=period)
-        super().__init__(engine_members(self.Frame(coord_width)))
+    def __init__(self, *, width=16, variant="exact", period=1):
+        self.interpolator = LinearInterpolator(width=width, variant=variant, period=period)
+        super().__init__(LineCoreSignature(width))
 
     @property
     def width(self):
-        return self._width
+        return self.interpolator.width
 
     @property
     def variant(self):
-        return self._variant
+        return self.interpolator.variant
 
     @property
-    def coord_width(self):
-        return self._coord_width
+    def period(self):
+        return self.interpolator.period
 
     def elaborate(self, platform):
         m = Module()
-        w = self._width
-        m.submodules.core = core = self.core
+        w = self.width
+        ip = self.interpolator
+        m.submodules.interpolator = ResetInserter(self.abort)(ip)
 
-        # Frame register: the patent's inputs 22-25, precomputed from the signed end point.
-        full = Signal()
-        in22 = Signal(w)
-        in23 = Signal(w)
-        in24 = Signal(signed(w + 1))
-        in25 = Signal()
-        bad = Signal()
-        frame_dir = Signal(2)
-
-        x = self.cmd.payload.x
-        y = self.cmd.payload.y
-        ax = Signal(self._coord_width)
-        ay = Signal(self._coord_width)
-        m.d.comb += [
-            ax.eq(Mux(x < 0, -x, x)),
-            ay.eq(Mux(y < 0, -y, y)),
-        ]
-        too_wide = (ax >> w).any() | (ay >> w).any()
-        # Every candidate is formed in parallel from the magnitudes and the comparison only
-        # selects: one carry chain after the absolute values instead of three in a row.
-        mx, my = ax[:w], ay[:w]
+        # The prepared segment: inputs 22-25 from the magnitudes, every candidate in parallel.
+        mx, my = self.cmd.payload.x, self.cmd.payload.y
         x_minus_y = Signal(signed(w + 2))         # |x| - |y|; its sign is the comparison
         y_minus_x = Signal(signed(w + 2))
         f0_x_long = Signal(signed(w + 3))         # 2·F0 when X is the long axis: |x| - 2|y|
@@ -358,49 +302,41 @@ class LineEngine(wiring.Component):
             f0_y_long.eq(my - (mx << 1)),
         ]
         x_ge_y = ~x_minus_y[-1]
-        longer_minus_shorter = Mux(x_ge_y, x_minus_y, y_minus_x)[:w]
-        shorter = Mux(x_ge_y, my, mx)
-        twice_f0 = Mux(x_ge_y, f0_x_long, f0_y_long)
 
+        full = Signal()
+        in22 = Signal(w)
+        in23 = Signal(w)
+        in24 = Signal(signed(w + 1))
+        in25 = Signal()
         take = Signal()
         m.d.comb += [
-            take.eq(full & core.ready),
+            take.eq(full & ip.ready & ~self.abort),
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
             m.d.sync += [
                 full.eq(1),
-                bad.eq(too_wide),
-                # A refused frame presents zeros, so it waits for the core to be idle.
-                in22.eq(Mux(too_wide, 0, longer_minus_shorter)),
-                in23.eq(Mux(too_wide, 0, shorter)),
-                in24.eq(Mux(too_wide, 0, twice_f0 >> 1)),
-                in25.eq(~too_wide & x_ge_y),
-                frame_dir.eq(Cat(x < 0, y < 0)),
+                in22.eq(Mux(x_ge_y, x_minus_y, y_minus_x)[:w]),
+                in23.eq(Mux(x_ge_y, my, mx)),
+                in24.eq(Mux(x_ge_y, f0_x_long, f0_y_long) >> 1),
+                in25.eq(x_ge_y),
             ]
-        with m.Elif(take):
+        with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
 
-        start = Signal()
+        enable = permit(m, self.feed, armed=ip.generator4.armed, running=ip.busy,
+                        abort=self.abort)
         m.d.comb += [
-            core.in22.eq(in22),
-            core.in23.eq(in23),
-            core.in24.eq(in24),
-            core.in25.eq(in25),
-            start.eq(take & ~bad),
-            core.in26.eq(start),
-            core.tick.eq(self.tick),
-        ]
-
-        direction = Signal(2)
-        with m.If(start & (in22.any() | in23.any())):
-            m.d.sync += direction.eq(frame_dir)
-
-        m.d.comb += [
-            self.step.eq(core.step),
-            self.dir.eq(direction),
-            self.busy.eq(full | core.busy),
-            self.done.eq(core.done),
-            self.error.eq(take & bad),
+            ip.in22.eq(in22),
+            ip.in23.eq(in23),
+            ip.in24.eq(in24),
+            ip.in25.eq(in25),
+            ip.in26.eq(take),
+            ip.tick.eq(enable),
+            self.feed.diagonal.eq(ip.adder3.sign),
+            self.step.eq(ip.step),
+            self.start.eq(take),
+            self.done.eq(ip.done | (self.abort & ip.busy)),
+            self.busy.eq(full | ip.busy),
         ]
         return m

@@ -11,14 +11,38 @@ import shutil
 import sys
 from pathlib import Path
 
-from .stimulus import Driver
+from amaranth import Module, ResetInserter, Shape, Signal
 
-__all__ = ["run_amaranth", "CocotbBuild", "ENGINES", "SIMULATORS",
-           "verilator_environment", "ensure_simulator"]
+from .stimulus import Driver, entry
+
+__all__ = ["run_amaranth", "CocotbBuild", "ENGINES", "SIMULATORS", "status_fields",
+           "unpack_status", "verilator_environment", "ensure_simulator"]
 
 ENGINES = ("model", "amaranth", "icarus", "verilator")
 SIMULATORS = ("icarus", "verilator")
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def status_fields(engine):
+    """``{"number": ..., "outcome": ..., "position": [...]}`` bit fields ``(offset, width,
+    signed)`` of the engine's status payload, for unpacking it from a flat bit vector."""
+    layout = engine.signature.status_layout
+    position = layout["position"]
+    element = position.shape.elem_shape
+    width = Shape.cast(element).width
+    return {"number": (layout["number"].offset, layout.number_width, False),
+            "outcome": (layout["outcome"].offset, 2, False),
+            "position": [(position.offset + axis * width, width, True)
+                         for axis in range(layout.axes)]}
+
+
+def unpack_status(value, fields):
+    """``[number, outcome, position]`` from a flat status payload ``value``."""
+    def field(offset, width, signed):
+        bits = (value >> offset) & ((1 << width) - 1)
+        return bits - (1 << width) if signed and bits >> (width - 1) else bits
+    return [field(*fields["number"]), field(*fields["outcome"]),
+            [field(*f) for f in fields["position"]]]
 
 
 def run_amaranth(engine, job, *, state=None, vcd=None):
@@ -27,7 +51,6 @@ def run_amaranth(engine, job, *, state=None, vcd=None):
     ``state`` maps names to signals inside the engine, sampled each clock into the record.
     ``vcd``, if given, is the path of a waveform file to write.
     """
-    from amaranth import Module, ResetInserter, Signal
     from amaranth.sim import Simulator
 
     rst = Signal()
@@ -35,33 +58,39 @@ def run_amaranth(engine, job, *, state=None, vcd=None):
     top.submodules.engine = ResetInserter(rst)(engine)
     state = state or {}
     driver = Driver(job)
+    fields = status_fields(engine)
     record = []
 
     async def testbench(ctx):
         for cycle in range(job.max_cycles):
             inputs = driver.inputs(cycle)
             ctx.set(rst, inputs["rst"])
-            ctx.set(engine.tick, inputs["tick"])
+            ctx.set(engine.feed.tick, inputs["tick"])
+            ctx.set(engine.abort, inputs["abort"])
+            ctx.set(engine.status.ready, inputs["status_ready"])
             ctx.set(engine.cmd.valid, inputs["valid"])
             if inputs["payload"] is not None:
                 ctx.set(engine.cmd.payload, inputs["payload"])
             if inputs["rst"]:
-                entry = {"cycle": cycle, "rst": 1}
+                item = entry(cycle)
                 outputs = None
             else:
+                transfer = ctx.get(engine.status.valid) and inputs["status_ready"]
                 outputs = {
                     "ready": ctx.get(engine.cmd.ready),
-                    "step": ctx.get(engine.step),
-                    "dir": ctx.get(engine.dir),
+                    "step": ctx.get(engine.motion.step),
+                    "dir": ctx.get(engine.motion.dir),
                     "busy": ctx.get(engine.busy),
-                    "done": ctx.get(engine.done),
-                    "error": ctx.get(engine.error),
+                    "due": ctx.get(engine.feed.due),
+                    "diagonal": ctx.get(engine.feed.diagonal),
+                    "status": (unpack_status(ctx.get(engine.status.payload.as_value()), fields)
+                               if transfer else None),
                 }
-                entry = {"cycle": cycle, "rst": 0, **outputs}
+                item = entry(cycle, outputs)
                 for name, signal in state.items():
-                    entry[name] = ctx.get(signal)
+                    item[name] = ctx.get(signal)
             driver.observe(cycle, inputs, outputs)
-            record.append(entry)
+            record.append(item)
             if driver.finished:
                 return
             await ctx.tick()

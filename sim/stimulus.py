@@ -1,21 +1,40 @@
 """One stimulus, three simulators: the clock-by-clock driver every engine run goes through.
 
 A :class:`Job` lists the frames to send to an engine's ``cmd`` stream, the idle clocks to leave
-before offering each one, the clocks at which to pulse reset, and the ``tick`` pattern. A
-:class:`Driver` turns the job into the inputs of each clock and follows the stream handshake
-from the outputs it is shown. The same driver runs the golden cycle model
-(:func:`run_model`), Amaranth's simulator (``sim.runners``) and cocotb on Icarus or Verilator
-(``sim.cocotb_player``), so the three produce records that can be compared entry for entry.
+before offering each one, the clocks at which to pulse reset or abort, and the patterns of the
+feed permission (``tick``) and of the status stream's ``ready``. A :class:`Driver` turns the
+job into the inputs of each clock and follows the stream handshake from the outputs it is
+shown. The same driver runs the golden cycle model (:func:`run_model`), Amaranth's simulator
+(``sim.runners``) and cocotb on Icarus or Verilator (``sim.testbench``), so the three produce
+records that can be compared entry for entry.
 
 A *record* is a list with one dict per clock: ``cycle``, ``rst`` and, outside reset, the
-engine's outputs ``ready``, ``step``, ``dir``, ``busy``, ``done``, ``error`` (plus any named
-state the caller asked for).
+engine's outputs (:data:`OUTPUTS`: ``ready`` of ``cmd``, ``step``, ``dir``, ``busy``, ``due``,
+``diagonal``, and ``status``: ``[number, outcome, position]`` in a clock where an outcome is
+transferred, else ``None``), the outcome flags ``done``, ``error`` and ``aborted`` derived
+from it (:func:`entry`), plus any named state the caller asked for.
 """
 
 from dataclasses import dataclass, field, asdict
 
-__all__ = ["Job", "Driver", "run_model", "plan_resets", "record_steps", "record_moves",
-           "first_difference"]
+from .models.engine import ABORTED, DONE, REFUSED
+
+__all__ = ["Job", "Driver", "OUTPUTS", "entry", "run_model", "plan_resets", "record_steps",
+           "record_moves", "record_outcomes", "first_difference"]
+
+#: The engine outputs a record holds, in every clock outside reset.
+OUTPUTS = ("ready", "step", "dir", "busy", "due", "diagonal", "status")
+
+
+def entry(cycle, outputs=None):
+    """A record entry: ``cycle``, ``rst`` and (outside reset, ``outputs`` given) the outputs
+    with the outcome flags ``done``, ``error`` and ``aborted``."""
+    if outputs is None:
+        return {"cycle": cycle, "rst": 1}
+    status = outputs["status"]
+    outcome = None if status is None else status[1]
+    return {"cycle": cycle, "rst": 0, **outputs, "done": int(outcome == DONE),
+            "error": int(outcome == REFUSED), "aborted": int(outcome == ABORTED)}
 
 
 @dataclass
@@ -33,7 +52,11 @@ class Job:
         Clock at which to assert reset, and for how many clocks. A frame in flight is lost; the
         frames not yet accepted are offered again afterwards.
     tick : list of int
-        ``tick`` input pattern, repeated (``[1]``: a permitted step every clock).
+        Feed permission pattern, repeated (``[1]``: a step permitted in every clock).
+    status_ready : list of int
+        ``ready`` pattern of the status stream, repeated (``[1]``: outcomes taken at once).
+    aborts : dict of int to int
+        Clock at which to assert ``abort``, and for how many clocks.
     max_cycles : int
         Give up after this many clocks.
     """
@@ -42,17 +65,21 @@ class Job:
     gaps: list = field(default_factory=list)
     resets: dict = field(default_factory=dict)
     tick: list = field(default_factory=lambda: [1])
+    status_ready: list = field(default_factory=lambda: [1])
+    aborts: dict = field(default_factory=dict)
     max_cycles: int = 1_000_000
 
     def to_json(self):
         data = asdict(self)
         data["resets"] = {str(k): v for k, v in self.resets.items()}
+        data["aborts"] = {str(k): v for k, v in self.aborts.items()}
         return data
 
     @classmethod
     def from_json(cls, data):
         data = dict(data)
         data["resets"] = {int(k): v for k, v in data.get("resets", {}).items()}
+        data["aborts"] = {int(k): v for k, v in data.get("aborts", {}).items()}
         return cls(**data)
 
 
@@ -64,22 +91,37 @@ class Driver:
         self.index = 0                       # next frame to offer
         self.wait = job.gaps[0] if job.gaps else 0
         self.reset_left = 0
+        self.abort_left = 0
         self.last_reset = max(job.resets, default=-1)
         self.idle = False                    # the engine reported busy = 0 after the last frame
+        # The payload presented: the frame offered, or while none is, the last one (the
+        # engine may look at it: ready may depend on it). None (zeros) before the first.
+        self.payload = None
 
     def inputs(self, cycle):
-        """Return ``{"rst", "valid", "payload", "tick"}`` for ``cycle``."""
-        if cycle in self.job.resets:
-            self.reset_left = self.job.resets[cycle]
-        tick = self.job.tick[cycle % len(self.job.tick)]
+        """Return ``{"rst", "valid", "payload", "tick", "abort", "status_ready"}`` for
+        ``cycle``."""
+        job = self.job
+        if cycle in job.resets:
+            self.reset_left = job.resets[cycle]
+        if cycle in job.aborts:
+            self.abort_left = job.aborts[cycle]
+        tick = job.tick[cycle % len(job.tick)]
+        status_ready = job.status_ready[cycle % len(job.status_ready)]
+        abort = int(self.abort_left > 0)
         if self.reset_left:
-            return {"rst": 1, "valid": 0, "payload": None, "tick": tick}
-        offer = self.index < len(self.job.frames) and self.wait == 0
-        payload = self.job.frames[self.index] if offer else None
-        return {"rst": 0, "valid": int(offer), "payload": payload, "tick": tick}
+            return {"rst": 1, "valid": 0, "payload": None, "tick": tick, "abort": abort,
+                    "status_ready": status_ready}
+        offer = self.index < len(job.frames) and self.wait == 0
+        if offer:
+            self.payload = job.frames[self.index]
+        return {"rst": 0, "valid": int(offer), "payload": self.payload, "tick": tick,
+                "abort": abort, "status_ready": status_ready}
 
     def observe(self, cycle, inputs, outputs):
         """Update from the outputs sampled in ``cycle`` (``None`` during reset)."""
+        if self.abort_left:
+            self.abort_left -= 1
         if inputs["rst"]:
             self.reset_left -= 1
             return
@@ -99,24 +141,29 @@ class Driver:
         return self.idle
 
 
+def _model_cycle(model, inputs):
+    return model.cycle(valid=inputs["valid"], payload=inputs["payload"], tick=inputs["tick"],
+                       abort=inputs["abort"], status_ready=inputs["status_ready"])
+
+
 def run_model(model, job, *, state=False):
-    """Run ``job`` on a cycle model (``model.cycle(valid=, payload=, tick=)``); return the record."""
+    """Run ``job`` on an engine's cycle model (``model.cycle(valid=, payload=, tick=, abort=,
+    status_ready=)``); return the record."""
     driver = Driver(job)
     record = []
     for cycle in range(job.max_cycles):
         inputs = driver.inputs(cycle)
         if inputs["rst"]:
             model.reset()
-            entry = {"cycle": cycle, "rst": 1}
+            item = entry(cycle)
             driver.observe(cycle, inputs, None)
         else:
-            outputs, regs = model.cycle(valid=inputs["valid"], payload=inputs["payload"],
-                                        tick=inputs["tick"])
-            entry = {"cycle": cycle, "rst": 0, **outputs}
+            outputs, regs = _model_cycle(model, inputs)
+            item = entry(cycle, outputs)
             if state:
-                entry.update(regs)
+                item.update(regs)
             driver.observe(cycle, inputs, outputs)
-        record.append(entry)
+        record.append(item)
         if driver.finished:
             return record
     raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
@@ -131,7 +178,8 @@ def plan_resets(model, job, limit, *, length=1):
     then cut by a reset in the middle of the frame.
     """
     planned = Job(frames=list(job.frames), gaps=list(job.gaps), resets=dict(job.resets),
-                  tick=list(job.tick), max_cycles=job.max_cycles)
+                  tick=list(job.tick), status_ready=list(job.status_ready),
+                  aborts=dict(job.aborts), max_cycles=job.max_cycles)
     driver = Driver(planned)
     running = 0
     for cycle in range(planned.max_cycles):
@@ -144,10 +192,9 @@ def plan_resets(model, job, limit, *, length=1):
             driver.observe(cycle, inputs, None)
             running = 0
             continue
-        outputs, _ = model.cycle(valid=inputs["valid"], payload=inputs["payload"],
-                                 tick=inputs["tick"])
+        outputs, _ = _model_cycle(model, inputs)
         driver.observe(cycle, inputs, outputs)
-        ended = outputs["done"] or outputs["error"]
+        ended = outputs["status"] is not None
         running = running + 1 if outputs["busy"] and not ended else 0
         if driver.finished:
             return planned
@@ -170,6 +217,12 @@ def record_moves(record):
 def record_steps(record):
     """Return the ``(dx, dy)`` steps of ``record`` in order."""
     return [(dx, dy) for _, dx, dy in record_moves(record)]
+
+
+def record_outcomes(record):
+    """Return ``(cycle, number, outcome, position)`` for every outcome transferred in
+    ``record``."""
+    return [(e["cycle"], *e["status"]) for e in record if not e["rst"] and e["status"]]
 
 
 def first_difference(expected, actual, keys=None):

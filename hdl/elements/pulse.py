@@ -15,7 +15,8 @@ class PulseGenerator(wiring.Component):
     Runs freely from reset: it counts the clocks in which :py:`en` is asserted and emits a
     one-clock strobe on :py:`o` on every ``period``-th of them, starting with the first. With
     ``period=1`` the output is :py:`en` itself. :py:`en` is the feed-rate input (a permitted-step
-    strobe); tie it high for a pulse every ``period`` clocks.
+    strobe); tie it high for a pulse every ``period`` clocks. :py:`armed` is high when the next
+    enabled clock pulses (always, with ``period=1``).
 
     Parameters
     ----------
@@ -28,6 +29,8 @@ class PulseGenerator(wiring.Component):
         Enable (tick).
     o : :py:`Out(1)`
         Pulse output.
+    armed : :py:`Out(1)`
+        The next enabled clock emits a pulse.
 
     Raises
     ------
@@ -37,6 +40,7 @@ class PulseGenerator(wiring.Component):
 
     en: In(1)
     o: Out(1)
+    armed: Out(1)
 
     def __init__(self, period=1):
         check_positive("Generator period", period)
@@ -50,12 +54,15 @@ class PulseGenerator(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         if self._period == 1:
-            m.d.comb += self.o.eq(self.en)
+            m.d.comb += [self.o.eq(self.en), self.armed.eq(1)]
             return m
         phase = Signal(range(self._period))
         with m.If(self.en):
             m.d.sync += phase.eq(Mux(phase == self._period - 1, 0, phase + 1))
-        m.d.comb += self.o.eq(self.en & (phase == 0))
+        m.d.comb += [
+            self.armed.eq(phase == 0),
+            self.o.eq(self.en & self.armed),
+        ]
         return m
 
 

@@ -20,11 +20,12 @@ against the path for every lattice point with r2 <= 20000, integer and not; see 
 
 import math
 
-from .circular import CORE_VARIANTS, FaithfulCoreModel, FastCoreModel, core_inputs, native_moves
+from .circular import core_inputs, native_moves
+from .engine import ABORTED, DONE, REFUSED, StatusModel
 from .errors import InputError
 
 __all__ = ["check_arc", "plan_arc", "arc_steps", "points_ahead", "quadrant", "native",
-           "ArcEngineModel", "setup_latency", "round_sqrt"]
+           "arc_plan", "setup_latency", "round_sqrt", "ArcPlannerModel", "ArcEngineModel"]
 
 
 def round_sqrt(r2):
@@ -113,8 +114,9 @@ def check_arc(x0, y0, x1, y1, width):
 def plan_arc(x0, y0, x1, y1, cw, width):
     """Plan the quadrant runs of an arc; raises :exc:`InputError` for a refused arc.
 
-    Returns a dict: ``r2``, ``rn``, ``runs`` (a list of dicts ``q``, ``start`` (native),
-    ``end`` (native, or ``None`` to run to the axis), ``inputs`` (29, 30, 31, 34)).
+    Returns a dict: ``r2``, ``rn``, ``cw``, ``start`` and ``end`` (native, in their own
+    quadrants), ``runs`` (a list of dicts ``q``, ``start`` (native), ``end`` (native, or
+    ``None`` to run to the axis), ``inputs`` (29, 30, 31, 34)).
     """
     r2 = check_arc(x0, y0, x1, y1, width)
     rn = round_sqrt(r2)
@@ -140,7 +142,7 @@ def plan_arc(x0, y0, x1, y1, cw, width):
         last = i == count - 1
         runs.append({"q": q, "start": s, "end": end if last and end[1] != 0 else None,
                      "inputs": core_inputs(s[0], s[1], f)})
-    return {"r2": r2, "rn": rn, "cw": cw, "runs": runs}
+    return {"r2": r2, "rn": rn, "cw": cw, "start": start, "end": end, "runs": runs}
 
 
 def arc_steps(x0, y0, x1, y1, *, cw=False, width=24):
@@ -169,110 +171,177 @@ def points_ahead(x0, y0, count, *, cw=False, width=24):
 
 
 def setup_latency(width):
-    """Clocks from accepting an arc to its plan being ready (the RTL's serial arithmetic):
-    ``width`` clocks for x0² + y0², ``width`` for x1² + y1², ``width + 1`` for the square root,
-    two to form the plan."""
-    return 3 * width + 3
+    """Clocks from an arc taken by :class:`hdl.arc.ArcPlanner` to its plan offered: ``width``
+    clocks for x0² + y0², ``width`` for x1² + y1², one to check the end point, ``width + 1`` for
+    the square root, one to form the plan, one to offer it."""
+    return 3 * width + 4
+
+
+def arc_plan(payload, width):
+    """The plan :class:`hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
+    ``refused``, and for an arc not refused ``cw``, ``quadrant``, ``runs``, ``start``,
+    ``end``, ``radius``, ``residue``."""
+    try:
+        plan = plan_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
+                        payload["cw"], width)
+    except InputError:
+        return {"refused": 1}
+    return {"refused": 0, "cw": plan["cw"], "quadrant": plan["runs"][0]["q"],
+            "runs": len(plan["runs"]), "start": plan["start"], "end": plan["end"],
+            "radius": plan["rn"], "residue": plan["r2"] - plan["rn"] ** 2}
+
+
+class ArcPlannerModel:
+    """Clock-by-clock model of :class:`hdl.arc.ArcPlanner`: takes an arc while it holds no
+    plan, offers its plan :func:`setup_latency` clocks later, until it is transferred."""
+
+    def __init__(self, width):
+        self.width = width
+        self.reset()
+
+    def reset(self):
+        self.left = None                  # clocks until the plan is offered; None: idle
+        self.plan = None
+
+    @property
+    def ready(self):
+        return int(self.left is None)
+
+    @property
+    def valid(self):
+        return int(self.left == 0)
+
+    def cycle(self, *, valid, payload, o_ready):
+        if self.left is None:
+            if valid:
+                self.plan = arc_plan(payload, self.width)
+                self.left = setup_latency(self.width) - 1     # offered from that clock on
+        elif self.left == 0:
+            if o_ready:
+                self.left, self.plan = None, None
+        else:
+            self.left -= 1
 
 
 class ArcEngineModel:
-    """Clock-by-clock model of ``hdl.arc.ArcEngine``.
+    """Clock-by-clock model of :class:`hdl.arc.ArcEngine` around a quadrant core model.
 
-    A command is accepted when the setup unit is idle; its plan is ready ``setup_latency``
-    clocks later and waits there until the sequencer takes it, at the end of the arc before it
-    (back to back) or at once if idle. The sequencer loads the core with each run's inputs and
-    starts it in the same clock; a run ends by the core's own stop (counter 7 underflow, the
-    quadrant is done) or by input 32 in the clock its step reaches the end point.
+    ``core`` is the model of the RTL's core (:class:`~sim.models.circular.FaithfulArcCoreModel`
+    or :class:`~sim.models.circular.FastArcCoreModel`): ``width``, ``reset()``, ``state()``,
+    ``peek(tick=, abort=)``, ``evaluate(tick=, stop=, abort=)`` and ``cycle(tick=, stop=,
+    abort=, valid=, payload=)``, as the RTL core has its :class:`~hdl.arc.ArcCoreSignature`.
     """
 
-    def __init__(self, *, variant="faithful", width=24, timing=None, period=1):
-        if variant not in CORE_VARIANTS:
-            raise ValueError(f"Variant must be one of 'faithful', 'fast', not {variant!r}")
-        self.variant = variant
-        self.width = width
-        self.core = (FaithfulCoreModel(width, timing) if variant == "faithful"
-                     else FastCoreModel(width, period))
+    def __init__(self, core, *, number_width=8):
+        self.core = core
+        self.width = core.width
+        self.planner = ArcPlannerModel(self.width)
+        self.status = StatusModel(position_width=self.width + 2, number_width=number_width)
         self.reset()
 
     def reset(self):
         self.core.reset()
-        self.setup_left = None        # clocks until the plan is ready, None when idle
-        self.setup_plan = None        # plan being computed / ready
-        self.plan = None              # the arc being traced
-        self.run_index = 0
-        self.position = (0, 0)        # native position in the current run
-        self.dir = 0
+        self.planner.reset()
+        self.status.reset()
+        self.active = 0
+        self.later_runs = 0
+        self.to_offer = 0
+        self.first_offered = 0
+        self.cw = 0
+        self.quadrant = 0
+        self.radius = 0
+        self.residue = 0
+        self.end = (0, 0)
+        self.position = (0, 0)            # native, in the running run
         self.swap = 0
-
-    def _prepare(self, payload):
-        try:
-            return plan_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
-                            payload["cw"], self.width)
-        except InputError:
-            return {"error": 1}
+        self.dir = 0
 
     def state(self):
         return self.core.state()
 
-    def cycle(self, *, valid=0, payload=None, tick=1):
-        core = self.core
-        plan_ready = self.setup_left == 0
-        running = self.plan is not None
-        run = self.plan["runs"][self.run_index] if running else None
+    def _enter(self, q, cw):
+        self.swap = int(not type_a(q, cw))
+        self.dir = direction_bits(q, cw)
+
+    def cycle(self, *, valid=0, payload=None, tick=1, abort=0, status_ready=1):
+        core, planner, status = self.core, self.planner, self.status
+        plan = planner.plan if planner.valid else None
 
         # The run's end point is reached by a step in this clock (look-ahead on the position).
-        step, stopping = core.peek(tick)
+        step = core.peek(tick=tick, abort=abort)
         x, y = self.position
-        after = (x - (step & 1), y + (step >> 1 & 1))    # native position after this step
-        reached = int(running and run["end"] is not None and step != 0 and after == run["end"])
-        core_done = stopping or reached
-        last_run = running and self.run_index == len(self.plan["runs"]) - 1
-        arc_done = int(running and core_done and last_run)
-        next_run = running and core_done and not last_run
-        take = plan_ready and (not running or arc_done)
-        refuse = take and self.setup_plan.get("error", 0)
-        begin = take and not refuse
-        cmd_ready = int(self.setup_left is None)
-        accepted = valid and cmd_ready
-
-        # Core inputs for this clock.
-        load = None
-        if begin:
-            load = (self.setup_plan, 0)
-        elif next_run:
-            load = (self.plan, self.run_index + 1)
-        if load is not None:
-            in29, in30, in31, in34 = load[0]["runs"][load[1]]["inputs"]
-        else:
-            in29 = in30 = in31 = in34 = 0
-        outputs, regs, _ = core.cycle(in29=in29, in30=in30, in31=in31, in34=in34,
-                                      in33=int(load is not None), in32=reached, tick=tick)
-        assert outputs["step"] == step and outputs["error"] == 0
-        if running and outputs["done"] and not reached and run["end"] is not None:
+        after = (x - (step & 1), y + (step >> 1 & 1))
+        last_run = self.active and self.later_runs == 0
+        reached = int(bool(last_run) and self.end[1] != 0 and step != 0 and after == self.end)
+        out = core.evaluate(tick=tick, stop=reached, abort=abort)
+        assert out["step"] == step
+        if last_run and out["done"] and not reached and not abort and self.end[1] != 0:
             raise AssertionError("the core stopped before the arc reached its end point")
-        # Outputs 35/36 are native Y/X: a type-B quadrant swaps them onto the real axes.
+        arc_done = int(bool(last_run) and bool(out["done"]) and not abort)
+        begin = int(bool(out["start"]) and not (self.active and self.later_runs != 0))
+        following = int(bool(out["start"]) and bool(self.active) and self.later_runs != 0)
+        refuse = int(plan is not None and plan["refused"] and not out["busy"] and not abort)
+        plan_ready = begin or refuse
+
+        # Runs handed to the core: this arc's later quadrants, then the next plan's first run.
+        offer_axis = (plan["runs"] > 1) if begin else self.to_offer != 0
+        offer_first = (not offer_axis and not begin and plan is not None
+                       and not plan["refused"] and not self.first_offered)
+        core_valid = int((offer_axis or offer_first) and not abort)
+        if offer_axis:
+            radius, residue = ((plan["radius"], plan["residue"]) if begin
+                               else (self.radius, self.residue))
+            run = {"x": radius, "y": 0, "residue": residue}
+        elif offer_first:
+            run = {"x": plan["start"][0], "y": plan["start"][1], "residue": 0}
+        else:
+            run = None
+        offered = core_valid and out["ready"]
+
+        end = int(bool(arc_done) or bool(refuse) or bool(abort and self.active))
+        outcome = REFUSED if refuse else ABORTED if abort else DONE
         real = ((step & 1) << 1 | step >> 1) if self.swap else step
-        result = {"ready": cmd_ready, "step": real, "dir": self.dir,
-                  "busy": int(running or self.setup_left is not None),
-                  "done": arc_done, "error": int(bool(refuse))}
+        stream = status.evaluate(step=real, direction=self.dir, end=end, outcome=outcome,
+                                 status_ready=status_ready)
+        ready = int(planner.ready and stream["room"] and not abort)
+        accept = int(bool(valid) and bool(ready))
+        outputs = {"ready": ready, "step": real, "dir": self.dir, "busy": status.busy,
+                   "due": out["due"], "diagonal": out["diagonal"],
+                   "status": stream["payload"] if stream["transfer"] else None}
+        state = self.state()
 
         # ---- clock edge -------------------------------------------------------------------
-        if running:
-            self.position = after
-        if load is not None:
-            plan, index = load
-            self.plan, self.run_index = plan, index
-            new_run = plan["runs"][index]
-            self.position = new_run["start"]
-            self.dir = direction_bits(new_run["q"], plan["cw"])
-            self.swap = int(not type_a(new_run["q"], plan["cw"]))
-        elif arc_done:
-            self.plan = None
-        if take:
-            self.setup_left, self.setup_plan = None, None
-        elif self.setup_left:
-            self.setup_left -= 1
-        if accepted:
-            self.setup_plan = self._prepare(payload)
-            self.setup_left = setup_latency(self.width)
-        return result, regs
+        core.cycle(tick=tick, stop=reached, abort=abort, valid=core_valid, payload=run)
+        if begin:
+            self.to_offer = plan["runs"] - 1 - int(bool(offered and offer_axis))
+            self.first_offered = 0
+        else:
+            if offered and offer_axis:
+                self.to_offer -= 1
+            if offered and offer_first:
+                self.first_offered = 1
+        if begin:
+            self.active, self.later_runs = 1, plan["runs"] - 1
+            self.cw, self.quadrant = plan["cw"], plan["quadrant"]
+            self.radius, self.residue, self.end = plan["radius"], plan["residue"], plan["end"]
+            self.position = plan["start"]
+            self._enter(plan["quadrant"], plan["cw"])
+        elif following:
+            self.later_runs -= 1
+            self.quadrant = (self.quadrant - 1 if self.cw else self.quadrant + 1) % 4
+            self.position = (self.radius, 0)
+            self._enter(self.quadrant, self.cw)
+        else:
+            if arc_done:
+                self.active = 0
+            if self.active:
+                self.position = after
+        if abort:
+            self.active = self.later_runs = self.to_offer = self.first_offered = 0
+        if abort:
+            planner.reset()
+        else:
+            planner.cycle(valid=valid and planner.ready and stream["room"], payload=payload,
+                          o_ready=plan_ready)
+        status.advance(accept=accept, flush=abort)
+        return outputs, state

@@ -14,20 +14,20 @@ after the step. Exact integers: the step model keeps ``f4 = 4F``, which is alway
 F is never zero. The hardware keeps ``⌊F⌋ = (f4 - 3) / 4``.
 
 The cycle-level models mirror ``hdl.circular.CircularInterpolator`` (the patent's structure,
-a step every generator period, delays and the sector switch-over correction as in Fig. 1) and
-``hdl.circular.CircularInterpolatorFast`` (the same trajectory at one step per clock) register
-for register.
+a step every generator period, delays and the sector switch-over correction as in Fig. 1),
+``hdl.circular.CircularInterpolatorFast`` (the same trajectory at one step per clock) and the
+arc cores around them (``FaithfulArcCore``, ``FastArcCore``) register for register.
 """
 
 from hdl.circular_timing import FaithfulTiming
 
 from .codes import mask, ones_add, ones_count, ones_decode, ones_encode, shift_code, sign_extend
+from .engine import permit, probe
 from .errors import InputError
 
-__all__ = ["native_steps", "native_moves", "native_path", "f4_initial", "floor_f", "FaithfulTiming",
-           "FaithfulCoreModel", "FastCoreModel", "core_inputs", "CORE_VARIANTS"]
-
-CORE_VARIANTS = ("faithful", "fast")
+__all__ = ["native_steps", "native_moves", "native_path", "f4_initial", "floor_f",
+           "FaithfulTiming", "CircularInterpolatorModel", "CircularInterpolatorFastModel",
+           "FaithfulArcCoreModel", "FastArcCoreModel", "core_inputs", "run_inputs"]
 
 
 def f4_initial(x, y, r2):
@@ -94,6 +94,14 @@ def native_path(x, y, r2, *, end=None):
     return points
 
 
+def run_inputs(x, y, residue):
+    """The patent's inputs ``(in29, in30, in31, in34)`` for a quadrant run from native
+    ``(x, y)`` on the circle with ``r2 = x² + y² + residue`` (what an arc core prepares)."""
+    if y >= x:
+        return core_inputs(x, y, residue + 2 * x - y - 2)
+    return core_inputs(x, y, residue + x - 2 * y - 2)
+
+
 def core_inputs(x, y, f_floor):
     """The patent's inputs for a run from native ``(x, y)``: ``(in29, in30, in31, in34)``.
 
@@ -123,6 +131,10 @@ class _CoreBase:
             raise InputError("start (input 33) while a run is in progress and not stopping "
                              "in this clock: refused")
 
+    def armed(self):
+        """Generator 5 pulses at its next enabled clock."""
+        return int(self.phase == 0)
+
     def reset(self):
         """Return every register to its reset value (the RTL's synchronous reset)."""
         self.adder1 = 0
@@ -133,7 +145,7 @@ class _CoreBase:
         self.trigger16 = 0
 
 
-class FaithfulCoreModel(_CoreBase):
+class CircularInterpolatorModel(_CoreBase):
     """Clock-by-clock model of ``hdl.circular.CircularInterpolator`` (SU 1665343, Fig. 1).
 
     Registers: adder 1 (ones' complement code of ⌊F⌋), trigger 4 (run), generator 5 phase,
@@ -273,7 +285,7 @@ class FaithfulCoreModel(_CoreBase):
         return outputs, state, extra
 
 
-class FastCoreModel(_CoreBase):
+class CircularInterpolatorFastModel(_CoreBase):
     """Clock-by-clock model of ``hdl.circular.CircularInterpolatorFast``: one step per clock.
 
     The same registers as the patent (adder ⌊F⌋, counters 7 and 8, triggers 4 and 16), in two's
@@ -356,3 +368,97 @@ class FastCoreModel(_CoreBase):
         if tick:
             self.phase = (self.phase + 1) % self.period
         return outputs, state, extra
+
+
+class _QuadrantCoreModel:
+    """Model of an arc core of ``hdl.circular``: the prepared run, the step permission and the
+    interpolator model (its inputs 29-34 driven from them).
+
+    :meth:`peek` gives this clock's step (which does not depend on ``stop``),
+    :meth:`evaluate` every output, :meth:`cycle` also takes the run offered on ``cmd`` and
+    advances.
+    """
+
+    def __init__(self, interpolator):
+        self.interpolator = interpolator
+        self.width = interpolator.width
+        self.reset()
+
+    def reset(self):
+        self.interpolator.reset()
+        self.prepared = None             # (in29, in30, in31, in34) or None
+
+    def state(self):
+        return self.interpolator.state()
+
+    def _feed(self):
+        """``(running, free)`` of the permission."""
+        return self.interpolator.trigger4, 0
+
+    def _negative(self):
+        """Adder 1 holds a negative F."""
+        return int(self.interpolator.adder1 < 0)
+
+    def _inputs(self, tick, stop, abort):
+        ip = self.interpolator
+        running, free = self._feed()
+        due, enable = permit(tick, armed=ip.armed(), running=running, free=free, abort=abort)
+        in29, in30, in31, in34 = self.prepared or (0, 0, 0, 0)
+        inputs = {"in29": in29, "in30": in30, "in31": in31, "in34": in34, "in33": 0,
+                  "in32": int(bool(stop) or bool(abort)), "tick": enable}
+        ready = probe(ip, **inputs)[0]["ready"]
+        take = int(self.prepared is not None and not abort and bool(ready))
+        inputs["in33"] = take
+        return due, take, inputs
+
+    def peek(self, *, tick=1, abort=0):
+        """This clock's native step."""
+        _, _, inputs = self._inputs(tick, 0, abort)
+        return probe(self.interpolator, **inputs)[0]["step"]
+
+    def evaluate(self, *, tick=1, stop=0, abort=0):
+        """Outputs of this clock: ``step``, ``start``, ``done``, ``ready`` (of ``cmd``),
+        ``busy``, ``due``, ``diagonal``."""
+        due, take, inputs = self._inputs(tick, stop, abort)
+        ip = self.interpolator
+        outputs = probe(ip, **inputs)[0]
+        return {"step": outputs["step"], "start": take, "done": outputs["done"],
+                "ready": int(self.prepared is None or bool(take)),
+                "busy": int(self.prepared is not None or bool(ip.trigger4)),
+                "due": due, "diagonal": int(bool(self._negative()) != bool(ip.trigger16))}
+
+    def cycle(self, *, tick=1, stop=0, abort=0, valid=0, payload=None):
+        """One clock with run ``payload`` (``x``, ``y``, ``residue``) offered if ``valid``;
+        returns ``(outputs, state)``, then advances."""
+        outputs = self.evaluate(tick=tick, stop=stop, abort=abort)
+        state = self.state()
+        _, take, inputs = self._inputs(tick, stop, abort)
+        self.interpolator.cycle(**inputs)
+        if valid and outputs["ready"]:
+            self.prepared = run_inputs(payload["x"], payload["y"], payload["residue"])
+        elif take or abort:
+            self.prepared = None
+        return outputs, state
+
+
+class FaithfulArcCoreModel(_QuadrantCoreModel):
+    """Model of ``hdl.circular.FaithfulArcCore``."""
+
+    def __init__(self, *, width=24, timing=None):
+        super().__init__(CircularInterpolatorModel(width, timing))
+
+    def _feed(self):
+        ip = self.interpolator
+        blocked = ip.trigger16 & int(ip.extender25 != 0)
+        return ip.trigger4 & (1 - blocked), ip.trigger4 & blocked
+
+    def _negative(self):
+        ip = self.interpolator                # ones' complement code: the sign bit
+        return ip.adder1 >> (ip.aw - 1)
+
+
+class FastArcCoreModel(_QuadrantCoreModel):
+    """Model of ``hdl.circular.FastArcCore``."""
+
+    def __init__(self, *, width=24, period=1):
+        super().__init__(CircularInterpolatorFastModel(width, period))

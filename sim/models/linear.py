@@ -15,15 +15,17 @@ Two variants of the same structure (see ``docs/linear.md``):
   (long steps left). Its worked table is this variant. It ends on the end point in the same
   number of clocks but does not keep the ``0.5 cos α`` bound.
 
-The cycle-level model mirrors ``hdl.linear.LineEngine`` register for register; the adder there
+The cycle-level models mirror ``hdl.linear.LinearInterpolator`` (the patent's inputs 22-26)
+and ``hdl.linear.LinearCore`` (the line core around it) register for register; the adder there
 holds the integer part ``⌊F⌋`` (the half of ``F0`` never changes the sign test), so
 ``adder3 = f2 >> 1``.
 """
 
+from .engine import permit, probe
 from .errors import InputError
 
-__all__ = ["VARIANTS", "check_line", "patent_inputs", "table", "steps", "LinearCoreModel",
-           "LineEngineModel"]
+__all__ = ["VARIANTS", "check_line", "patent_inputs", "table", "steps",
+           "LinearInterpolatorModel", "LinearCoreModel"]
 
 VARIANTS = ("device", "exact")
 
@@ -99,7 +101,7 @@ def steps(x, y, *, variant="exact", width=16):
     return result
 
 
-class LinearCoreModel:
+class LinearInterpolatorModel:
     """Clock-by-clock model of :class:`hdl.linear.LinearInterpolator`: the patent's inputs 22-26.
 
     With ``strict`` a start of frame (input 26) while :meth:`ready` is low raises
@@ -129,6 +131,10 @@ class LinearCoreModel:
         """Contents of the named registers."""
         return {"adder3": self.adder3, "counter1": self.counter1, "counter2": self.counter2,
                 "trigger14": self.trigger14, "trigger15": self.trigger15}
+
+    def armed(self):
+        """Generator 4 pulses at its next enabled clock."""
+        return int(self.phase == 0)
 
     def _pulses(self, tick):
         """Node 18: generator 4, AND 5 (F >= 0, long step), AND 6 (F < 0, combined step)."""
@@ -186,52 +192,61 @@ class LinearCoreModel:
         return outputs, state
 
 
-class LineEngineModel:
-    """Clock-by-clock model of :class:`hdl.linear.LineEngine`: a frame register, the direction
-    register and :class:`LinearCoreModel`.
+class LinearCoreModel:
+    """Clock-by-clock model of :class:`hdl.linear.LinearCore`: the prepared segment, the step
+    permission and :class:`LinearInterpolatorModel` (its inputs 22-26 driven from them).
 
-    Call :meth:`cycle` once per clock with the inputs of that clock; it returns the outputs
-    during that clock and the contents of the core's named registers, then advances.
+    :meth:`evaluate` gives this clock's outputs for the feed and abort inputs, :meth:`cycle`
+    also takes the segment offered on ``cmd`` and advances.
     """
 
-    def __init__(self, *, variant="exact", width=16, period=1):
-        self.variant = variant
+    def __init__(self, *, width=16, variant="exact", period=1):
+        _check_variant(variant)
         self.width = width
-        self.core = LinearCoreModel(variant=variant, width=width, period=period)
+        self.interpolator = LinearInterpolatorModel(variant=variant, width=width, period=period)
         self.reset()
 
     def reset(self):
         """Return every register to its reset value (the RTL's synchronous reset)."""
-        self.core.reset()
-        self.prep = None                 # frame register: None or a dict
-        self.dir = 0
-
-    def _prepare(self, payload):
-        x, y = payload["x"], payload["y"]
-        limit = (1 << self.width) - 1
-        bad = int(abs(x) > limit or abs(y) > limit)
-        # A refused frame presents zeros, so it waits for the core to be idle.
-        in22, in23, in24, in25 = (0, 0, 0, 0) if bad else patent_inputs(x, y)
-        return {"in22": in22, "in23": in23, "in24": in24, "in25": in25, "bad": bad,
-                "dir": int(x < 0) | int(y < 0) << 1}
+        self.interpolator.reset()
+        self.prepared = None             # (in22, in23, in24, in25) or None
 
     def state(self):
-        return self.core.state()
+        return self.interpolator.state()
 
-    def cycle(self, *, valid=0, payload=None, tick=1):
-        p = self.prep or {"in22": 0, "in23": 0, "in24": 0, "in25": 0, "bad": 0, "dir": 0}
-        take = int(self.prep is not None and self.core.ready(p["in22"], p["in23"], tick))
-        start = take & (1 - p["bad"])
-        core, state = self.core.cycle(in22=p["in22"], in23=p["in23"], in24=p["in24"],
-                                      in25=p["in25"], in26=start, tick=tick)
-        cmd_ready = int(self.prep is None or take)
-        outputs = {"ready": cmd_ready, "step": core["step"], "dir": self.dir,
-                   "busy": int(self.prep is not None or bool(core["busy"])),
-                   "done": core["done"], "error": take & p["bad"]}
-        if start and (p["in22"] or p["in23"]):
-            self.dir = p["dir"]
-        if valid and cmd_ready:
-            self.prep = self._prepare(payload)
-        elif take:
-            self.prep = None
+    def _inputs(self, tick, abort):
+        ip = self.interpolator
+        due, enable = permit(tick, armed=ip.armed(), running=ip.trigger14, abort=abort)
+        in22, in23, in24, in25 = self.prepared or (0, 0, 0, 0)
+        take = int(self.prepared is not None and not abort
+                   and bool(ip.ready(in22, in23, enable)))
+        return due, take, {"in22": in22, "in23": in23, "in24": in24, "in25": in25,
+                           "in26": take, "tick": enable}
+
+    def evaluate(self, *, tick=1, abort=0):
+        """Outputs of this clock: ``step``, ``start``, ``done``, ``ready`` (of ``cmd``),
+        ``busy``, ``due``, ``diagonal``."""
+        due, take, inputs = self._inputs(tick, abort)
+        ip = self.interpolator
+        outputs, _ = probe(ip, **inputs)
+        return {"step": outputs["step"], "start": take,
+                "done": int(bool(outputs["done"]) or bool(abort and ip.trigger14)),
+                "ready": int(self.prepared is None or bool(take)),
+                "busy": int(self.prepared is not None or bool(ip.trigger14)),
+                "due": due, "diagonal": int(ip.adder3 < 0)}
+
+    def cycle(self, *, tick=1, abort=0, valid=0, payload=None):
+        """One clock with segment ``payload`` (magnitudes ``x``, ``y``) offered if ``valid``;
+        returns ``(outputs, state)``, then advances."""
+        outputs = self.evaluate(tick=tick, abort=abort)
+        state = self.state()
+        _, take, inputs = self._inputs(tick, abort)
+        if abort:
+            self.interpolator.reset()    # the interpolator's synchronous reset
+        else:
+            self.interpolator.cycle(**inputs)
+        if valid and outputs["ready"]:
+            self.prepared = patent_inputs(payload["x"], payload["y"])
+        elif take or abort:
+            self.prepared = None
         return outputs, state

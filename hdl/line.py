@@ -1,0 +1,208 @@
+"""Line segments: the core signature every line interpolator has, and the engine around it."""
+
+from amaranth import *
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from .elements._checks import check_width
+from .engine import (EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width)
+
+__all__ = ["LineCoreSignature", "LineEngine"]
+
+
+class LineCoreSignature(wiring.Signature):
+    """What a line interpolator core offers its front end: magnitudes in, steps out.
+
+    A core traces segments from the origin to ``(x, y)``, ``x, y >= 0``: its steps move X or
+    Y (or both) up by one. It holds one segment prepared while another runs, so that segments
+    follow one another with no idle clock.
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Register width: magnitudes up to ``2**width - 1``.
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(LineCoreSignature.Frame(width)))`
+        Segments, ``x`` and ``y`` magnitudes. A segment transferred in clock ``k`` may start in
+        clock ``k + 1``.
+    feed : :py:`Out(FeedSignature())`
+        Permission for each step (:class:`~hdl.engine.FeedSignature`).
+    abort : :py:`In(1)`
+        No step in this clock; the running segment ends (:py:`done`) and the prepared one is
+        dropped.
+    step : :py:`Out(2)`
+        Step pulses, bit 0 X, bit 1 Y.
+    start : :py:`Out(1)`
+        The prepared segment starts in this clock (its steps from the next clock; a segment of
+        length zero ends in this same clock, with :py:`done`).
+    done : :py:`Out(1)`
+        The running segment ends in this clock (with its last step, if any).
+    busy : :py:`Out(1)`
+        A segment is prepared or running.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``width`` is not an integer of at least 2.
+    """
+
+    @staticmethod
+    def Frame(width):
+        return data.StructLayout({"x": unsigned(width), "y": unsigned(width)})
+
+    def __init__(self, width):
+        check_width("Register width", width, minimum=2)
+        self._width = width
+        super().__init__({
+            "cmd":   In(stream.Signature(self.Frame(width))),
+            "feed":  Out(FeedSignature()),
+            "abort": In(1),
+            "step":  Out(2),
+            "start": Out(1),
+            "done":  Out(1),
+            "busy":  Out(1),
+        })
+
+    @property
+    def width(self):
+        return self._width
+
+    def __eq__(self, other):
+        return type(other) is type(self) and other.width == self.width
+
+    def __hash__(self):
+        return hash((type(self), self._width))
+
+    def __repr__(self):
+        return f"LineCoreSignature({self._width})"
+
+
+class LineEngine(wiring.Component):
+    """Signed line segments in, step/dir out: the front end of any line core.
+
+    Each transfer on :py:`cmd` is one segment, relative to the current position: the end point
+    ``(x, y)``. The front end splits it into signs and magnitudes and hands the magnitudes to
+    the core in the clock it takes the segment; the signs become the directions from the
+    segment's first step. Segments follow one another with no idle clock between the last step
+    of one and the first step of the next (the core holds one while another runs). A segment
+    offered at clock ``k`` to an idle engine makes its first step at ``k + 2`` at the earliest.
+
+    A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~hdl.engine.Outcome.
+    REFUSED`, nothing moves) in the clock it is taken, which is when every outcome before it
+    has been transferred, so outcomes stay in order. Everything else is the common interface (:class:`~hdl.engine.EngineSignature`):
+    one outcome per segment on :py:`status`, with the steps made; :py:`abort`.
+
+    Parameters
+    ----------
+    core : :class:`~amaranth.lib.wiring.Component`
+        A line core, whose signature is a :class:`LineCoreSignature`. It becomes the submodule
+        ``core``.
+    coord_width : :class:`int`
+        Width of the signed coordinates of a segment; default ``max(32, width + 1)``.
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(LineEngine.Frame(coord_width)))`
+        Segments.
+    feed, motion, status, abort, busy
+        As :class:`~hdl.engine.EngineSignature`; status positions are ``width + 1`` bits.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``core`` is not a component with a :class:`LineCoreSignature`, or ``coord_width``
+        not an integer of at least 2.
+    :exc:`ValueError`
+        If ``coord_width`` is smaller than ``width + 1``.
+    """
+
+    @staticmethod
+    def Frame(coord_width):
+        return data.StructLayout({"x": signed(coord_width), "y": signed(coord_width)})
+
+    def __init__(self, core, *, coord_width=None):
+        if (not isinstance(core, wiring.Component)
+                or not isinstance(core.signature, LineCoreSignature)):
+            raise TypeError(f"Core must be a component with a LineCoreSignature, not {core!r}")
+        width = core.signature.width
+        self._coord_width = frame_coord_width(width, coord_width)
+        self._core = core
+        super().__init__(EngineSignature(self.Frame(self._coord_width),
+                                         position_width=width + 1))
+
+    @property
+    def core(self):
+        return self._core
+
+    @property
+    def width(self):
+        return self._core.signature.width
+
+    @property
+    def coord_width(self):
+        return self._coord_width
+
+    def elaborate(self, platform):
+        m = Module()
+        w = self.width
+        m.submodules.core = core = self._core
+        m.submodules.status = status = StatusUnit(position_width=w + 1,
+                                                  number_width=self.signature.number_width)
+
+        x, y = self.cmd.payload.x, self.cmd.payload.y
+        ax = Signal(self._coord_width)
+        ay = Signal(self._coord_width)
+        too_wide = Signal()
+        m.d.comb += [
+            ax.eq(Mux(x < 0, -x, x)),
+            ay.eq(Mux(y < 0, -y, y)),
+            too_wide.eq((ax >> w).any() | (ay >> w).any()),
+            core.cmd.payload.x.eq(ax[:w]),
+            core.cmd.payload.y.eq(ay[:w]),
+        ]
+
+        # A segment the core can take goes to it in this clock; a refused one waits until every
+        # outcome before it has been transferred, so that its own comes after them.
+        accepting = Signal()
+        refuse = Signal()
+        m.d.comb += [
+            accepting.eq(status.room & ~self.abort),
+            core.cmd.valid.eq(self.cmd.valid & accepting & ~too_wide),
+            refuse.eq(self.cmd.valid & too_wide & ~status.busy & ~status.flushing & ~self.abort),
+            self.cmd.ready.eq(Mux(too_wide, refuse, core.cmd.ready & accepting)),
+        ]
+
+        # Directions: those of the prepared segment, from its start those of the running one.
+        # A segment of length zero leaves them as they are.
+        prepared_dir = Signal(2)
+        prepared_moves = Signal()
+        direction = Signal(2)
+        with m.If(core.cmd.valid & core.cmd.ready):
+            m.d.sync += [
+                prepared_dir.eq(Cat(x < 0, y < 0)),
+                prepared_moves.eq(ax[:w].any() | ay[:w].any()),
+            ]
+        with m.If(core.start & prepared_moves):
+            m.d.sync += direction.eq(prepared_dir)
+
+        m.d.comb += [
+            core.feed.tick.eq(self.feed.tick),
+            self.feed.due.eq(core.feed.due),
+            self.feed.diagonal.eq(core.feed.diagonal),
+            core.abort.eq(self.abort),
+            self.motion.step.eq(core.step),
+            self.motion.dir.eq(direction),
+
+            status.motion.step.eq(core.step),
+            status.motion.dir.eq(direction),
+            status.accept.eq(self.cmd.valid & self.cmd.ready),
+            status.end.eq(core.done | refuse),
+            status.outcome.eq(Mux(refuse, Outcome.REFUSED,
+                                  Mux(self.abort, Outcome.ABORTED, Outcome.DONE))),
+            status.flush.eq(self.abort),
+            self.busy.eq(status.busy),
+        ]
+        wiring.connect(m, wiring.flipped(self.status), status.status)
+        return m
