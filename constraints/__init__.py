@@ -1,21 +1,7 @@
-"""Board platforms: ``amaranth_boards`` classes with the pin maps of kontur's tops.
+"""Boards and the flows that build for them: pin maps and platforms (``icebreaker.py``), the
+synthesis and place-and-route runs (``flow.py``), the area and speed tables (``bench.py``) and
+the demo bitstream (``build.py``).
 
-Pin maps live here and only here; ``hdl/top.py`` requests resources by name.
+Pin maps live here and only here; ``hdl/top.py`` requests resources by name. Which boards
+there are is said once, in :data:`sim.registry.BOARDS`.
 """
-
-from . import icebreaker
-
-__all__ = ["BOARDS", "platform"]
-
-#: Board name to a function returning a new platform for it.
-BOARDS = {
-    "icebreaker": icebreaker.platform,
-}
-
-
-def platform(board):
-    """Return a new platform for ``board`` (one of :data:`BOARDS`)."""
-    if board not in BOARDS:
-        options = ", ".join(repr(name) for name in BOARDS)
-        raise ValueError(f"Board must be one of {options}, not {board!r}")
-    return BOARDS[board]()

@@ -5,11 +5,13 @@ Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests onl
 * ``stepper`` (:class:`~hdl.top.DemoTop`): step/dir of two stepper drivers on PMOD1A,
   pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y (FPGA pins 4, 2, 47, 45);
 * ``shift_in`` (:class:`~hdl.top.ShiftInTop` through :class:`~hdl.top.PinnedTop`, for the
-  place-and-route benchmarks): inputs on PMOD1B's top row, outputs on PMOD1A and PMOD1B's
-  bottom row; the subsignals carry the names of :class:`~hdl.top.ShiftInTop`'s members.
+  place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
+  PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
+  :class:`~hdl.top.ShiftInTop`'s members.
 
 PMOD pins are numbered as on the connector: 1-4 top row, 7-10 bottom row (5, 6, 11, 12 are
-ground and 3.3 V).
+ground and 3.3 V). PMOD2 is the board's snap-off LED and button section; ``shift_in`` uses
+two of its pins, which the benchmark builds never share with the LEDs or buttons.
 """
 
 from amaranth.build import Attrs, Pins, Resource, Subsignal
@@ -19,6 +21,7 @@ __all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "platform"]
 
 _PMOD1A = ("pmod", 0)
 _PMOD1B = ("pmod", 1)
+_PMOD2 = ("pmod", 2)
 _LVCMOS = Attrs(IO_STANDARD="SB_LVCMOS")
 
 STEPPER = [
@@ -34,13 +37,17 @@ SHIFT_IN = [
              Subsignal("shift", Pins("2", dir="i", conn=_PMOD1B)),
              Subsignal("valid", Pins("3", dir="i", conn=_PMOD1B)),
              Subsignal("tick", Pins("4", dir="i", conn=_PMOD1B)),
+             Subsignal("abort", Pins("1", dir="i", conn=_PMOD2)),
+             Subsignal("status_ready", Pins("2", dir="i", conn=_PMOD2)),
              Subsignal("step", Pins("1 2", dir="o", conn=_PMOD1A)),
              Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),
              Subsignal("busy", Pins("7", dir="o", conn=_PMOD1A)),
-             Subsignal("done", Pins("8", dir="o", conn=_PMOD1A)),
-             Subsignal("error", Pins("9", dir="o", conn=_PMOD1A)),
-             Subsignal("ready", Pins("10", dir="o", conn=_PMOD1A)),
-             Subsignal("full", Pins("7", dir="o", conn=_PMOD1B)),
+             Subsignal("ready", Pins("8", dir="o", conn=_PMOD1A)),
+             Subsignal("full", Pins("9", dir="o", conn=_PMOD1A)),
+             Subsignal("status_valid", Pins("10", dir="o", conn=_PMOD1A)),
+             Subsignal("due", Pins("7", dir="o", conn=_PMOD1B)),
+             Subsignal("diagonal", Pins("8", dir="o", conn=_PMOD1B)),
+             Subsignal("sdo", Pins("9", dir="o", conn=_PMOD1B)),
              _LVCMOS),
 ]
 

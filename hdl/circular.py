@@ -65,6 +65,21 @@ _CORE_MEMBERS = """
 """
 
 
+def _check_faithful(width, timing):
+    """Check the faithful core's parameters; return its timing (the default for ``None``)."""
+    check_width("Register width", width, minimum=2)
+    if timing is None:
+        timing = FaithfulTiming()
+    if not isinstance(timing, FaithfulTiming):
+        raise TypeError(f"Timing must be a FaithfulTiming, not {timing!r}")
+    return timing
+
+
+def _check_fast(width, period):
+    check_width("Register width", width, minimum=2)
+    check_positive("Generator period", period)
+
+
 class CircularInterpolator(wiring.Component):
     """The circular interpolator of SU 1665343 (Fig. 1): a whole quadrant in one run.
 
@@ -114,11 +129,7 @@ class CircularInterpolator(wiring.Component):
     """
 
     def __init__(self, *, width=24, timing=None):
-        check_width("Register width", width, minimum=2)
-        if timing is None:
-            timing = FaithfulTiming()
-        if not isinstance(timing, FaithfulTiming):
-            raise TypeError(f"Timing must be a FaithfulTiming, not {timing!r}")
+        timing = _check_faithful(width, timing)
         self._width = width
         self._timing = timing
         aw, cw = width + 4, width + 1
@@ -311,8 +322,7 @@ class CircularInterpolatorFast(wiring.Component):
     """
 
     def __init__(self, *, width=24, period=1):
-        check_width("Register width", width, minimum=2)
-        check_positive("Generator period", period)
+        _check_fast(width, period)
         self._width = width
         self._period = period
         aw, cw = width + 4, width + 1
@@ -513,6 +523,7 @@ class FaithfulArcCore(_QuadrantCore):
     """
 
     def __init__(self, *, width=24, timing=None):
+        _check_faithful(width, timing)           # before the interpolator is made
         super().__init__(CircularInterpolator(width=width, timing=timing))
 
     @property
@@ -534,6 +545,7 @@ class FastArcCore(_QuadrantCore):
     """
 
     def __init__(self, *, width=24, period=1):
+        _check_fast(width, period)               # before the interpolator is made
         super().__init__(CircularInterpolatorFast(width=width, period=period))
 
     @property

@@ -15,6 +15,12 @@ __all__ = ["LinearInterpolator", "LinearCore", "LINEAR_VARIANTS"]
 LINEAR_VARIANTS = ("device", "exact")
 
 
+def _check(width, variant, period):
+    check_width("Register width", width, minimum=2)
+    check_choice("Variant", variant, LINEAR_VARIANTS)
+    check_positive("Generator period", period)
+
+
 class LinearInterpolator(wiring.Component):
     """The linear interpolator of SU 1571551 (Fig. 1), one step per generator pulse.
 
@@ -87,9 +93,7 @@ class LinearInterpolator(wiring.Component):
     """
 
     def __init__(self, *, width=16, variant="exact", period=1):
-        check_width("Register width", width, minimum=2)
-        check_choice("Variant", variant, LINEAR_VARIANTS)
-        check_positive("Generator period", period)
+        _check(width, variant, period)
         self._width = width
         self._variant = variant
         self._period = period
@@ -268,6 +272,7 @@ class LinearCore(wiring.Component):
     """
 
     def __init__(self, *, width=16, variant="exact", period=1):
+        _check(width, variant, period)          # before the interpolator is made
         self.interpolator = LinearInterpolator(width=width, variant=variant, period=period)
         super().__init__(LineCoreSignature(width))
 

@@ -7,10 +7,11 @@ the RTL too. Every number is computed in the run that prints it.
 import math
 import time
 
+from . import registry
 from .geometry import radial_error, walk
-from .models.arc import ArcEngineModel, round_sqrt
+from .models.arc import round_sqrt
 from .models.circular import native_path
-from .models.linear import LineEngineModel, steps
+from .models.linear import steps
 from .stimulus import Job, record_moves, run_model
 
 __all__ = ["main", "linear_table", "circular_table", "throughput_table"]
@@ -65,7 +66,7 @@ def throughput_table():
     rows = []
     line = Job(frames=[{"x": 1000, "y": 377}, {"x": -250, "y": 999}])
     for variant in ("exact", "device"):
-        moves = record_moves(run_model(LineEngineModel(variant=variant), line))
+        moves = record_moves(run_model(registry.make_model("line", variant), line))
         rows.append((f"line {variant}", "2 segments back to back", len(moves),
                      moves[-1][0] - moves[0][0] + 1))
     circle = Job(frames=[{"x0": 1000, "y0": 0, "x1": 1000, "y1": 0, "cw": 0}])
@@ -73,7 +74,7 @@ def throughput_table():
                        {"x0": 0, "y0": 1000, "x1": -1000, "y1": 0, "cw": 0}])
     for variant in ("faithful", "fast"):
         for label, job in (("full circle R 1000", circle), ("2 quarter arcs back to back", arcs)):
-            moves = record_moves(run_model(ArcEngineModel(variant=variant), job))
+            moves = record_moves(run_model(registry.make_model("arc", variant), job))
             rows.append((f"arc {variant}", label, len(moves), moves[-1][0] - moves[0][0] + 1))
     return rows
 

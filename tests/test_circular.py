@@ -5,27 +5,29 @@ import random
 import unittest
 
 from hdl.arc import ArcEngine
-from hdl.circular import CircularInterpolator, CircularInterpolatorFast, FaithfulTiming
-from sim.models.arc import ArcEngineModel, arc_steps, points_ahead
-from sim.models.circular import (FaithfulCoreModel, FastCoreModel, core_inputs, f4_initial,
-                                 floor_f, native_steps)
+from hdl.circular import (CircularInterpolator, CircularInterpolatorFast, FaithfulArcCore,
+                          FastArcCore, FaithfulTiming)
+from sim import registry
+from sim.models.arc import arc_steps, points_ahead
+from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
+                                 core_inputs, f4_initial, floor_f, native_steps)
 from sim.models.codes import ones_decode
 from sim.models.errors import InputError
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 
-from .utils import compare_core
+from .utils import compare_core, used
 
 
 def state_signals(engine):
-    core = engine.core
+    core = engine.core.interpolator
     return {"adder1": core.adder1.q, "counter7": core.counter7.q, "counter8": core.counter8.q,
             "trigger4": core.trigger4.q, "trigger16": core.trigger16.q}
 
 
 def decode_state(engine, record):
     """The faithful core's adder 1 and counter 8 hold ones' complement codes: decode them."""
-    if engine.variant == "faithful":
+    if isinstance(engine.core, FaithfulArcCore):
         for entry in record:
             if not entry["rst"]:
                 entry["adder1"] = ones_decode(entry["adder1"], engine.width + 4)
@@ -47,9 +49,9 @@ def random_arcs(rng, count, limit, *, longest=300):
 
 
 class ArcEngineTestCase(unittest.TestCase):
-    def check(self, job, *, variant, width=24, timing=None, period=1, state=True):
-        engine = ArcEngine(variant=variant, width=width, timing=timing, period=period)
-        model = ArcEngineModel(variant=variant, width=width, timing=timing, period=period)
+    def check(self, job, *, variant, width=24, state=True, **params):
+        engine = registry.make_engine("arc", variant, width=width, **params)
+        model = registry.make_model("arc", variant, width=width, **params)
         expected = run_model(model, job, state=state)
         actual = run_amaranth(engine, job, state=state_signals(engine) if state else None)
         if state:
@@ -125,10 +127,18 @@ class ArcEngineTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(ValueError,
-                r"^Variant must be one of 'faithful', 'fast', not 'exact'$"):
-            ArcEngine(variant="exact")
+                r"^arc variant must be one of 'faithful', 'fast', not 'exact'$"):
+            registry.make_engine("arc", "exact")
+        with self.assertRaisesRegex(TypeError,
+                r"^arc variant 'fast' takes no parameter 'timing' \(it takes 'period'\)$"):
+            registry.make_engine("arc", "fast", timing=FaithfulTiming())
+        core = FastArcCore(width=24)
         with self.assertRaisesRegex(ValueError, r"^Coordinate width must be at least 25, not 24$"):
-            ArcEngine(width=24, coord_width=24)
+            ArcEngine(core, coord_width=24)
+        used(core)
+        with self.assertRaisesRegex(TypeError,
+                r"^Core must be a component with an ArcCoreSignature, not 4$"):
+            ArcEngine(4)
         with self.assertRaisesRegex(TypeError, r"^Timing must be a FaithfulTiming, not 4$"):
             CircularInterpolator(timing=4)
         with self.assertRaisesRegex(TypeError,
@@ -187,13 +197,14 @@ class CoreTestCase(unittest.TestCase):
         self.assertEqual(moves, "".join(m for m, _ in native_steps(12, 0, 144)))
 
     def test_faithful_core(self):
-        self.check_core(CircularInterpolator, FaithfulCoreModel)
+        self.check_core(CircularInterpolator, CircularInterpolatorModel)
 
     def test_fast_core(self):
-        self.check_core(CircularInterpolatorFast, FastCoreModel)
+        self.check_core(CircularInterpolatorFast, CircularInterpolatorFastModel)
 
     def test_strict_models_raise(self):
-        for model in (FaithfulCoreModel(strict=True), FastCoreModel(strict=True)):
+        for model in (CircularInterpolatorModel(strict=True),
+                      CircularInterpolatorFastModel(strict=True)):
             inputs = dict(zip(("in29", "in30", "in31", "in34"),
                               core_inputs(12, 0, floor_f(f4_initial(12, 0, 144)))))
             model.cycle(in33=1, **inputs)

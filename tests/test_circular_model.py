@@ -6,12 +6,12 @@ import unittest
 from unittest import mock
 
 from hdl.circular_timing import FaithfulTiming
-from sim.models.arc import (ArcEngineModel, arc_steps, check_arc, points_ahead,
-                            round_sqrt)
+from sim import registry
+from sim.models.arc import arc_steps, check_arc, points_ahead, round_sqrt
 from sim.geometry import radial_error, walk
 from sim.models import circular
-from sim.models.circular import (FaithfulCoreModel, FastCoreModel, core_inputs, f4_initial,
-                                 floor_f, native_path, native_steps)
+from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
+                                 core_inputs, f4_initial, floor_f, native_path, native_steps)
 from sim.models.codes import mask
 from sim.models.errors import InputError
 from sim.stimulus import Job, record_steps, run_model
@@ -196,7 +196,7 @@ class BadInputTestCase(unittest.TestCase):
                   {"x0": 5, "y0": 0, "x1": 2, "y1": 4, "cw": 0},
                   {"x0": -3, "y0": 4, "x1": -3, "y1": 4, "cw": 1}]
         for variant in ("faithful", "fast"):
-            record = run_model(ArcEngineModel(variant=variant), Job(frames=frames))
+            record = run_model(registry.make_model("arc", variant), Job(frames=frames))
             self.assertEqual(sum(e["error"] for e in record), 2)
             self.assertEqual(sum(e["done"] for e in record), 2)
             self.assertEqual(record_steps(record),
@@ -211,7 +211,7 @@ class CoreCycleModelTestCase(unittest.TestCase):
                                   if x * x <= r2 and math.isqrt(r2 - x * x) ** 2 == r2 - x * x][:2]
             for x, y in starts:
                 reference = "".join(m for m, _ in native_steps(x, y, r2))
-                for model in (FaithfulCoreModel(), FastCoreModel()):
+                for model in (CircularInterpolatorModel(), CircularInterpolatorFastModel()):
                     moves, _ = core_moves(model, x, y, r2)
                     self.assertEqual(moves, reference, (type(model).__name__, r2, x, y))
 
@@ -219,10 +219,10 @@ class CoreCycleModelTestCase(unittest.TestCase):
         # Faithful: a step per generator period (4 clocks) plus one period for the
         # correction, starting at the first generator pulse after the start (clock 4), and
         # the stop in the clock after the last step. Fast: one step per clock.
-        moves, clocks = core_moves(FaithfulCoreModel(), 12, 0, 144)
+        moves, clocks = core_moves(CircularInterpolatorModel(), 12, 0, 144)
         self.assertEqual(len(moves), 17)
         self.assertEqual(clocks, 4 * (17 + 1) + 2)
-        moves, clocks = core_moves(FastCoreModel(), 12, 0, 144)
+        moves, clocks = core_moves(CircularInterpolatorFastModel(), 12, 0, 144)
         self.assertEqual(clocks, 17 + 1)
 
     def test_engine_model_matches_arc_steps(self):
@@ -237,7 +237,7 @@ class CoreCycleModelTestCase(unittest.TestCase):
                 ahead = points_ahead(x0, y0, rng.randint(1, 200), cw=cw)
                 x1, y1 = ahead[-1]
                 frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw})
-            record = run_model(ArcEngineModel(variant=variant), Job(frames=frames))
+            record = run_model(registry.make_model("arc", variant), Job(frames=frames))
             expected = [s for f in frames
                         for s in arc_steps(f["x0"], f["y0"], f["x1"], f["y1"], cw=f["cw"])]
             self.assertEqual(record_steps(record), expected)
@@ -270,7 +270,7 @@ class TimingTestCase(unittest.TestCase):
                                       taps19=(1, 8, 9), taps26=(2, 3, 5, 7), extender=10)):
             for r in (1, 4, 10, 12, 23, 64, 97):
                 reference = "".join(m for m, _ in native_steps(r, 0, r * r))
-                moves, clocks = core_moves(FaithfulCoreModel(timing=timing), r, 0, r * r)
+                moves, clocks = core_moves(CircularInterpolatorModel(timing=timing), r, 0, r * r)
                 self.assertEqual(moves, reference)
 
     def test_random_valid_timings_keep_the_trajectory(self):
@@ -290,7 +290,7 @@ class TimingTestCase(unittest.TestCase):
                 continue
             tried += 1
             for r in radii:
-                moves, _ = core_moves(FaithfulCoreModel(timing=timing), r, 0, r * r)
+                moves, _ = core_moves(CircularInterpolatorModel(timing=timing), r, 0, r * r)
                 self.assertEqual(moves, reference[r], (timing, r))
 
     def test_constraints_are_necessary(self):
@@ -307,7 +307,7 @@ class TimingTestCase(unittest.TestCase):
             with self.assertRaisesRegex(ValueError, message):
                 FaithfulTiming(**parameters)
             unchecked = FaithfulTiming(**parameters, check=False)
-            moves, _ = core_moves(FaithfulCoreModel(timing=unchecked), r, 0, r * r)
+            moves, _ = core_moves(CircularInterpolatorModel(timing=unchecked), r, 0, r * r)
             self.assertNotEqual(moves, "".join(m for m, _ in native_steps(r, 0, r * r)))
 
     def test_plain_ones_complement_adder_breaks_r_5(self):
@@ -319,7 +319,7 @@ class TimingTestCase(unittest.TestCase):
             return (total & mask(width)) + (total >> width)
 
         with mock.patch.object(circular, "ones_add", plain):
-            moves, _ = core_moves(FaithfulCoreModel(), 5, 0, 25)
+            moves, _ = core_moves(CircularInterpolatorModel(), 5, 0, 25)
         self.assertEqual("".join(m for m, _ in native_steps(5, 0, 25)), "YYDDDXX")
         self.assertEqual(moves[:2], "YD")
 
@@ -328,7 +328,7 @@ class TimingTestCase(unittest.TestCase):
         # taken literally) adds -2 instead of -1 on the diagonal that lands on X = Y. The
         # path then changes, and at R = 10 leaves the half-step band (DECODING.md, item 16).
         literal = FaithfulTiming(delay12=2, check=False)
-        moves, _ = core_moves(FaithfulCoreModel(timing=literal), 10, 0, 100)
+        moves, _ = core_moves(CircularInterpolatorModel(timing=literal), 10, 0, 100)
         reference = "".join(m for m, _ in native_steps(10, 0, 100))
         self.assertNotEqual(moves, reference)
         x, y, points = 10, 0, []

@@ -14,7 +14,7 @@ from .utils import BUILD_DIR
 
 
 def kontur(*args):
-    return subprocess.run([sys.executable, "-m", "sim.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "sim.host.cli", *map(str, args)],
                           capture_output=True, text=True, timeout=600)
 
 
@@ -67,7 +67,7 @@ def test_trace_line_amaranth_vcd():
     run = kontur("trace", "line", -5, 9, "--engine", "amaranth", "--vcd", vcd)
     assert run.returncode == 0, run.stderr
     assert run.stdout == expected_lines(steps(-5, 9))
-    clocks = sample_vcd(vcd, {"step": "engine.step"})
+    clocks = sample_vcd(vcd, {"step": "engine.motion__step"})
     assert sum(1 for c in clocks if c["step"]) == 9
 
 
@@ -75,7 +75,7 @@ def test_bad_usage():
     run = kontur("trace", "line", 1, 1, "--engine", "spice")
     assert run.returncode == 2 and "invalid choice" in run.stderr
     run = kontur("trace", "line", 1, 1, "--vcd", "x.vcd")
-    assert run.returncode == 1 and "--vcd needs an RTL engine" in run.stderr
+    assert run.returncode == 2 and "--vcd needs an RTL engine" in run.stderr
 
 
 @pytest.mark.cocotb
@@ -87,7 +87,7 @@ def test_trace_line_cocotb(simulator):
     assert run.returncode == 0, run.stderr
     model = kontur("trace", "line", 11, -4, "--cycles")
     assert run.stdout == model.stdout
-    clocks = sample_vcd(vcd, {"step": "step", "dir": "dir"})
+    clocks = sample_vcd(vcd, {"step": "motion__step", "dir": "motion__dir"})
     moves = [(i, c["step"], c["dir"]) for i, c in enumerate(clocks) if c["step"]]
     assert [m[0] for m in moves] == [int(line.split()[0]) for line in run.stdout.splitlines()]
     refused = kontur("trace", "line", 1, -70000, "--engine", simulator)
@@ -144,7 +144,7 @@ def test_trace_arc_cocotb(simulator):
         assert run.returncode == 0, run.stderr
         assert run.stdout == kontur("trace", "arc", 6, -1, 6, -1, "--cycles",
                                     "--variant", variant).stdout
-        clocks = sample_vcd(vcd, {"step": "step"})
+        clocks = sample_vcd(vcd, {"step": "motion__step"})
         assert [i for i, c in enumerate(clocks) if c["step"]] == \
             [int(line.split()[0]) for line in run.stdout.splitlines()]
     refused = kontur("trace", "arc", 4, 0, 2, 4, "--engine", simulator)

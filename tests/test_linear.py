@@ -4,26 +4,28 @@
 import random
 import unittest
 
-from hdl.linear import LineEngine, LinearInterpolator
+from hdl.line import LineEngine
+from hdl.linear import LinearCore, LinearInterpolator
+from sim import registry
 from sim.models.errors import InputError
-from sim.models.linear import LinearCoreModel, LineEngineModel, patent_inputs, steps, table
+from sim.models.linear import LinearInterpolatorModel, patent_inputs, steps, table
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 
-from .utils import compare_core
+from .utils import compare_core, used
 
 
 def state_signals(engine):
     """The named registers of the core, as the cycle model reports them."""
-    core = engine.core
+    core = engine.core.interpolator
     return {"adder3": core.adder3.q, "counter1": core.counter1.q, "counter2": core.counter2.q,
             "trigger14": core.trigger14.q, "trigger15": core.trigger15.q}
 
 
 class LineEngineTestCase(unittest.TestCase):
     def check(self, job, *, variant, width=16, period=1):
-        engine = LineEngine(variant=variant, width=width, period=period)
-        model = LineEngineModel(variant=variant, width=width, period=period)
+        engine = registry.make_engine("line", variant, width=width, period=period)
+        model = registry.make_model("line", variant, width=width, period=period)
         expected = run_model(model, job, state=True)
         actual = run_amaranth(engine, job, state=state_signals(engine))
         self.assertIsNone(first_difference(expected, actual))
@@ -68,7 +70,7 @@ class LineEngineTestCase(unittest.TestCase):
 
     def test_patent_table_clock_by_clock(self):
         # The worked table (7, 3): F, counters 1 and 2 after each clock, device variant.
-        engine = LineEngine(variant="device")
+        engine = registry.make_engine("line", "device")
         record = run_amaranth(engine, Job(frames=[{"x": 7, "y": 3}]), state=state_signals(engine))
         running = [e for e in record if e["trigger14"]]
         after = running[1:] + [None]
@@ -91,12 +93,17 @@ class LineEngineTestCase(unittest.TestCase):
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(ValueError,
                 r"^Variant must be one of 'device', 'exact', not 'fast'$"):
-            LineEngine(variant="fast")
+            LinearCore(variant="fast")
         with self.assertRaisesRegex(TypeError,
                 r"^Register width must be an integer of at least 2, not 1$"):
-            LineEngine(width=1)
+            LinearCore(width=1)
+        core = LinearCore(width=16)
         with self.assertRaisesRegex(ValueError, r"^Coordinate width must be at least 17, not 16$"):
-            LineEngine(width=16, coord_width=16)
+            LineEngine(core, coord_width=16)
+        used(core)
+        with self.assertRaisesRegex(TypeError,
+                r"^Core must be a component with a LineCoreSignature, not 'exact'$"):
+            LineEngine("exact")
         with self.assertRaisesRegex(TypeError,
                 r"^Generator period must be a positive integer, not 0$"):
             LinearInterpolator(period=0)
@@ -122,7 +129,7 @@ class LinearInterpolatorTestCase(unittest.TestCase):
 
     def run_core(self, variant, starts, clocks, tick=(1,), period=1):
         dut = LinearInterpolator(width=8, variant=variant, period=period)
-        model = LinearCoreModel(width=8, variant=variant, period=period)
+        model = LinearInterpolatorModel(width=8, variant=variant, period=period)
         state = {"adder3": dut.adder3.q, "counter1": dut.counter1.q, "counter2": dut.counter2.q,
                  "trigger14": dut.trigger14.q, "trigger15": dut.trigger15.q}
         return compare_core(self, dut, model, self.schedule(starts, clocks, tick), state=state,
@@ -149,7 +156,7 @@ class LinearInterpolatorTestCase(unittest.TestCase):
             self.run_core(variant, starts, 50, tick=(1, 0, 1), period=2)
 
     def test_strict_model_raises(self):
-        model = LinearCoreModel(width=8, strict=True)
+        model = LinearInterpolatorModel(width=8, strict=True)
         inputs = dict(zip(("in22", "in23", "in24", "in25"), patent_inputs(7, 3)))
         model.cycle(in26=1, **inputs)
         model.cycle(**inputs)

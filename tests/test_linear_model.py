@@ -6,7 +6,8 @@ import unittest
 
 from sim.geometry import walk
 from sim.models.errors import InputError
-from sim.models.linear import LineEngineModel, check_line, patent_inputs, steps, table
+from sim import registry
+from sim.models.linear import check_line, patent_inputs, steps, table
 from sim.stimulus import Job, record_moves, record_steps, run_model
 
 END_POINTS_64 = [(x, y) for x in range(-64, 65) for y in range(-64, 65) if (x, y) != (0, 0)]
@@ -125,20 +126,20 @@ class CycleModelTestCase(unittest.TestCase):
         frames = [{"x": rng.randint(-300, 300), "y": rng.randint(-300, 300)} for _ in range(60)]
         frames += [{"x": 0, "y": 0}, {"x": 1, "y": 0}, {"x": 0, "y": -1}]
         for variant in ("device", "exact"):
-            record = run_model(LineEngineModel(variant=variant), Job(frames=frames))
+            record = run_model(registry.make_model("line", variant), Job(frames=frames))
             expected = [s for f in frames for s in steps(f["x"], f["y"], variant=variant)]
             self.assertEqual(record_steps(record), expected)
 
     def test_one_step_per_clock_back_to_back(self):
         frames = [{"x": 5, "y": 2}, {"x": -3, "y": 7}, {"x": 4, "y": -4}]
-        record = run_model(LineEngineModel(), Job(frames=frames))
+        record = run_model(registry.make_model("line"), Job(frames=frames))
         cycles = [c for c, _, _ in record_moves(record)]
         self.assertEqual(cycles, list(range(2, 2 + 5 + 7 + 4)))  # first step 2 clocks after offer
         dones = [e["cycle"] for e in record if e["done"]]
         self.assertEqual(dones, [2 + 4, 2 + 11, 2 + 15])       # done with each last step
 
     def test_zero_length_frame(self):
-        record = run_model(LineEngineModel(), Job(frames=[{"x": 0, "y": 0}]))
+        record = run_model(registry.make_model("line"), Job(frames=[{"x": 0, "y": 0}]))
         self.assertEqual(record_steps(record), [])
         self.assertEqual(sum(e["done"] for e in record), 1)
 
@@ -148,7 +149,7 @@ class CycleModelTestCase(unittest.TestCase):
         # 0, 1, 3, 4, 6, ..., pulses on 0, 3, 6, ...).
         frames = [{"x": 6, "y": 3}]
         for period, tick in ((3, [1]), (1, [1, 0, 0]), (2, [1, 1, 0])):
-            record = run_model(LineEngineModel(period=period), Job(frames=frames, tick=tick))
+            record = run_model(registry.make_model("line", period=period), Job(frames=frames, tick=tick))
             self.assertEqual(record_steps(record), steps(6, 3))
             cycles = [c for c, _, _ in record_moves(record)]
             self.assertEqual(cycles, list(range(3, 3 + 3 * 6, 3)), (period, tick))
@@ -170,7 +171,7 @@ class BadInputTestCase(unittest.TestCase):
 
     def test_refused_frame_in_cycle_model(self):
         frames = [{"x": 3, "y": 1}, {"x": 1 << 16, "y": 0}, {"x": -2, "y": 0}]
-        record = run_model(LineEngineModel(width=16), Job(frames=frames))
+        record = run_model(registry.make_model("line", width=16), Job(frames=frames))
         self.assertEqual(record_steps(record), steps(3, 1) + steps(-2, 0))
         self.assertEqual(sum(e["error"] for e in record), 1)
         self.assertEqual(sum(e["done"] for e in record), 2)

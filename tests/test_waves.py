@@ -5,7 +5,7 @@ import unittest
 from amaranth.sim import Simulator
 
 from hdl.circular import CircularInterpolator
-from hdl.linear import LineEngine
+from sim import registry
 from sim.models.circular import core_inputs, f4_initial, floor_f
 from sim.models.codes import from_code, mask, ones_decode
 from sim.runners import run_amaranth
@@ -22,11 +22,12 @@ class LinearTableWaveTestCase(unittest.TestCase):
         width = 16
         vcd = BUILD_DIR / "waves" / "su1571551_table.vcd"
         vcd.parent.mkdir(parents=True, exist_ok=True)
-        run_amaranth(LineEngine(variant="device", width=width), Job(frames=[{"x": 7, "y": 3}]),
-                     vcd=vcd)
-        clocks = sample_vcd(vcd, {"step": "engine.step", "f": "core.adder3.q",
-                                  "addend": "core.mux12.o", "c1": "core.counter1.q_next",
-                                  "c2": "core.counter2.q_next"})
+        run_amaranth(registry.make_engine("line", "device", width=width),
+                     Job(frames=[{"x": 7, "y": 3}]), vcd=vcd)
+        core = "core.interpolator"
+        clocks = sample_vcd(vcd, {"step": "engine.motion__step", "f": f"{core}.adder3.q",
+                                  "addend": f"{core}.mux12.o", "c1": f"{core}.counter1.q_next",
+                                  "c2": f"{core}.counter2.q_next"})
         rows = []
         for clock in clocks:
             if not clock["step"]:

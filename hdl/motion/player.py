@@ -7,7 +7,7 @@ from amaranth.lib.wiring import In, Out
 from ..elements._checks import check_width
 from ..engine import EngineSignature, MotionSignature, Outcome
 from .feed import FeedDivider
-from .program import ProgramROM
+from .program import ProgramROM, check_program
 from .stepdir import StepDirStage
 
 __all__ = ["ProgramPlayer", "check_engine", "check_timing"]
@@ -70,8 +70,10 @@ class ProgramPlayer(wiring.Component):
     """
 
     def __init__(self, engine, program, divider, *, dir_setup=0, step_width=1):
+        # Every check before any part is made: a refused player leaves no unused part behind.
         check_timing(divider, dir_setup, step_width)
         check_engine(engine)
+        check_program(engine.signature.frame, program)
         self._engine = engine
         self.rom = ProgramROM(engine.signature.frame, program)
         self.feed = FeedDivider(divider)

@@ -6,7 +6,16 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import Out
 
-__all__ = ["ProgramROM"]
+__all__ = ["ProgramROM", "check_program"]
+
+
+def check_program(layout, program):
+    """Raise unless ``program`` is a non-empty list of frames of ``layout`` (see
+    :class:`ProgramROM`)."""
+    if not isinstance(program, (list, tuple)) or not program:
+        raise TypeError(f"Program must be a non-empty list of frames, not {program!r}")
+    for frame in program:
+        _check_frame(layout, frame)
 
 
 def _check_frame(layout, frame):
@@ -57,10 +66,7 @@ class ProgramROM(wiring.Component):
 
     def __init__(self, layout, program):
         layout = data.Layout.cast(layout)
-        if not isinstance(program, (list, tuple)) or not program:
-            raise TypeError(f"Program must be a non-empty list of frames, not {program!r}")
-        for frame in program:
-            _check_frame(layout, frame)
+        check_program(layout, program)
         self._layout = layout
         self._program = [dict(frame) for frame in program]
         super().__init__({"o": Out(stream.Signature(layout))})

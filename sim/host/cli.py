@@ -1,0 +1,161 @@
+"""The ``kontur`` command line.
+
+``kontur trace line X Y`` and ``kontur trace arc X0 Y0 X1 Y1`` print the steps of a segment
+or an arc, one ``dx dy`` line per step and nothing else on standard output (with ``--cycles``:
+``cycle dx dy``). Exit status: 0 when the command was traced; 2 for a refused command or any
+bad input or option (the reason is the last line on standard error, nothing is printed on
+standard output); 1 when a tool itself failed (its cause in one line); 130 on an interrupt.
+"""
+
+import argparse
+import signal
+import sys
+
+from .. import registry
+
+__all__ = ["main"]
+
+_ENGINES_HELP = ("golden model (default), or the RTL in Amaranth's simulator, Icarus or "
+                 "Verilator")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors ending in one reason line, status 2 (as argparse
+    does), and no exit from inside the library code of the subcommands."""
+
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"kontur: {message}\n")
+        sys.exit(2)
+
+
+def _limits_epilog(kind):
+    from .trace import MAX_CLOCKS, SPEED, STEP_MODEL_SPEED, WIDTHS
+    default = registry.KINDS[kind].default_width
+    engines = ", ".join(f"{engine} {MAX_CLOCKS[engine]:,} clocks (~{SPEED[engine]:,}/s)"
+                        for engine in MAX_CLOCKS)
+    return (f"limits: --width {WIDTHS.start}..{WIDTHS.stop - 1} (default {default}): "
+            f"coordinates up to 2**width - 1; the frame holds signed max(32, width + 1)-bit "
+            f"numbers. A run is refused up front (status 2) when its clocks could exceed "
+            f"--max-clocks, by default {engines}; the model without --cycles counts steps "
+            f"instead (~{STEP_MODEL_SPEED:,}/s).")
+
+
+def _add_kind(kinds, kind):
+    item = registry.KINDS[kind]
+    variants = registry.variants(kind)
+    parser = kinds.add_parser(kind, help=item.help, description=item.help,
+                              epilog=_limits_epilog(kind))
+    for name in item.fields:
+        if name == "cw":
+            rotation = parser.add_mutually_exclusive_group()
+            rotation.add_argument("--ccw", dest="cw", action="store_false",
+                                  help="counter-clockwise (default)")
+            rotation.add_argument("--cw", dest="cw", action="store_true", help="clockwise")
+            parser.set_defaults(cw=False)         # store_false alone would default to True
+        else:
+            parser.add_argument(name, type=int, metavar=name.upper())
+    helps = "; ".join(f"{name}: {registry.variant(kind, name).help}" for name in variants)
+    parser.add_argument("--variant", choices=variants, default=item.default_variant,
+                        help=f"core variant (default {item.default_variant}; {helps})")
+    from ..runners import ENGINES
+    parser.add_argument("--engine", choices=ENGINES, default="model", help=_ENGINES_HELP)
+    parser.add_argument("--width", type=int, default=None, help="register width in bits")
+    parser.add_argument("--vcd", metavar="FILE", default=None,
+                        help="write the waveform of the RTL run to FILE")
+    parser.add_argument("--cycles", action="store_true",
+                        help="prefix every step with its clock number (the cycle model, for "
+                             "--engine model)")
+    parser.add_argument("--max-clocks", type=int, default=None, metavar="N",
+                        help="trace runs of up to N clocks (see the limits below)")
+
+
+def _parser():
+    parser = _Parser(
+        prog="kontur",
+        description="CNC contour interpolators of Soviet patents, as RTL and golden models.")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    trace = commands.add_parser("trace", help="print the steps of one command")
+    kinds = trace.add_subparsers(dest="kind", required=True, parser_class=_Parser)
+    for kind in registry.KINDS:
+        _add_kind(kinds, kind)
+
+    commands.add_parser("demo", help="show the cores at work on a built-in program")
+    bench = commands.add_parser("bench", help="measure accuracy (models), area and speed "
+                                              "(Yosys, nextpnr on the iCE40UP5K); print tables")
+    bench.add_argument("what", nargs="?", choices=("accuracy", "area", "speed"),
+                       help="one table only (default: all three)")
+    build = commands.add_parser("build", help="build the demo bitstream (never programs)")
+    build.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
+    build.add_argument("--build-dir", default=None, help="default: build/<board>")
+    return parser
+
+
+def _trace(args, out):
+    from .trace import trace
+    fields = registry.KINDS[args.kind].fields
+    payload = {name: int(getattr(args, name)) for name in fields}
+    moves = trace(args.kind, payload, variant=args.variant, engine=args.engine,
+                  width=args.width, vcd=args.vcd, cycles=args.cycles,
+                  max_clocks=args.max_clocks)
+    lines = [f"{cycle} {dx} {dy}" if args.cycles else f"{dx} {dy}" for cycle, dx, dy in moves]
+    if lines:
+        out.write("\n".join(lines) + "\n")
+    return 0
+
+
+def _bench(args, out):
+    status = 0
+    if args.what in (None, "accuracy"):
+        from ..accuracy import main as accuracy
+        status |= accuracy(out)
+    for what in ("area", "speed"):
+        if args.what in (None, what):
+            from constraints.bench import main as bench
+            if args.what is None:
+                out.write("\n")
+            status |= bench([what], out)
+    return status
+
+
+def _build(args, out):
+    from constraints.build import main as build
+    return build(["--board", args.board]
+                 + (["--build-dir", args.build_dir] if args.build_dir else []))
+
+
+def main(argv=None):
+    """Run the command line; return the exit status."""
+    import logging
+    logging.getLogger().setLevel(logging.ERROR)    # the simulator runners' chatter off stderr
+    try:
+        args = _parser().parse_args(argv)
+        if args.command == "trace":
+            return _trace(args, sys.stdout)
+        if args.command == "demo":
+            from .demo import demo
+            return demo(sys.stdout)
+        if args.command == "bench":
+            return _bench(args, sys.stdout)
+        return _build(args, sys.stdout)
+    except KeyboardInterrupt:
+        sys.stderr.write("kontur: interrupted\n")
+        return 128 + signal.SIGINT
+    except Exception as error:
+        from ..models.errors import InputError
+        from .trace import UsageError
+        if isinstance(error, InputError):
+            sys.stderr.write(f"kontur: refused: {error}\n")
+            return 2
+        if isinstance(error, UsageError):
+            sys.stderr.write(f"kontur: {error}\n")
+            return 2
+        reason = str(error).strip().splitlines()
+        sys.stderr.write(f"kontur: {type(error).__name__}: "
+                         f"{reason[-1] if reason else 'failed'}\n")
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

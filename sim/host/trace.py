@@ -1,0 +1,212 @@
+"""Trace one command on any engine: the golden model, Amaranth's simulator, Icarus, Verilator.
+
+Every kind of command and variant comes from :mod:`sim.registry`. :func:`trace` checks the
+request before anything is built or run (:func:`plan`), runs the single frame on the chosen
+engine and returns its moves. Bad input is refused the same way everywhere: the model raises
+:exc:`InputError` before running; the RTL raises its ``REFUSED`` outcome, which is turned into
+the same :exc:`InputError` here. A run that cannot be completed within the limits is refused
+up front with the reason, never cut short.
+"""
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from .. import registry
+from ..models.errors import InputError
+from ..runners import ENGINES, ROOT
+from ..stimulus import Job, record_moves, run_model
+
+__all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "SPEED"]
+
+#: Register widths a command may ask for.
+WIDTHS = range(2, 65)
+
+#: Clocks each engine traces at most (``--max-clocks`` raises it) and its speed, measured on
+#: this project's kind of machine (2 cores): model with ``--cycles`` (the cycle model) and the
+#: RTL simulators including the cocotb harness; without ``--cycles`` the model is the
+#: step-level one, about a million steps a second.
+MAX_CLOCKS = {"model": 20_000_000, "amaranth": 2_000_000, "icarus": 5_000_000,
+              "verilator": 20_000_000}
+SPEED = {"model": 60_000, "amaranth": 15_000, "icarus": 12_000, "verilator": 30_000}
+STEP_MODEL_SPEED = 1_000_000
+
+
+class UsageError(ValueError):
+    """A request that cannot be run as asked (bad option, or beyond the stated limits)."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A checked request: what :func:`trace` runs."""
+    kind: str
+    variant: str
+    engine: str
+    width: int
+    payload: dict
+    vcd: object
+    cycles: bool
+    steps: int              # an upper bound on the steps of the command
+    clocks: int             # an upper bound on the clocks of the run
+    max_clocks: int
+
+
+def _check_vcd(vcd, engine):
+    if vcd is None:
+        return None
+    if engine == "model":
+        raise UsageError("--vcd needs an RTL engine (amaranth, icarus or verilator)")
+    if str(vcd) == "":
+        raise UsageError("--vcd needs a file name")
+    path = Path(vcd)
+    if path.is_dir():
+        raise UsageError(f"--vcd {vcd}: is a directory")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"--vcd {vcd}: no directory {parent}")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UsageError(f"--vcd {vcd}: not writable")
+    return path
+
+
+def _step_bound(kind, payload, width):
+    """An upper bound on the steps of a command the model accepts."""
+    if kind == "line":
+        return max(abs(payload["x"]), abs(payload["y"]))
+    from ..models.arc import round_sqrt
+    radius = round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
+    return 8 * radius + 8                  # at most 2R steps in each of 5 quadrant runs
+
+
+def _clocks_per_step(variant, params):
+    if "timing" in variant.params:
+        from hdl.circular_timing import FaithfulTiming
+        return (params.get("timing") or FaithfulTiming()).period
+    return params.get("period", 1)
+
+
+def _latency(kind, width):
+    if kind == "line":
+        return 2
+    from ..models.arc import setup_latency
+    return setup_latency(width) + 2
+
+
+def plan(kind, payload, *, variant=None, engine="model", width=None, vcd=None, cycles=False,
+         max_clocks=None, params=None):
+    """Check a request; return its :class:`Plan`.
+
+    Raises
+    ------
+    UsageError
+        For an unknown engine or variant, a width outside :data:`WIDTHS`, a ``vcd`` that
+        cannot be written or is asked of the model, or a run longer than ``max_clocks``
+        (default :data:`MAX_CLOCKS` of the engine).
+    InputError
+        If the model refuses the command (the RTL engines run it anyway, to show the RTL's
+        refusal; see :func:`trace`).
+    """
+    params = dict(params or {})
+    if engine not in ENGINES:
+        raise UsageError(f"engine must be one of {', '.join(ENGINES)}, not {engine!r}")
+    try:
+        item = registry.variant(kind, variant)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    width = registry.KINDS[kind].default_width if width is None else width
+    if isinstance(width, bool) or not isinstance(width, int) or width not in WIDTHS:
+        raise UsageError(f"--width must be an integer from {WIDTHS.start} to "
+                         f"{WIDTHS.stop - 1}, not {width!r}")
+    vcd = _check_vcd(vcd, engine)
+    limit = MAX_CLOCKS[engine] if max_clocks is None else max_clocks
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise UsageError(f"--max-clocks must be a positive integer, not {limit!r}")
+
+    refused = None
+    try:
+        registry.check(kind, payload, width)
+    except InputError as reason:
+        if engine == "model":
+            raise
+        refused = reason
+    steps = 0 if refused else _step_bound(kind, payload, width)
+    clocks = _latency(kind, width) + _clocks_per_step(item, params) * (steps + 16) + 64
+    step_model = engine == "model" and not cycles
+    if not step_model and clocks > limit:
+        seconds = clocks / SPEED[engine]
+        raise UsageError(
+            f"this {kind} needs up to {clocks} clocks, more than the {limit} that --engine "
+            f"{engine} traces (about {_duration(seconds)} at {SPEED[engine]} clocks a second); "
+            f"raise --max-clocks to run it anyway")
+    if step_model and steps > limit:
+        raise UsageError(f"this {kind} has up to {steps} steps, more than the {limit} that "
+                         f"--engine model traces (about {_duration(steps / STEP_MODEL_SPEED)});"
+                         f" raise --max-clocks to run it anyway")
+    return Plan(kind, item.name, engine, width, dict(payload), vcd, cycles, steps, clocks,
+                limit)
+
+
+def _duration(seconds):
+    if seconds < 120:
+        return f"{math.ceil(seconds)} s"
+    if seconds < 7200:
+        return f"{math.ceil(seconds / 60)} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def build_root():
+    """Where the command line keeps its simulator builds (shared between calls and processes,
+    one directory per design; see :class:`sim.runners.CocotbBuild`)."""
+    return ROOT / "build" / "cli"
+
+
+def trace(kind, payload, **options):
+    """Run one command; return its moves, ``[(cycle, dx, dy), ...]``.
+
+    ``options`` are those of :func:`plan`. With the model and without ``cycles`` the moves
+    come from the step-level model (their cycles are then ``None``).
+
+    Raises
+    ------
+    InputError
+        If the command is refused (by the model's check, or by the RTL's outcome).
+    UsageError
+        See :func:`plan`.
+    RuntimeError
+        If the RTL and the model disagree on whether the command is refused.
+    """
+    run = plan(kind, payload, **options)
+    if run.engine == "model" and not run.cycles:
+        return [(None, dx, dy) for dx, dy in registry.steps(kind, payload, run.variant,
+                                                            width=run.width)]
+    job = Job(frames=[payload], max_cycles=run.clocks)
+    if run.engine == "model":
+        record = run_model(registry.make_model(kind, run.variant, width=run.width), job)
+        return record_moves(record)
+
+    engine = registry.make_engine(kind, run.variant, width=run.width)
+    limit = 1 << (engine.coord_width - 1)
+    for name, value in payload.items():
+        if name != "cw" and not -limit <= value < limit:
+            raise InputError(f"{name.upper()} = {value} does not fit the frame's "
+                             f"{engine.coord_width}-bit signed coordinates")
+    if run.engine == "amaranth":
+        from ..runners import run_amaranth
+        record = run_amaranth(engine, job, vcd=run.vcd)
+    else:
+        from ..runners import CocotbBuild
+        build = CocotbBuild(engine, run.engine, build_root(), waves=run.vcd is not None,
+                            quiet=True)
+        record = build.run(job, vcd=run.vcd)
+
+    refused = any(item.get("error") for item in record)
+    try:
+        registry.check(kind, payload, run.width)
+    except InputError as reason:
+        if refused:
+            raise InputError(f"{reason} (refused by the RTL)") from None
+        raise RuntimeError(f"the RTL accepted a command the model refuses: {reason}")
+    if refused:
+        raise RuntimeError("the RTL refused a command the model accepts")
+    return record_moves(record)

@@ -1,0 +1,241 @@
+"""One registry of what kontur is made of: kinds of command, their variants, and boards.
+
+A *kind* is a kind of command with its engine (a front end of ``hdl/``) and the engine's
+cycle model: ``line`` (:class:`hdl.line.LineEngine`) and ``arc`` (:class:`hdl.arc.ArcEngine`).
+A *variant* of a kind is a core that plugs into that engine, with the core's cycle model, its
+step-level model and the parameters it takes. A *board* has a platform (``constraints/``) and a
+demo top. ``kontur trace``, ``bench``, ``demo``, ``build`` and the tests all read this module,
+so a new variant is added by one :func:`register` call here and the file that holds its core
+and model; nothing else lists variants.
+"""
+
+from dataclasses import dataclass
+
+from .models.errors import InputError
+
+__all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "InputError", "register", "variant",
+           "variants", "make_engine", "make_model", "check", "steps"]
+
+
+@dataclass(frozen=True)
+class Kind:
+    """A kind of command and the engine that runs it.
+
+    ``engine`` and ``model`` are called as ``engine(core)`` and ``model(core_model)``;
+    ``fields`` are the frame's integer fields in command-line order; ``check(payload, width)``
+    raises :exc:`InputError` for a command the engine refuses.
+    """
+    name: str
+    help: str
+    engine: object
+    model: object
+    fields: tuple
+    check: object
+    default_variant: str
+    default_width: int
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A core of a kind: ``core(width=, **params)`` builds the RTL core, ``model(width=,
+    **params)`` its cycle model, ``steps(payload, width)`` returns the step-level trajectory;
+    ``params`` names the parameters besides ``width`` that it takes."""
+    kind: str
+    name: str
+    help: str
+    core: object
+    model: object
+    steps: object
+    params: tuple = ()
+    min_width: int = 2
+
+
+@dataclass(frozen=True)
+class Board:
+    """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top."""
+    name: str
+    help: str
+    platform: object
+    demo: object
+
+
+KINDS = {}
+VARIANTS = {}
+BOARDS = {}
+
+
+def register(item):
+    """Add a :class:`Kind`, :class:`Variant` or :class:`Board`; return it."""
+    if isinstance(item, Kind):
+        table, key = KINDS, item.name
+    elif isinstance(item, Variant):
+        if item.kind not in KINDS:
+            raise ValueError(f"Variant {item.name!r} is of an unknown kind {item.kind!r}")
+        table, key = VARIANTS, (item.kind, item.name)
+    elif isinstance(item, Board):
+        table, key = BOARDS, item.name
+    else:
+        raise TypeError(f"Only a Kind, Variant or Board can be registered, not {item!r}")
+    if key in table:
+        raise ValueError(f"{type(item).__name__} {key!r} is registered already")
+    table[key] = item
+    return item
+
+
+def kind(name):
+    """The :class:`Kind` ``name``; :exc:`ValueError` if there is none."""
+    if name not in KINDS:
+        raise ValueError(f"Kind must be one of {', '.join(map(repr, KINDS))}, not {name!r}")
+    return KINDS[name]
+
+
+def variants(kind_name):
+    """Names of the variants of a kind, in the order they were registered."""
+    kind(kind_name)
+    return tuple(name for k, name in VARIANTS if k == kind_name)
+
+
+def variant(kind_name, name=None):
+    """The :class:`Variant` ``name`` of a kind (its default without a name)."""
+    name = kind(kind_name).default_variant if name is None else name
+    if (kind_name, name) not in VARIANTS:
+        raise ValueError(f"{kind_name} variant must be one of "
+                         f"{', '.join(map(repr, variants(kind_name)))}, not {name!r}")
+    return VARIANTS[kind_name, name]
+
+
+def _arguments(item, width, params):
+    width = KINDS[item.kind].default_width if width is None else width
+    if isinstance(width, bool) or not isinstance(width, int) or width < item.min_width:
+        raise TypeError(f"Register width must be an integer of at least {item.min_width}, "
+                        f"not {width!r}")
+    for name in params:
+        if name not in item.params:
+            takes = ", ".join(map(repr, item.params)) or "nothing but 'width'"
+            raise TypeError(f"{item.kind} variant {item.name!r} takes no parameter {name!r} "
+                            f"(it takes {takes})")
+    return {"width": width, **params}
+
+
+def make_engine(kind_name, variant_name=None, *, width=None, **params):
+    """The RTL engine of a kind around the core of a variant."""
+    item = variant(kind_name, variant_name)
+    return KINDS[kind_name].engine(item.core(**_arguments(item, width, params)))
+
+
+def make_model(kind_name, variant_name=None, *, width=None, **params):
+    """The cycle model of :func:`make_engine` with the same arguments."""
+    item = variant(kind_name, variant_name)
+    return KINDS[kind_name].model(item.model(**_arguments(item, width, params)))
+
+
+def check(kind_name, payload, width):
+    """Raise :exc:`InputError` if the engine of a kind refuses ``payload`` at ``width``."""
+    kind(kind_name).check(payload, width)
+
+
+def steps(kind_name, payload, variant_name=None, *, width=None):
+    """The step-level trajectory of ``payload``: a list of ``(dx, dy)``."""
+    item = variant(kind_name, variant_name)
+    return item.steps(payload, _arguments(item, width, {})["width"])
+
+
+# ---- the kinds and variants of kontur ----------------------------------------------------
+
+def _line_check(payload, width):
+    from .models.linear import check_line
+    check_line(payload["x"], payload["y"], width)
+
+
+def _arc_check(payload, width):
+    from .models.arc import check_arc
+    check_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"], width)
+
+
+def _line_engine(core):
+    from hdl.line import LineEngine
+    return LineEngine(core)
+
+
+def _line_engine_model(core):
+    from .models.line import LineEngineModel
+    return LineEngineModel(core)
+
+
+def _arc_engine(core):
+    from hdl.arc import ArcEngine
+    return ArcEngine(core)
+
+
+def _arc_engine_model(core):
+    from .models.arc import ArcEngineModel
+    return ArcEngineModel(core)
+
+
+def _linear(variant_name):
+    def core(**params):
+        from hdl.linear import LinearCore
+        return LinearCore(variant=variant_name, **params)
+
+    def model(**params):
+        from .models.linear import LinearCoreModel
+        return LinearCoreModel(variant=variant_name, **params)
+
+    def trajectory(payload, width):
+        from .models.linear import steps as linear_steps
+        return linear_steps(payload["x"], payload["y"], variant=variant_name, width=width)
+
+    return core, model, trajectory
+
+
+def _arc_trajectory(payload, width):
+    from .models.arc import arc_steps
+    return arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
+                     cw=payload["cw"], width=width)
+
+
+def _faithful_core(**params):
+    from hdl.circular import FaithfulArcCore
+    return FaithfulArcCore(**params)
+
+
+def _faithful_model(**params):
+    from .models.circular import FaithfulArcCoreModel
+    return FaithfulArcCoreModel(**params)
+
+
+def _fast_core(**params):
+    from hdl.circular import FastArcCore
+    return FastArcCore(**params)
+
+
+def _fast_model(**params):
+    from .models.circular import FastArcCoreModel
+    return FastArcCoreModel(**params)
+
+
+def _icebreaker_platform():
+    from constraints import icebreaker
+    return icebreaker.platform()
+
+
+def _icebreaker_demo():
+    from hdl.top import DemoTop
+    return DemoTop()
+
+
+register(Kind("line", "segment from the origin to (X, Y)", _line_engine, _line_engine_model,
+              ("x", "y"), _line_check, "exact", 16))
+register(Kind("arc", "arc around the origin from (X0, Y0) to (X1, Y1), a full circle when they "
+                     "are equal", _arc_engine, _arc_engine_model,
+              ("x0", "y0", "x1", "y1", "cw"), _arc_check, "faithful", 24))
+register(Variant("line", "device", "SU 1571551 as its device is drawn: counter-fed increments",
+                 *_linear("device"), params=("period",)))
+register(Variant("line", "exact", "SU 1571551's equation (1): constant increments",
+                 *_linear("exact"), params=("period",)))
+register(Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
+                 _faithful_core, _faithful_model, _arc_trajectory, params=("timing",)))
+register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
+                 _fast_core, _fast_model, _arc_trajectory, params=("period",)))
+register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
+               _icebreaker_demo))

@@ -1,0 +1,262 @@
+# amaranth: UnusedElaboratable=no
+"""The engine interface: signatures, the status unit, and the contracts every engine keeps."""
+
+import random
+import unittest
+
+from amaranth import *
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.engine import (EngineSignature, FeedSignature, MotionSignature, Outcome, StatusLayout,
+                        StatusUnit)
+from hdl.motion import FeedDivider, StepDirStage
+from sim import registry
+from sim.models.engine import ABORTED, DONE, REFUSED, StatusModel
+from sim.runners import run_amaranth
+from sim.stimulus import (Job, check_outcomes, first_difference, record_outcomes,
+                          record_steps, run_model)
+
+from .utils import simulate
+
+FRAME = data.StructLayout({"x": signed(8), "y": signed(8)})
+
+
+class SignatureTestCase(unittest.TestCase):
+    def test_motion(self):
+        self.assertEqual(MotionSignature(2), MotionSignature(2))
+        self.assertNotEqual(MotionSignature(2), MotionSignature(3))
+        self.assertEqual(MotionSignature(3).axes, 3)
+        self.assertEqual(repr(MotionSignature(2)), "MotionSignature(2)")
+        self.assertEqual(MotionSignature(2).members["step"], Out(2))
+        self.assertEqual(MotionSignature(2).members["dir"], Out(2))
+
+    def test_motion_wrong(self):
+        with self.assertRaisesRegex(TypeError, r"^Axis count must be a positive integer, not 0$"):
+            MotionSignature(0)
+        with self.assertRaisesRegex(TypeError,
+                r"^Axis count must be a positive integer, not True$"):
+            MotionSignature(True)
+
+    def test_feed(self):
+        feed = FeedSignature()
+        self.assertEqual(feed, FeedSignature())
+        self.assertEqual(repr(feed), "FeedSignature()")
+        self.assertEqual(feed.members["tick"], In(1))
+        self.assertEqual(feed.members["due"], Out(1))
+        self.assertEqual(feed.members["diagonal"], Out(1))
+
+    def test_status_layout(self):
+        layout = StatusLayout(axes=3, position_width=10, number_width=4)
+        self.assertEqual((layout.axes, layout.position_width, layout.number_width), (3, 10, 4))
+        self.assertEqual(layout.size, 4 + 2 + 30)
+        self.assertEqual(layout["outcome"].shape, Outcome)
+        self.assertEqual(repr(layout),
+                         "StatusLayout(axes=3, position_width=10, number_width=4)")
+
+    def test_status_layout_wrong(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Position width must be an integer of at least 2, not 1$"):
+            StatusLayout(position_width=1)
+        with self.assertRaisesRegex(TypeError,
+                r"^Command number width must be a positive integer, not 0$"):
+            StatusLayout(number_width=0)
+        with self.assertRaisesRegex(TypeError, r"^Axis count must be a positive integer, not -1$"):
+            StatusLayout(axes=-1)
+
+    def test_engine(self):
+        signature = EngineSignature(FRAME, position_width=9)
+        self.assertEqual(signature, EngineSignature(FRAME, position_width=9))
+        self.assertNotEqual(signature, EngineSignature(FRAME, position_width=10))
+        self.assertNotEqual(signature, EngineSignature(data.StructLayout({"x": 8}),
+                                                       position_width=9))
+        self.assertEqual(signature.frame, FRAME)
+        self.assertEqual((signature.axes, signature.position_width, signature.number_width),
+                         (2, 9, 8))
+        self.assertEqual(signature.members["cmd"], In(stream.Signature(FRAME)))
+        self.assertEqual(signature.members["feed"], Out(FeedSignature()))
+        self.assertEqual(signature.members["motion"], Out(MotionSignature(2)))
+        self.assertEqual(signature.members["status"],
+                         Out(stream.Signature(StatusLayout(position_width=9))))
+        self.assertRegex(repr(signature), r"^EngineSignature\(StructLayout\(.*\), axes=2, "
+                                          r"position_width=9, number_width=8\)$")
+
+    def test_engine_wrong(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Frame layout must be a data layout, not unsigned\(8\)$"):
+            EngineSignature(unsigned(8))
+
+    def test_every_engine_has_the_signature(self):
+        for kind in registry.KINDS:
+            for name in registry.variants(kind):
+                engine = registry.make_engine(kind, name, width=8)
+                self.assertIsInstance(engine.signature, EngineSignature, (kind, name))
+                self.assertEqual(engine.signature.frame.size, engine.cmd.payload.shape().size)
+                Fragment.get(engine, None)           # and it elaborates
+
+    def test_motion_and_feed_connect(self):
+        engine = registry.make_engine("line", width=8)
+        stage = StepDirStage(dir_setup=1, step_width=1)
+        feed = FeedDivider(3)
+        m = Module()
+        m.submodules += [engine, stage, feed]
+        wiring.connect(m, engine.motion, stage.i)
+        wiring.connect(m, engine.feed, feed.feed)
+        Fragment.get(m, None)
+
+    def test_status_unit_wrong(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Status queue depth must be a positive integer, not 0$"):
+            StatusUnit(depth=0)
+
+
+class StatusUnitTestCase(unittest.TestCase):
+    """The status unit against its model, clock by clock, with random events and stalls."""
+
+    def test_against_model(self):
+        rng = random.Random(4)
+        dut = StatusUnit(position_width=6, number_width=3)
+        model = StatusModel(position_width=6, number_width=3)
+
+        async def testbench(ctx):
+            running = 0
+            for clock in range(3000):
+                room = None
+                # A command is in flight while the model says so; it ends now and then.
+                end = int(model.inflight > 0 and rng.random() < 0.3)
+                inputs = {"step": rng.randrange(4) if model.inflight else 0,
+                          "direction": rng.randrange(4), "end": end,
+                          "outcome": rng.choice([DONE, REFUSED, ABORTED]),
+                          "status_ready": int(rng.random() < 0.6)}
+                flush = int(rng.random() < 0.02)
+                expected = model.evaluate(**inputs)
+                accept = int(expected["room"] and rng.random() < 0.5 and not flush)
+                ctx.set(dut.motion.step, inputs["step"])
+                ctx.set(dut.motion.dir, inputs["direction"])
+                ctx.set(dut.end, end)
+                ctx.set(dut.outcome, Outcome(inputs["outcome"]))
+                ctx.set(dut.status.ready, inputs["status_ready"])
+                ctx.set(dut.accept, accept)
+                ctx.set(dut.flush, flush)
+                room = ctx.get(dut.room)
+                self.assertEqual(room, expected["room"], f"clock {clock}")
+                self.assertEqual(ctx.get(dut.status.valid), expected["valid"], f"clock {clock}")
+                self.assertEqual(ctx.get(dut.busy), model.busy, f"clock {clock}")
+                self.assertEqual(ctx.get(dut.flushing), model.flushing, f"clock {clock}")
+                if expected["valid"]:
+                    payload = ctx.get(dut.status.payload)
+                    got = [payload.number, payload.outcome.value,
+                           [payload.position[0], payload.position[1]]]
+                    self.assertEqual(got, expected["payload"], f"clock {clock}")
+                model.advance(accept=accept, flush=flush)
+                running += accept
+                await ctx.tick()
+            self.assertGreater(running, 300)
+
+        simulate(dut, testbench, name="status_unit")
+
+
+def feed_engines():
+    """``(label, engine factory, model factory)`` of every registered variant, narrow."""
+    for kind in registry.KINDS:
+        for name in registry.variants(kind):
+            yield (f"{kind} {name}", lambda k=kind, n=name: registry.make_engine(k, n, width=8),
+                   lambda k=kind, n=name: registry.make_model(k, n, width=8))
+
+
+FRAMES = {"line": [{"x": 7, "y": 3}, {"x": -5, "y": 12}, {"x": 0, "y": 0}, {"x": 300, "y": 0},
+                   {"x": -40, "y": -1}, {"x": 13, "y": -13}, {"x": 0, "y": -9}],
+          "arc": [{"x0": 9, "y0": 0, "x1": 9, "y1": 0, "cw": 0},
+                  {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 0},
+                  {"x0": -5, "y0": 3, "x1": 3, "y1": 5, "cw": 1},
+                  {"x0": 4, "y0": -4, "x1": -4, "y1": -4, "cw": 1}]}
+
+
+class EngineContractTestCase(unittest.TestCase):
+    """What every engine promises, checked on every registered variant."""
+
+    def run_both(self, label, make_engine, make_model, job):
+        kind = label.split()[0]
+        expected = run_model(make_model(), job)
+        actual = run_amaranth(make_engine(), job)
+        self.assertIsNone(first_difference(expected, actual), label)
+        return kind, actual
+
+    def test_feed_permission_and_next_step_kind(self):
+        # A step is made in exactly the clocks where the permission meets a due step, and the
+        # due step's kind was shown before it (in that same clock at the latest).
+        rng = random.Random(9)
+        tick = [int(rng.random() < 0.4) for _ in range(89)]
+        for label, make_engine, make_model in feed_engines():
+            kind = label.split()[0]
+            job = Job(frames=FRAMES[kind], tick=tick)
+            _, record = self.run_both(label, make_engine, make_model, job)
+            steps = 0
+            for entry in record:
+                if entry["rst"]:
+                    continue
+                permitted = entry["due"] and tick[entry["cycle"] % len(tick)]
+                self.assertEqual(bool(entry["step"]), bool(permitted), (label, entry["cycle"]))
+                if entry["step"]:
+                    self.assertEqual(entry["step"] == 0b11, bool(entry["diagonal"]),
+                                     (label, entry["cycle"]))
+                    steps += 1
+            self.assertGreater(steps, 20, label)
+
+    def test_outcomes_under_back_pressure(self):
+        # The status stream stalls at random; no outcome is lost, numbers count up, positions
+        # are the moves made, and the steps are those of the commands traced.
+        rng = random.Random(3)
+        stalls = [int(rng.random() < 0.3) for _ in range(53)]
+        for label, make_engine, make_model in feed_engines():
+            kind = label.split()[0]
+            frames = FRAMES[kind] * 2
+            _, record = self.run_both(label, make_engine, make_model,
+                                      Job(frames=frames, status_ready=stalls))
+            outcomes = record_outcomes(record)
+            self.assertEqual([number for _, number, _, _ in outcomes], list(range(len(frames))))
+            expected = []
+            for frame in frames:
+                try:
+                    path = registry.steps(kind, frame, label.split()[1], width=8)
+                    expected.append((DONE, [sum(dx for dx, _ in path), sum(dy for _, dy in path)]))
+                except registry.InputError:
+                    expected.append((REFUSED, [0, 0]))
+            self.assertEqual([(outcome, position) for _, _, outcome, position in outcomes],
+                             expected, label)
+
+    def test_abort(self):
+        # Aborts in the middle of commands: no step in an abort clock, the running command
+        # reports where it stopped, the waiting ones end with no step, and the engine goes on
+        # with the commands offered after.
+        for label, make_engine, make_model in feed_engines():
+            kind = label.split()[0]
+            frames = FRAMES[kind] * 2
+            job = Job(frames=frames, aborts={25: 1, 60: 3, 140: 1, 141: 1})
+            _, record = self.run_both(label, make_engine, make_model, job)
+            for entry in record:
+                if not entry["rst"] and entry["cycle"] in (25, 60, 61, 62, 140, 141):
+                    self.assertEqual(entry["step"], 0, (label, entry["cycle"]))
+            outcomes = record_outcomes(record)
+            aborted = [o for o in outcomes if o[2] == ABORTED]
+            self.assertGreaterEqual(len(aborted), 2, label)
+            moved = [position for _, _, outcome, position in outcomes if outcome != REFUSED]
+            self.assertEqual([sum(p[0] for p in moved), sum(p[1] for p in moved)],
+                             [sum(dx for dx, _ in record_steps(record)),
+                              sum(dy for _, dy in record_steps(record))], label)
+
+    def test_check_outcomes_catches(self):
+        record = run_model(registry.make_model("line", width=8), Job(frames=FRAMES["line"]))
+        last = max(i for i, entry in enumerate(record) if not entry["rst"] and entry["status"])
+        lost = [dict(entry, status=None) if i == last else entry
+                for i, entry in enumerate(record)]
+        with self.assertRaisesRegex(AssertionError, r"^the command accepted in clock \d+ has no "
+                                                    r"outcome$"):
+            check_outcomes(lost)
+        extra = [dict(entry, accepted=0) for entry in record]
+        with self.assertRaisesRegex(AssertionError, r"^clock \d+: an outcome with no command$"):
+            check_outcomes(extra)
+
+
+if __name__ == "__main__":
+    unittest.main()
