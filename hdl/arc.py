@@ -309,7 +309,7 @@ class ArcEngine(wiring.Component):
     clock ``k`` makes its first step at ``k + 3·width + 6`` at the earliest.
 
     A refused arc (see :class:`ArcPlanner`) ends :attr:`~hdl.engine.Outcome.REFUSED` before
-    any step, once the arc before it has ended. Everything else is the common interface
+    any step, once the arc before it has ended and its outcome has been taken. Everything else is the common interface
     (:class:`~hdl.engine.EngineSignature`); status positions are ``width + 2`` bits.
 
     Parameters
@@ -373,10 +373,11 @@ class ArcEngine(wiring.Component):
         planner_o = self.planner.o
         next_plan = planner_o.payload
 
+        accepting = ~self.abort & ~status.flushing
         m.d.comb += [
-            planner.i.payload.eq(self.cmd.payload),
-            planner.i.valid.eq(self.cmd.valid & status.room & ~self.abort),
-            self.cmd.ready.eq(planner.i.ready & status.room & ~self.abort),
+            self.planner.i.payload.eq(self.cmd.payload),
+            self.planner.i.valid.eq(self.cmd.valid & accepting),
+            self.cmd.ready.eq(self.planner.i.ready & accepting),
         ]
 
         # ---- the arc being traced ---------------------------------------------------------
@@ -410,7 +411,8 @@ class ArcEngine(wiring.Component):
             arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
             following.eq(core.start & active & (later_runs != 0)),
-            refuse.eq(planner_o.valid & next_plan.refused & ~core.busy & ~self.abort),
+            refuse.eq(planner_o.valid & next_plan.refused & ~core.busy & ~status.hold
+                      & ~self.abort),
             planner_o.ready.eq(begin | refuse),
         ]
 
@@ -477,8 +479,8 @@ class ArcEngine(wiring.Component):
         step = Signal(2)
         m.d.comb += [
             step.eq(Mux(swap, Cat(native[1], native[0]), native)),
-            core.feed.tick.eq(self.feed.tick),
-            self.feed.due.eq(core.feed.due),
+            core.feed.tick.eq(self.feed.tick & ~status.hold),
+            self.feed.due.eq(core.feed.due & ~status.hold),
             self.feed.diagonal.eq(core.feed.diagonal),
             core.abort.eq(self.abort),
             self.motion.step.eq(step),
@@ -487,9 +489,8 @@ class ArcEngine(wiring.Component):
             status.motion.step.eq(step),
             status.motion.dir.eq(direction),
             status.accept.eq(self.cmd.valid & self.cmd.ready),
-            status.end.eq(arc_done | refuse | (self.abort & active)),
-            status.outcome.eq(Mux(refuse, Outcome.REFUSED,
-                                  Mux(self.abort, Outcome.ABORTED, Outcome.DONE))),
+            status.end.eq(arc_done | refuse),
+            status.outcome.eq(Mux(refuse, Outcome.REFUSED, Outcome.DONE)),
             status.flush.eq(self.abort),
             self.busy.eq(status.busy),
         ]

@@ -8,7 +8,7 @@ outputs, a status stream of outcomes, an abort input. A top level connects the p
 """
 
 from amaranth import *
-from amaranth.lib import data, enum, fifo, stream, wiring
+from amaranth.lib import data, enum, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from .elements._checks import check_width
@@ -166,8 +166,9 @@ class EngineSignature(wiring.Signature):
     permission (:class:`FeedSignature`) and appear on :py:`motion` (:class:`MotionSignature`).
     Every accepted command ends with exactly one transfer on :py:`status`
     (:class:`StatusLayout`: its number, its :class:`Outcome`, where it ended), in the order the
-    commands were accepted; an engine never loses an outcome: while its outcomes are not taken
-    it stops taking commands. In a clock where :py:`abort` is high no step is made, the
+    commands were accepted; an engine never loses an outcome: while one is not taken it makes
+    no step and ends no command (the feed sees no step due). In a clock where :py:`abort` is
+    high no step is made, the
     running command ends :attr:`~Outcome.ABORTED` where it is, and every command accepted
     before ends :attr:`~Outcome.ABORTED` with no step, one per clock after it; no command is
     taken until they have all ended.
@@ -258,26 +259,21 @@ class EngineSignature(wiring.Signature):
 
 
 class StatusUnit(wiring.Component):
-    """Outcomes of an engine's commands, numbered, positioned and queued on a status stream.
+    """Outcomes of an engine's commands, numbered, with their positions, on a status stream.
 
     Every front end reports through one of these. It counts the commands in flight (accepted,
-    not ended), the steps of the running command on each axis (from the engine's own
-    :py:`motion`), and queues the outcomes in a FIFO of ``depth`` entries that a consumer
-    reads from :py:`status`. An outcome reported in a clock is offered on :py:`status` in that
-    same clock when nothing is queued before it.
-
-    No outcome is ever lost: :py:`room` is high only while the commands in flight and the
-    outcomes queued, less the one transferred in this clock, are fewer than ``depth``; a front
-    end takes a command only when :py:`room` is high. With the status stream always ready
-    this never holds a command back for an engine that keeps at most ``depth`` commands in
-    flight.
+    not ended) and the steps of the running command on each axis (from the engine's own
+    :py:`motion`); an outcome is offered on :py:`status` in the clock its command ends, with
+    the steps counted, this clock's included. An outcome the consumer does not take in that
+    clock waits in the unit, and the step counters wait with it: while it waits (:py:`hold`)
+    the front end withholds every step and ends no command, so nothing can overtake it. Taking
+    an outcome clears the counters for the next command. With the status stream always ready
+    nothing is ever held back.
 
     Parameters
     ----------
     axes, position_width, number_width : :class:`int`
         As :class:`StatusLayout`.
-    depth : :class:`int`
-        Outcomes that can be queued.
 
     Members
     -------
@@ -286,41 +282,41 @@ class StatusUnit(wiring.Component):
     accept : :py:`In(1)`
         A command is accepted in this clock.
     end : :py:`In(1)`
-        A command ends in this clock with :py:`outcome`; its position is the steps counted
-        since the previous end, this clock's included. It must not depend on :py:`room` in the
-        same clock (:py:`room` counts the outcome transferred in this clock).
+        A command ends in this clock with :py:`outcome` (never while :py:`hold` is high).
     outcome : :py:`In(Outcome)`
         Its outcome.
     flush : :py:`In(1)`
-        Abort: every command in flight after this clock ends :attr:`Outcome.ABORTED` at
-        position zero, one per clock from the next (as queue space allows).
-    room : :py:`Out(1)`
-        A command may be accepted in this clock.
+        Abort: every command in flight after this clock ends :attr:`Outcome.ABORTED`, one per
+        clock from the next (once no outcome waits), each at the steps counted for it (the
+        running command's, zero for those that never ran).
+    hold : :py:`Out(1)`
+        An outcome waits to be transferred: no step, no end.
+    idle : :py:`Out(1)`
+        No command in flight and no outcome waiting.
     flushing : :py:`Out(1)`
         Aborted commands are still being reported.
     busy : :py:`Out(1)`
-        A command is in flight or an outcome is queued.
+        A command is in flight or its outcome waits.
     status : :py:`Out(stream.Signature(StatusLayout(...)))`
         The outcomes.
 
     Raises
     ------
     :exc:`TypeError`
-        If a width, the axis count or the depth is not a positive integer.
+        If a width or the axis count is not a positive integer.
     """
 
-    def __init__(self, *, axes=2, position_width=32, number_width=8, depth=2):
-        check_width("Status queue depth", depth)
+    def __init__(self, *, axes=2, position_width=32, number_width=8):
         self._layout = StatusLayout(axes=axes, position_width=position_width,
                                     number_width=number_width)
-        self._depth = depth
         super().__init__({
             "motion":   In(MotionSignature(axes)),
             "accept":   In(1),
             "end":      In(1),
             "outcome":  In(Outcome),
             "flush":    In(1),
-            "room":     Out(1),
+            "hold":     Out(1),
+            "idle":     Out(1),
             "flushing": Out(1),
             "busy":     Out(1),
             "status":   Out(stream.Signature(self._layout)),
@@ -330,68 +326,54 @@ class StatusUnit(wiring.Component):
     def layout(self):
         return self._layout
 
-    @property
-    def depth(self):
-        return self._depth
-
     def elaborate(self, platform):
         m = Module()
-        layout, depth = self._layout, self._depth
+        layout = self._layout
         axes, width = layout.axes, layout.position_width
 
-        # Steps of the running command, per axis; what it reports includes this clock's step.
+        # Steps of the running command per axis; what an outcome reports includes this
+        # clock's step (there is none while an outcome waits).
         moved = Signal(data.ArrayLayout(signed(width), axes))
         position = Signal(data.ArrayLayout(signed(width), axes))
         for axis in range(axes):
             delta = Mux(self.motion.step[axis], Mux(self.motion.dir[axis], -1, 1), 0)
             m.d.comb += position[axis].eq(moved[axis] + delta)
-            m.d.sync += moved[axis].eq(Mux(self.end, 0, position[axis]))
 
-        entry = data.StructLayout({"outcome": Outcome,
-                                   "position": data.ArrayLayout(signed(width), axes)})
-        m.submodules.queue = queue = fifo.SyncFIFO(width=entry.size, depth=depth)
-        inflight = Signal(range(depth + 2))
+        waiting = Signal()                  # an outcome waits for the consumer
+        waiting_outcome = Signal(Outcome)
+        inflight = Signal(range(4))
         flushing = Signal()
         number = Signal(layout.number_width)
-
         flushed = Signal()                  # an aborted command reported by the flush
-        write = Signal()
-        event = Signal(entry)
+        event = Signal()
+        event_outcome = Signal(Outcome)
         m.d.comb += [
-            flushed.eq(flushing & (inflight != 0) & queue.w_rdy & ~self.end),
-            write.eq(self.end | flushed),
-            event.outcome.eq(Mux(self.end, self.outcome, Outcome.ABORTED)),
-        ]
-        with m.If(self.end):
-            m.d.comb += event.position.eq(position)
-
-        head = Signal(entry)
-        bypass = Signal()                   # nothing queued: the new outcome goes straight out
-        m.d.comb += [
-            head.eq(queue.r_data),
-            bypass.eq(~queue.r_rdy),
-            self.status.valid.eq(queue.r_rdy | write),
+            flushed.eq(flushing & (inflight != 0) & ~waiting & ~self.end),
+            event.eq(self.end | flushed),
+            event_outcome.eq(Mux(self.end, self.outcome, Outcome.ABORTED)),
+            self.status.valid.eq(waiting | event),
             self.status.p.number.eq(number),
-            self.status.p.outcome.eq(Mux(bypass, event.outcome, head.outcome)),
-            self.status.p.position.eq(Mux(bypass, event.position, head.position)),
-            queue.r_en.eq(self.status.ready),
-            queue.w_data.eq(event),
-            queue.w_en.eq(write & ~(bypass & self.status.ready)),
+            self.status.p.outcome.eq(Mux(waiting, waiting_outcome, event_outcome)),
+            self.status.p.position.eq(position),
         ]
-        transfer = self.status.valid & self.status.ready
-        with m.If(transfer):
-            m.d.sync += number.eq(number + 1)
+        with m.If(self.status.valid & self.status.ready):
+            m.d.sync += [number.eq(number + 1), waiting.eq(0), moved.eq(0)]
+        with m.Else():
+            m.d.sync += moved.eq(position)
+            with m.If(event):
+                m.d.sync += [waiting.eq(1), waiting_outcome.eq(event_outcome)]
 
-        m.d.sync += inflight.eq(inflight + self.accept - write)
+        m.d.sync += inflight.eq(inflight + self.accept - event)
         with m.If(self.flush):
             m.d.sync += flushing.eq(1)
         with m.Elif(flushing & ((inflight == 0) | ((inflight == 1) & flushed))):
             m.d.sync += flushing.eq(0)
 
         m.d.comb += [
-            self.room.eq(~flushing & (inflight + queue.level - transfer < depth)),
+            self.hold.eq(waiting),
+            self.idle.eq((inflight == 0) & ~waiting),
             self.flushing.eq(flushing),
-            self.busy.eq((inflight != 0) | queue.r_rdy),
+            self.busy.eq((inflight != 0) | waiting),
         ]
         return m
 

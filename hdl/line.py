@@ -79,6 +79,12 @@ class LineCoreSignature(wiring.Signature):
         return f"LineCoreSignature({self._width})"
 
 
+def _beyond(value, width):
+    """``|value| > 2**width - 1`` for a signed ``value`` wider than ``width + 1`` bits."""
+    upper = value[width:]
+    return ~(upper.all() | ~upper.any()) | (upper.all() & ~value[:width].any())
+
+
 class LineEngine(wiring.Component):
     """Signed line segments in, step/dir out: the front end of any line core.
 
@@ -90,8 +96,9 @@ class LineEngine(wiring.Component):
     offered at clock ``k`` to an idle engine makes its first step at ``k + 2`` at the earliest.
 
     A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~hdl.engine.Outcome.
-    REFUSED`, nothing moves) in the clock it is taken, which is when every outcome before it
-    has been transferred, so outcomes stay in order. Everything else is the common interface (:class:`~hdl.engine.EngineSignature`):
+    REFUSED`, nothing moves) in the clock it is taken; it is taken, as is a segment of length
+    zero, only when no other command is in flight and no outcome waits, so outcomes stay in
+    order. Everything else is the common interface (:class:`~hdl.engine.EngineSignature`):
     one outcome per segment on :py:`status`, with the steps made; :py:`abort`.
 
     Parameters
@@ -152,25 +159,31 @@ class LineEngine(wiring.Component):
                                                   number_width=self.signature.number_width)
 
         x, y = self.cmd.payload.x, self.cmd.payload.y
-        ax = Signal(self._coord_width)
-        ay = Signal(self._coord_width)
+        ax = Signal(w + 1)
+        ay = Signal(w + 1)
         too_wide = Signal()
+        zero = Signal()
         m.d.comb += [
-            ax.eq(Mux(x < 0, -x, x)),
-            ay.eq(Mux(y < 0, -y, y)),
-            too_wide.eq((ax >> w).any() | (ay >> w).any()),
+            # |x| fits when every bit above the magnitude's is the sign, -2**width aside; the
+            # magnitude itself needs only the low bits negated.
+            too_wide.eq(_beyond(x, w) | _beyond(y, w)),
+            ax.eq(Mux(x[-1], -x[:w + 1], x[:w + 1])),
+            ay.eq(Mux(y[-1], -y[:w + 1], y[:w + 1])),
+            zero.eq(~ax[:w].any() & ~ay[:w].any()),
             core.cmd.payload.x.eq(ax[:w]),
             core.cmd.payload.y.eq(ay[:w]),
         ]
 
-        # A segment the core can take goes to it in this clock; a refused one waits until every
-        # outcome before it has been transferred, so that its own comes after them.
+        # A segment goes to the core in the clock it is taken. A refused one, or one of length
+        # zero (which ends without a step), is taken only when no other command is in flight
+        # and no outcome waits, so that its outcome follows the others'.
         accepting = Signal()
         refuse = Signal()
         m.d.comb += [
-            accepting.eq(status.room & ~self.abort),
+            accepting.eq(~self.abort & ~status.flushing & (~zero | status.idle)),
             core.cmd.valid.eq(self.cmd.valid & accepting & ~too_wide),
-            refuse.eq(self.cmd.valid & too_wide & ~status.busy & ~status.flushing & ~self.abort),
+            refuse.eq(self.cmd.valid & too_wide & status.idle & ~status.flushing
+                      & ~self.abort),
             self.cmd.ready.eq(Mux(too_wide, refuse, core.cmd.ready & accepting)),
         ]
 
@@ -182,14 +195,14 @@ class LineEngine(wiring.Component):
         with m.If(core.cmd.valid & core.cmd.ready):
             m.d.sync += [
                 prepared_dir.eq(Cat(x < 0, y < 0)),
-                prepared_moves.eq(ax[:w].any() | ay[:w].any()),
+                prepared_moves.eq(~zero),
             ]
         with m.If(core.start & prepared_moves):
             m.d.sync += direction.eq(prepared_dir)
 
         m.d.comb += [
-            core.feed.tick.eq(self.feed.tick),
-            self.feed.due.eq(core.feed.due),
+            core.feed.tick.eq(self.feed.tick & ~status.hold),
+            self.feed.due.eq(core.feed.due & ~status.hold),
             self.feed.diagonal.eq(core.feed.diagonal),
             core.abort.eq(self.abort),
             self.motion.step.eq(core.step),
@@ -198,9 +211,8 @@ class LineEngine(wiring.Component):
             status.motion.step.eq(core.step),
             status.motion.dir.eq(direction),
             status.accept.eq(self.cmd.valid & self.cmd.ready),
-            status.end.eq(core.done | refuse),
-            status.outcome.eq(Mux(refuse, Outcome.REFUSED,
-                                  Mux(self.abort, Outcome.ABORTED, Outcome.DONE))),
+            status.end.eq((core.done & ~self.abort) | refuse),
+            status.outcome.eq(Mux(refuse, Outcome.REFUSED, Outcome.DONE)),
             status.flush.eq(self.abort),
             self.busy.eq(status.busy),
         ]

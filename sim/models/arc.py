@@ -21,7 +21,7 @@ against the path for every lattice point with r2 <= 20000, integer and not; see 
 import math
 
 from .circular import core_inputs, native_moves
-from .engine import ABORTED, DONE, REFUSED, StatusModel
+from .engine import DONE, REFUSED, StatusModel
 from .errors import InputError
 
 __all__ = ["check_arc", "plan_arc", "arc_steps", "points_ahead", "quadrant", "native",
@@ -266,6 +266,8 @@ class ArcEngineModel:
     def cycle(self, *, valid=0, payload=None, tick=1, abort=0, status_ready=1):
         core, planner, status = self.core, self.planner, self.status
         plan = planner.plan if planner.valid else None
+        hold = status.hold
+        tick = int(bool(tick) and not hold)
 
         # The run's end point is reached by a step in this clock (look-ahead on the position).
         step = core.peek(tick=tick, abort=abort)
@@ -280,7 +282,8 @@ class ArcEngineModel:
         arc_done = int(bool(last_run) and bool(out["done"]) and not abort)
         begin = int(bool(out["start"]) and not (self.active and self.later_runs != 0))
         following = int(bool(out["start"]) and bool(self.active) and self.later_runs != 0)
-        refuse = int(plan is not None and plan["refused"] and not out["busy"] and not abort)
+        refuse = int(plan is not None and plan["refused"] and not out["busy"] and not hold
+                     and not abort)
         plan_ready = begin or refuse
 
         # Runs handed to the core: this arc's later quadrants, then the next plan's first run.
@@ -298,15 +301,16 @@ class ArcEngineModel:
             run = None
         offered = core_valid and out["ready"]
 
-        end = int(bool(arc_done) or bool(refuse) or bool(abort and self.active))
-        outcome = REFUSED if refuse else ABORTED if abort else DONE
+        end = int(bool(arc_done) or bool(refuse))
         real = ((step & 1) << 1 | step >> 1) if self.swap else step
-        stream = status.evaluate(step=real, direction=self.dir, end=end, outcome=outcome,
+        stream = status.evaluate(step=real, direction=self.dir, end=end,
+                                 outcome=REFUSED if refuse else DONE,
                                  status_ready=status_ready)
-        ready = int(planner.ready and stream["room"] and not abort)
+        accepting = not abort and not status.flushing
+        ready = int(bool(planner.ready) and accepting)
         accept = int(bool(valid) and bool(ready))
         outputs = {"ready": ready, "step": real, "dir": self.dir, "busy": status.busy,
-                   "due": out["due"], "diagonal": out["diagonal"],
+                   "due": int(bool(out["due"]) and not hold), "diagonal": out["diagonal"],
                    "status": stream["payload"] if stream["transfer"] else None}
         state = self.state()
 
@@ -341,7 +345,6 @@ class ArcEngineModel:
         if abort:
             planner.reset()
         else:
-            planner.cycle(valid=valid and planner.ready and stream["room"], payload=payload,
-                          o_ready=plan_ready)
+            planner.cycle(valid=bool(valid) and accepting, payload=payload, o_ready=plan_ready)
         status.advance(accept=accept, flush=abort)
         return outputs, state

@@ -32,69 +32,73 @@ def probe(model, **inputs):
 class StatusModel:
     """Clock-by-clock model of :class:`hdl.engine.StatusUnit`.
 
-    Call :meth:`evaluate` with the inputs of a clock (they may be given in two steps: the end
-    of a command before the acceptance that may depend on :meth:`room`), then :meth:`advance`.
+    Call :meth:`evaluate` with the inputs of a clock, then :meth:`advance`.
     """
 
-    def __init__(self, *, axes=2, position_width=32, number_width=8, depth=2):
+    def __init__(self, *, axes=2, position_width=32, number_width=8):
         self.axes = axes
         self.position_width = position_width
         self.number_width = number_width
-        self.depth = depth
         self.reset()
 
     def reset(self):
         self.moved = [0] * self.axes
-        self.queue = []                   # (outcome, position) entries
+        self.waiting = None              # the outcome waiting for the consumer, or None
         self.inflight = 0
         self.flushing = 0
         self.number = 0
 
     @property
+    def hold(self):
+        return int(self.waiting is not None)
+
+    @property
+    def idle(self):
+        return int(self.inflight == 0 and self.waiting is None)
+
+    @property
     def busy(self):
-        return int(self.inflight != 0 or bool(self.queue))
+        return int(self.inflight != 0 or self.waiting is not None)
 
     def _wrap(self, value):
         half = 1 << (self.position_width - 1)
         return (value + half) % (2 * half) - half
 
     def evaluate(self, *, step, direction, end, outcome, status_ready):
-        """This clock's status stream and room, for the given end of a command and motion.
+        """This clock's status stream for the given end of a command and motion.
 
-        Returns ``{"valid", "payload", "transfer", "room"}``; ``payload`` is ``(number,
-        outcome, position)``.
+        Returns ``{"valid", "payload", "transfer"}``; ``payload`` is ``[number, outcome,
+        position]``.
         """
         position = [self._wrap(self.moved[a] + ((-1 if direction >> a & 1 else 1)
                                                 if step >> a & 1 else 0))
                     for a in range(self.axes)]
-        flushed = int(self.flushing and self.inflight != 0
-                      and len(self.queue) < self.depth and not end)
-        write = int(bool(end) or flushed)
-        event = (outcome if end else ABORTED, position if end else [0] * self.axes)
-        valid = int(bool(self.queue) or write)
-        head = self.queue[0] if self.queue else event
+        flushed = int(bool(self.flushing) and self.inflight != 0 and self.waiting is None
+                      and not end)
+        event = int(bool(end) or flushed)
+        event_outcome = outcome if end else ABORTED
+        valid = int(self.waiting is not None or event)
+        shown = self.waiting if self.waiting is not None else event_outcome
         transfer = int(valid and bool(status_ready))
-        room = int(not self.flushing
-                   and self.inflight + len(self.queue) - transfer < self.depth)
-        self._clock = {"position": position, "flushed": flushed, "write": write,
-                       "event": event, "transfer": transfer, "end": end}
-        return {"valid": valid, "payload": [self.number, head[0], list(head[1])],
-                "transfer": transfer, "room": room}
+        self._clock = {"position": position, "flushed": flushed, "event": event,
+                       "event_outcome": event_outcome, "transfer": transfer}
+        return {"valid": valid, "payload": [self.number, shown, position],
+                "transfer": transfer}
 
     def advance(self, *, accept, flush):
         """The clock edge, after :meth:`evaluate` of the same clock."""
         c = self._clock
-        bypass = not self.queue
         if c["transfer"]:
             self.number = (self.number + 1) % (1 << self.number_width)
-        if c["write"] and not (bypass and c["transfer"]):
-            self.queue.append(c["event"])
-        if c["transfer"] and not bypass:
-            self.queue.pop(0)
+            self.waiting = None
+            self.moved = [0] * self.axes
+        else:
+            self.moved = list(c["position"])
+            if c["event"]:
+                self.waiting = c["event_outcome"]
         flushed, inflight = c["flushed"], self.inflight
-        self.inflight = inflight + int(bool(accept)) - c["write"]
+        self.inflight = inflight + int(bool(accept)) - c["event"]
         if flush:
             self.flushing = 1
         elif self.flushing and (inflight == 0 or (inflight == 1 and flushed)):
             self.flushing = 0
-        self.moved = [0] * self.axes if c["end"] else list(c["position"])

@@ -1,6 +1,6 @@
 """Clock-by-clock model of ``hdl.line.LineEngine``: the front end of any line core model."""
 
-from .engine import ABORTED, DONE, REFUSED, StatusModel
+from .engine import DONE, REFUSED, StatusModel
 
 __all__ = ["LineEngineModel"]
 
@@ -35,36 +35,40 @@ class LineEngineModel:
         return self.core.state()
 
     def cycle(self, *, valid=0, payload=None, tick=1, abort=0, status_ready=1):
-        core = self.core.evaluate(tick=tick, abort=abort)
         status = self.status
+        hold = status.hold
+        core = self.core.evaluate(tick=int(bool(tick) and not hold), abort=abort)
         limit = (1 << self.width) - 1
         x = payload["x"] if payload is not None else 0
         y = payload["y"] if payload is not None else 0
         too_wide = abs(x) > limit or abs(y) > limit
+        zero = (abs(x) & limit) == 0 and (abs(y) & limit) == 0
 
-        refuse = int(bool(valid) and too_wide and not status.busy and not status.flushing
+        accepting = not abort and not status.flushing and (not zero or status.idle)
+        refuse = int(bool(valid) and too_wide and bool(status.idle) and not status.flushing
                      and not abort)
-        end = int(bool(core["done"]) or bool(refuse))
-        outcome = REFUSED if refuse else ABORTED if abort else DONE
+        end = int((bool(core["done"]) and not abort) or bool(refuse))
         stream = status.evaluate(step=core["step"], direction=self.direction, end=end,
-                                 outcome=outcome, status_ready=status_ready)
-        accepting = stream["room"] and not abort
+                                 outcome=REFUSED if refuse else DONE,
+                                 status_ready=status_ready)
         core_valid = int(bool(valid) and accepting and not too_wide)
         ready = refuse if too_wide else int(bool(core["ready"]) and accepting)
         accept = int(bool(valid) and bool(ready))
 
         outputs = {"ready": ready, "step": core["step"], "dir": self.direction,
-                   "busy": status.busy, "due": core["due"], "diagonal": core["diagonal"],
+                   "busy": status.busy, "due": int(bool(core["due"]) and not hold),
+                   "diagonal": core["diagonal"],
                    "status": stream["payload"] if stream["transfer"] else None}
         state = self.state()
 
         # ---- clock edge -------------------------------------------------------------------
         magnitudes = {"x": abs(x) & limit, "y": abs(y) & limit}
-        self.core.cycle(tick=tick, abort=abort, valid=core_valid, payload=magnitudes)
+        self.core.cycle(tick=int(bool(tick) and not hold), abort=abort, valid=core_valid,
+                        payload=magnitudes)
         if core["start"] and self.prepared_moves:
             self.direction = self.prepared_dir
         if core_valid and core["ready"]:
             self.prepared_dir = int(x < 0) | int(y < 0) << 1
-            self.prepared_moves = int(magnitudes["x"] != 0 or magnitudes["y"] != 0)
+            self.prepared_moves = int(not zero)
         status.advance(accept=accept, flush=abort)
         return outputs, state
