@@ -20,7 +20,7 @@ from pathlib import Path
 
 from amaranth import Module, ResetInserter, Shape, Signal
 
-from .stimulus import Driver, check_outcomes, entry
+from .stimulus import Driver, check_outcomes, entry, eventful
 
 __all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
            "unpack_status", "verilator_environment", "ensure_simulator"]
@@ -52,11 +52,12 @@ def unpack_status(value, fields):
             [field(*f) for f in fields["position"]]]
 
 
-def run_amaranth(engine, job, *, state=None, vcd=None):
+def run_amaranth(engine, job, *, state=None, vcd=None, sparse=False):
     """Run ``job`` on ``engine`` (an elaborated-on-demand component) in Amaranth's simulator.
 
     ``state`` maps names to signals inside the engine, sampled each clock into the record.
-    ``vcd``, if given, is the path of a waveform file to write.
+    ``vcd``, if given, is the path of a waveform file to write. With ``sparse`` the record
+    keeps only its :func:`~sim.stimulus.eventful` entries.
     """
     from amaranth.sim import Simulator
 
@@ -97,7 +98,8 @@ def run_amaranth(engine, job, *, state=None, vcd=None):
                 for name, signal in state.items():
                     item[name] = ctx.get(signal)
             driver.observe(cycle, inputs, outputs)
-            record.append(item)
+            if not sparse or eventful(item):
+                record.append(item)
             if driver.finished:
                 check_outcomes(record)
                 return
@@ -195,30 +197,41 @@ class CocotbBuild:
         if quiet:                             # the runner's own notes ("Skipping compilation")
             self.runner.log.setLevel(logging.ERROR)
         with _locked(self.build_dir / ".lock"):
-            source = self.build_dir / "engine.v"
-            if not source.exists() or source.read_text() != text:
-                source.write_text(text)
-            build_args = []
-            if simulator == "icarus":
-                # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run
-                # every "always @*" block at time zero is an event there; under -g2012
-                # (cocotb's default) it is not, and FSM outputs would read X until their state
-                # first changes.
-                build_args = ["-g2005"]
-            else:
-                # Lint of generated code: Amaranth mixes widths and leaves FSM cases open, and
-                # the port `abort` is also a C++ name (Verilator mangles it, the warning aside).
-                build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
-                              "-Wno-SYMRSVDWORD"]
-            log = self.build_dir / "build.log"
-            try:
-                with _waves_env(waves):
-                    self.runner.build(sources=[source], hdl_toplevel="engine",
-                                      build_dir=self.build_dir, timescale=("1ns", "1ps"),
-                                      build_args=build_args, waves=waves, log_file=log)
-            except (RuntimeError, SystemExit) as error:
-                raise SimulatorError(f"the {simulator} build failed ({_reason(error)}); "
-                                     f"see {log}") from None
+            marker = self.build_dir / ".built"
+            if not marker.exists():
+                # No complete build here (none yet, or one interrupted or failed): start from
+                # nothing, so that no half-written file passes for up to date.
+                for item in self.build_dir.iterdir():
+                    if item.is_dir():
+                        shutil.rmtree(item)
+                    elif item.name != ".lock":
+                        item.unlink()
+                self._build(text)
+                marker.touch()
+
+    def _build(self, text):
+        source = self.build_dir / "engine.v"
+        source.write_text(text)
+        if self.simulator == "icarus":
+            # Verilog-2005 semantics: the "reg init = 0" that yosys's Verilog uses to run every
+            # "always @*" block at time zero is an event there; under -g2012 (cocotb's
+            # default) it is not, and FSM outputs would read X until their state first changes.
+            build_args = ["-g2005"]
+        else:
+            # Lint of generated code: Amaranth mixes widths and leaves FSM cases open, and the
+            # port `abort` is also a C++ name (Verilator mangles it, the warning aside).
+            build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
+                          "-Wno-SYMRSVDWORD"]
+        log = self.build_dir / "build.log"
+        try:
+            with _waves_env(self.waves):
+                self.runner.build(sources=[source], hdl_toplevel="engine",
+                                  build_dir=self.build_dir, timescale=("1ns", "1ps"),
+                                  build_args=build_args, waves=self.waves, log_file=log,
+                                  always=True)
+        except (RuntimeError, SystemExit) as error:
+            raise SimulatorError(f"the {self.simulator} build failed ({_reason(error)}); "
+                                 f"see {log}") from None
 
     def _run(self, test_module, run_dir, *, env=None, vcd=False, testcase=None):
         plusargs = []
@@ -228,7 +241,8 @@ class CocotbBuild:
         results = run_dir / "results.xml"
         try:
             with _waves_env(vcd):
-                self.runner.test(hdl_toplevel="engine", test_module=test_module,
+                self.runner.test(hdl_toplevel="engine", hdl_toplevel_lang="verilog",
+                                 test_module=test_module,
                                  testcase=testcase, build_dir=self.build_dir,
                                  test_dir=run_dir, waves=vcd, plusargs=plusargs,
                                  extra_env=dict(env or {}), results_xml=str(results),
@@ -243,16 +257,18 @@ class CocotbBuild:
         runs.mkdir(exist_ok=True)
         return Path(tempfile.mkdtemp(prefix="run-", dir=runs))
 
-    def run(self, job, *, vcd=None):
-        """Run ``job``; return the record. With ``vcd`` (a build made with ``waves``) the run's
-        waveform is written there, as VCD."""
+    def run(self, job, *, vcd=None, sparse=False):
+        """Run ``job``; return the record (with ``sparse``, only its
+        :func:`~sim.stimulus.eventful` entries). With ``vcd`` (a build made with ``waves``)
+        the run's waveform is written there, as VCD."""
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
         run_dir = self._run_dir()
         identity = uuid.uuid4().hex
         job_file, record_file = run_dir / "job.json", run_dir / "record.json"
         job_file.write_text(json.dumps({"id": identity, "job": job.to_json(),
-                                        "fields": self.fields, "status": self.status}))
+                                        "fields": self.fields, "status": self.status,
+                                        "sparse": sparse}))
         self._run("sim.testbench.trace", run_dir, vcd=vcd is not None,
                   env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)})
         if not record_file.exists():

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, asdict
 
 from .models.engine import ABORTED, DONE, REFUSED
 
-__all__ = ["Job", "Driver", "OUTPUTS", "entry", "check_outcomes", "run_model", "plan_resets", "record_steps",
+__all__ = ["Job", "Driver", "OUTPUTS", "entry", "eventful", "check_outcomes", "run_model", "plan_resets", "record_steps",
            "record_moves", "record_outcomes", "first_difference"]
 
 #: The engine outputs a record holds, in every clock outside reset.
@@ -37,6 +37,12 @@ def entry(cycle, outputs=None, valid=0):
     return {"cycle": cycle, "rst": 0, **outputs, "accepted": int(bool(valid and outputs["ready"])),
             "done": int(outcome == DONE), "error": int(outcome == REFUSED),
             "aborted": int(outcome == ABORTED)}
+
+
+def eventful(item):
+    """Whether a record entry holds an event a sparse record keeps: a reset, a step, an
+    acceptance or an outcome."""
+    return bool(item["rst"] or item["step"] or item["accepted"] or item["status"] is not None)
 
 
 def check_outcomes(record):
@@ -173,9 +179,10 @@ def _model_cycle(model, inputs):
                        abort=inputs["abort"], status_ready=inputs["status_ready"])
 
 
-def run_model(model, job, *, state=False):
+def run_model(model, job, *, state=False, sparse=False):
     """Run ``job`` on an engine's cycle model (``model.cycle(valid=, payload=, tick=, abort=,
-    status_ready=)``); return the record."""
+    status_ready=)``); return the record (with ``sparse``, only its :func:`eventful`
+    entries)."""
     driver = Driver(job)
     record = []
     for cycle in range(job.max_cycles):
@@ -190,7 +197,8 @@ def run_model(model, job, *, state=False):
             if state:
                 item.update(regs)
             driver.observe(cycle, inputs, outputs)
-        record.append(item)
+        if not sparse or eventful(item):
+            record.append(item)
         if driver.finished:
             check_outcomes(record)
             return record

@@ -149,3 +149,131 @@ def test_trace_arc_cocotb(simulator):
             [int(line.split()[0]) for line in run.stdout.splitlines()]
     refused = kontur("trace", "arc", 4, 0, 2, 4, "--engine", simulator)
     assert refused.returncode == 2 and "refused by the RTL" in refused.stderr
+
+
+# ---- reliability: what a CNC or verification engineer relies on ---------------------------
+
+def kontur_env(**env):
+    """``kontur`` as a process with extra environment (for instance a fresh build root)."""
+    import os
+    return dict(os.environ, **env)
+
+
+def start(*args, env=None):
+    return subprocess.Popen([sys.executable, "-m", "sim.host.cli", *map(str, args)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env)
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("simulator", selected_simulators())
+def test_concurrent_runs_on_a_fresh_build(simulator, tmp_path):
+    # Several runs of the same kind, variant and width at once, the build not made yet: each
+    # prints its own command's steps, exactly the model's.
+    arcs = [(5, 0, -3, 4), (0, -7, 0, -7), (6, -1, 1, 6), (-4, -3, 3, -4)]
+    env = kontur_env(KONTUR_BUILD=str(tmp_path))
+    runs = [start("trace", "arc", *arc, "--engine", simulator, "--variant", "fast", env=env)
+            for arc in arcs]
+    for arc, run in zip(arcs, runs):
+        stdout, stderr = run.communicate(timeout=600)
+        assert run.returncode == 0, stderr
+        assert stdout == expected_lines(arc_steps(*arc)), arc
+    (build,) = (tmp_path / simulator).iterdir()             # one build, shared
+    assert not list((build / "runs").iterdir())             # every run cleaned up after it
+
+
+def test_full_circle_of_a_million_on_the_model():
+    run = kontur("trace", "arc", 1_000_000, 0, 1_000_000, 0)
+    assert run.returncode == 0, run.stderr
+    x, y, r2 = 1_000_000, 0, 10 ** 12
+    count = 0
+    worst = 0
+    for line in run.stdout.splitlines():
+        dx, dy = map(int, line.split())
+        assert abs(dx) <= 1 and abs(dy) <= 1 and (dx or dy)
+        x, y = x + dx, y + dy
+        count += 1
+        if count % 97 == 0:                                 # radial error, sampled
+            worst = max(worst, abs((x * x + y * y) ** 0.5 - 1_000_000))
+    assert (x, y) == (1_000_000, 0)                         # closed, to the step
+    assert count > 4 * 1_000_000
+    assert worst < 0.5
+
+
+@pytest.mark.cocotb
+def test_full_circle_of_200000_on_rtl():
+    simulator = "verilator" if "verilator" in selected_simulators() else "icarus"
+    r = 200_000
+    run = kontur("trace", "arc", r, 0, r, 0, "--engine", simulator, "--variant", "fast",
+                 "--cycles")
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert [tuple(map(int, line.split()[1:])) for line in lines] == arc_steps(r, 0, r, 0)
+    clocks = [int(line.split()[0]) for line in lines]
+    assert clocks == list(range(clocks[0], clocks[0] + len(clocks)))   # one step per clock
+
+
+def test_runs_beyond_the_limits_are_refused_up_front():
+    run = kontur("trace", "arc", 16_000_000, 0, 16_000_000, 0, "--cycles")
+    assert run.returncode == 2 and run.stdout == ""
+    reason = run.stderr.splitlines()[-1]
+    assert reason.startswith("kontur: this arc needs up to ") and "--max-clocks" in reason
+    run = kontur("trace", "line", 65535, 3, "--engine", "amaranth", "--max-clocks", "100")
+    assert run.returncode == 2 and "more than the 100 that --engine amaranth" in run.stderr
+    run = kontur("trace", "line", 5, 3, "--max-clocks", "0")
+    assert run.returncode == 2 and "--max-clocks must be a positive integer, not 0" in run.stderr
+
+
+@pytest.mark.parametrize("width", ["0", "1", "-5", "65", "1000000", "x"])
+def test_bad_width(width):
+    run = kontur("trace", "line", 1, 1, "--width", width)
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.splitlines()[-1].startswith("kontur: ")
+
+
+def test_bad_vcd_is_refused_before_anything_runs(tmp_path):
+    env = kontur_env(KONTUR_BUILD=str(tmp_path / "builds"))
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    cases = {str(tmp_path / "no" / "such" / "dir" / "a.vcd"): "no directory",
+             "": "--vcd needs a file name",
+             str(tmp_path): "is a directory"}
+    import os
+    if os.geteuid() != 0:                                   # root may write anywhere
+        cases[str(locked / "a.vcd")] = "not writable"
+    for engine in ("icarus", "verilator", "amaranth"):
+        for vcd, reason in cases.items():
+            run = subprocess.run([sys.executable, "-m", "sim.host.cli", "trace", "line", "3",
+                                  "1", "--engine", engine, "--vcd", vcd], capture_output=True,
+                                 text=True, env=env, timeout=60)
+            assert run.returncode == 2 and run.stdout == "", (engine, vcd)
+            assert reason in run.stderr.splitlines()[-1], (engine, vcd, run.stderr)
+    assert not (tmp_path / "builds").exists()               # nothing was built
+
+
+@pytest.mark.cocotb
+def test_interrupt_stops_everything(tmp_path):
+    import os
+    import signal
+    import time
+    if "verilator" not in selected_simulators():
+        pytest.skip("needs Verilator selected (SIM)")       # a compile to interrupt
+    env = kontur_env(KONTUR_BUILD=str(tmp_path))
+    run = start("trace", "arc", 9, 0, 9, 0, "--engine", "verilator", env=env)
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob("verilator/*/Vtop.mk")):   # the C++ compile is under way
+        assert run.poll() is None and time.monotonic() < deadline, run.stderr.read()
+        time.sleep(0.2)
+    time.sleep(1)
+    run.send_signal(signal.SIGINT)                          # to kontur alone, not its group
+    stdout, stderr = run.communicate(timeout=60)
+    assert run.returncode == 130
+    assert stdout == "" and stderr.strip().splitlines() == ["kontur: interrupted"]
+    time.sleep(1)
+    ps = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
+    assert str(tmp_path) not in ps                          # no compiler left running
+    again = start("trace", "arc", 9, 0, 9, 0, "--engine", "verilator", env=env)
+    stdout, stderr = again.communicate(timeout=600)
+    assert again.returncode == 0, stderr                    # and the next run builds afresh
+    assert stdout == expected_lines(arc_steps(9, 0, 9, 0))

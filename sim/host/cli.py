@@ -21,16 +21,16 @@ _ENGINES_HELP = ("golden model (default), or the RTL in Amaranth's simulator, Ic
 
 class _Parser(argparse.ArgumentParser):
     """argparse with its usage errors ending in one reason line, status 2 (as argparse
-    does), and no exit from inside the library code of the subcommands."""
+    does)."""
 
     def error(self, message):
         self.print_usage(sys.stderr)
         sys.stderr.write(f"kontur: {message}\n")
-        sys.exit(2)
+        raise SystemExit(2)
 
 
 def _limits_epilog(kind):
-    from .trace import MAX_CLOCKS, SPEED, STEP_MODEL_SPEED, WIDTHS
+    from .trace import MAX_CLOCKS, MAX_STEPS, SPEED, STEP_MODEL_SPEED, WIDTHS
     default = registry.KINDS[kind].default_width
     engines = ", ".join(f"{engine} {MAX_CLOCKS[engine]:,} clocks (~{SPEED[engine]:,}/s)"
                         for engine in MAX_CLOCKS)
@@ -38,7 +38,8 @@ def _limits_epilog(kind):
             f"coordinates up to 2**width - 1; the frame holds signed max(32, width + 1)-bit "
             f"numbers. A run is refused up front (status 2) when its clocks could exceed "
             f"--max-clocks, by default {engines}; the model without --cycles counts steps "
-            f"instead (~{STEP_MODEL_SPEED:,}/s).")
+            f"instead ({MAX_STEPS:,}, ~{STEP_MODEL_SPEED:,}/s). An arc of radius R has at "
+            f"most 8R + 8 steps; the faithful arc core takes 4 clocks a step.")
 
 
 def _add_kind(kinds, kind):
@@ -139,6 +140,8 @@ def main(argv=None):
         if args.command == "bench":
             return _bench(args, sys.stdout)
         return _build(args, sys.stdout)
+    except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
+        return stop.code if isinstance(stop.code, int) else 2
     except KeyboardInterrupt:
         sys.stderr.write("kontur: interrupted\n")
         return 128 + signal.SIGINT

@@ -18,18 +18,22 @@ from ..models.errors import InputError
 from ..runners import ENGINES, ROOT
 from ..stimulus import Job, record_moves, run_model
 
-__all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "SPEED"]
+__all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "MAX_STEPS", "SPEED",
+           "STEP_MODEL_SPEED"]
 
 #: Register widths a command may ask for.
 WIDTHS = range(2, 65)
 
-#: Clocks each engine traces at most (``--max-clocks`` raises it) and its speed, measured on
-#: this project's kind of machine (2 cores): model with ``--cycles`` (the cycle model) and the
-#: RTL simulators including the cocotb harness; without ``--cycles`` the model is the
-#: step-level one, about a million steps a second.
-MAX_CLOCKS = {"model": 20_000_000, "amaranth": 2_000_000, "icarus": 5_000_000,
-              "verilator": 20_000_000}
-SPEED = {"model": 60_000, "amaranth": 15_000, "icarus": 12_000, "verilator": 30_000}
+#: Clocks each engine traces at most (``--max-clocks`` raises it; about ten minutes each) and
+#: its speed in clocks a second, measured with ``kontur trace arc R 0 R 0 --cycles`` (R = 3000
+#: to 10000) on this project's kind of machine (2 cores) while other jobs ran: the cycle model
+#: (``--cycles``; 12 000 for the faithful arc, 23 000 for the fast one), Amaranth's
+#: simulator, and the cocotb harness on Icarus and Verilator. Without ``--cycles`` the model is
+#: the step-level one: about a million steps a second, and its limit counts steps.
+MAX_CLOCKS = {"model": 5_000_000, "amaranth": 1_000_000, "icarus": 5_000_000,
+              "verilator": 10_000_000}
+SPEED = {"model": 12_000, "amaranth": 3_000, "icarus": 8_000, "verilator": 16_000}
+MAX_STEPS = 200_000_000
 STEP_MODEL_SPEED = 1_000_000
 
 
@@ -139,10 +143,12 @@ def plan(kind, payload, *, variant=None, engine="model", width=None, vcd=None, c
             f"this {kind} needs up to {clocks} clocks, more than the {limit} that --engine "
             f"{engine} traces (about {_duration(seconds)} at {SPEED[engine]} clocks a second); "
             f"raise --max-clocks to run it anyway")
-    if step_model and steps > limit:
-        raise UsageError(f"this {kind} has up to {steps} steps, more than the {limit} that "
-                         f"--engine model traces (about {_duration(steps / STEP_MODEL_SPEED)});"
-                         f" raise --max-clocks to run it anyway")
+    steps_limit = MAX_STEPS if max_clocks is None else max_clocks
+    if step_model and steps > steps_limit:
+        raise UsageError(f"this {kind} has up to {steps} steps, more than the {steps_limit} "
+                         f"that --engine model traces (about "
+                         f"{_duration(steps / STEP_MODEL_SPEED)}); raise --max-clocks to run "
+                         f"it anyway")
     return Plan(kind, item.name, engine, width, dict(payload), vcd, cycles, steps, clocks,
                 limit)
 
@@ -157,8 +163,9 @@ def _duration(seconds):
 
 def build_root():
     """Where the command line keeps its simulator builds (shared between calls and processes,
-    one directory per design; see :class:`sim.runners.CocotbBuild`)."""
-    return ROOT / "build" / "cli"
+    one directory per design; see :class:`sim.runners.CocotbBuild`): ``$KONTUR_BUILD`` if
+    set, else ``build/cli`` in the project."""
+    return Path(os.environ.get("KONTUR_BUILD") or ROOT / "build" / "cli")
 
 
 def trace(kind, payload, **options):
@@ -182,7 +189,8 @@ def trace(kind, payload, **options):
                                                             width=run.width)]
     job = Job(frames=[payload], max_cycles=run.clocks)
     if run.engine == "model":
-        record = run_model(registry.make_model(kind, run.variant, width=run.width), job)
+        record = run_model(registry.make_model(kind, run.variant, width=run.width), job,
+                           sparse=True)
         return record_moves(record)
 
     engine = registry.make_engine(kind, run.variant, width=run.width)
@@ -193,12 +201,12 @@ def trace(kind, payload, **options):
                              f"{engine.coord_width}-bit signed coordinates")
     if run.engine == "amaranth":
         from ..runners import run_amaranth
-        record = run_amaranth(engine, job, vcd=run.vcd)
+        record = run_amaranth(engine, job, vcd=run.vcd, sparse=True)
     else:
         from ..runners import CocotbBuild
         build = CocotbBuild(engine, run.engine, build_root(), waves=run.vcd is not None,
                             quiet=True)
-        record = build.run(job, vcd=run.vcd)
+        record = build.run(job, vcd=run.vcd, sparse=True)
 
     refused = any(item.get("error") for item in record)
     try:

@@ -25,7 +25,8 @@ async def play(dut):
     result = {"id": spec["id"], "record": record, "failure": None}
     try:
         bench = EngineBench(dut, spec["fields"], spec["status"])
-        await bench.play(Job.from_json(spec["job"]), record=record)
+        await bench.play(Job.from_json(spec["job"]), record=record,
+                         sparse=spec.get("sparse", False))
     except Exception:
         result["failure"] = traceback.format_exc()
         raise
