@@ -1,0 +1,290 @@
+"""The host link: a framed binary protocol over a byte stream, defined once.
+
+A frame is ``SYNC type length payload crc``: the sync byte ``0xA5``, a type byte, the payload
+length, the payload (little-endian fields) and the CRC-16/CCITT (polynomial 0x1021, initial
+value 0xFFFF, as :func:`binascii.crc_hqx` computes it) of ``type length payload``, most
+significant byte first. The constants here are the protocol: the host side
+(:mod:`sim.host.protocol`) imports them.
+
+Host to machine. Queued frames (:data:`QUEUED`) go into the frame queue in the order they
+arrive and each ends with exactly one ``OUTCOME`` reply, in that order; immediate frames act
+at once:
+
+========  ====  =========================================================  ==========
+frame     type  payload                                                    queued
+========  ====  =========================================================  ==========
+LINE      0x10  x, y: int32: a relative move                               yes
+ARC       0x11  x0, y0, x1, y1: int32, relative to the centre; cw: uint8   yes
+DWELL     0x12  clocks: uint32                                             yes
+FEED      0x13  entry, cruise, exit: uint32 step rates (steps a clock,     yes
+                Q0.32); accel: uint32 (rate change a clock, Q0.48);
+                decelerate: uint32 (steps of the next move before the
+                ramp down); for the moves that follow
+STOP      0x14  (none): the end of a program                               yes
+QUERY     0x20  (none): asks for a STATUS reply                            no
+ABORT     0x21  (none): stops the motion at once and ends every queued     no
+                frame ABORTED
+========  ====  =========================================================  ==========
+
+Machine to host:
+
+========  ====  ==========================================================
+frame     type  payload
+========  ====  ==========================================================
+OUTCOME   0x80  number: uint8 (the queued frame's, counted from 0 after
+                reset); outcome: uint8 (0 done, 1 refused, 2 aborted)
+STATUS    0x81  x, y: int32 absolute position; free: uint8 queue slots;
+                flags: uint8 (bit 0 moving, bit 1 an error was reported)
+ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
+========  ====  ==========================================================
+
+Flow control: the host keeps at most the queue depth (``STATUS.free`` right after reset)
+frames sent and not yet answered by an ``OUTCOME``; the queue can then never overflow, and
+it never starves while the host has frames to send.
+"""
+
+from amaranth import *
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "QUERY", "ABORT", "OUTCOME",
+           "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES", "crc16_byte",
+           "Command", "FrameDecoder", "FrameEncoder"]
+
+SYNC = 0xA5
+LINE, ARC, DWELL, FEED, STOP = 0x10, 0x11, 0x12, 0x13, 0x14
+QUERY, ABORT = 0x20, 0x21
+OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
+
+#: Frames that go into the queue.
+QUEUED = (LINE, ARC, DWELL, FEED, STOP)
+
+#: Payload length of every frame type, both directions.
+LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 20, STOP: 0, QUERY: 0, ABORT: 0,
+           OUTCOME: 2, STATUS: 10, ERROR: 1}
+
+#: ERROR codes.
+ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
+          4: "serial framing error or overrun"}
+
+#: The longest payload of a frame from the host.
+PAYLOAD_BYTES = max(LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT))
+
+
+def crc16_byte(m, crc, byte):
+    """The CRC-16/CCITT (polynomial 0x1021) of ``crc`` followed by ``byte``, formed in ``m``'s
+    combinational domain, one bit at a time (most significant first); returns the signal."""
+    for i in range(7, -1, -1):
+        top = Signal(name=f"crc_top{i}")
+        following = Signal(16, name=f"crc_bit{i}")
+        m.d.comb += [
+            top.eq(crc[15] ^ byte[i]),
+            following.eq(Cat(top, crc[:15]) ^ Mux(top, 0x1020, 0)),   # shift, feed back 0x1021
+        ]
+        crc = following
+    return crc
+
+
+def Command():
+    """Layout of a queued frame: its type and its payload bytes."""
+    return data.StructLayout({"kind": 8, "payload": data.ArrayLayout(8, PAYLOAD_BYTES)})
+
+
+class FrameDecoder(wiring.Component):
+    """Bytes from the host in, checked frames out: a corrupt frame is dropped and reported.
+
+    The decoder hunts for the sync byte, takes the type and the length (an unknown type or a
+    length that is not the type's drops the frame at once: ``ERROR`` codes 2 and 3), the
+    payload and the CRC; a frame whose CRC checks is offered on :py:`o` (queued types) or
+    signalled on :py:`query` / :py:`abort` (immediate types), a frame whose CRC does not is
+    dropped (code 1). While a frame is offered the decoder takes no byte. :py:`error`
+    carries the code of each dropped frame (and of the serial errors given on
+    :py:`line_error`, code 4); nothing a dropped frame held reaches :py:`o`.
+
+    Members
+    -------
+    i : :py:`In(stream.Signature(8))`
+        Bytes from the host.
+    line_error : :py:`In(1)`
+        A character was lost on the line (framing error or overrun).
+    o : :py:`Out(stream.Signature(Command()))`
+        Checked queued frames.
+    query, abort : :py:`Out(1)`
+        A checked QUERY or ABORT frame ended in this clock.
+    error : :py:`Out(stream.Signature(8))`
+        Codes of dropped frames (:data:`ERRORS`).
+    """
+
+    def __init__(self):
+        super().__init__({
+            "i":          In(stream.Signature(8)),
+            "line_error": In(1),
+            "o":          Out(stream.Signature(Command())),
+            "query":      Out(1),
+            "abort":      Out(1),
+            "error":      Out(stream.Signature(8)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        byte = self.i.payload
+        kind = Signal(8)
+        length = Signal(range(PAYLOAD_BYTES + 1))
+        index = Signal(range(PAYLOAD_BYTES + 1))
+        payload = Signal(data.ArrayLayout(8, PAYLOAD_BYTES))
+        crc = Signal(16)
+        received = Signal(8)                    # the CRC's first (high) byte
+        crc_next = crc16_byte(m, crc, byte)
+        take = self.i.valid & self.i.ready
+
+        code = Signal(8)                        # an error to report; 0: none
+        m.d.comb += [
+            self.o.payload.kind.eq(kind),
+            self.o.payload.payload.eq(payload),
+            self.error.valid.eq(code != 0),
+            self.error.payload.eq(code),
+        ]
+        with m.If(self.error.ready):
+            m.d.sync += code.eq(0)
+        with m.If(self.line_error):
+            m.d.sync += code.eq(4)
+
+        known = Signal()
+        expected = Signal(range(PAYLOAD_BYTES + 1))
+        with m.Switch(byte):
+            for frame_type, count in LENGTHS.items():
+                if frame_type in QUEUED + (QUERY, ABORT):
+                    with m.Case(frame_type):
+                        m.d.comb += [known.eq(1), expected.eq(count)]
+
+        def drop(error_code):
+            m.d.sync += code.eq(error_code)
+            m.next = "Hunt"
+
+        with m.FSM(name="decoder"):
+            with m.State("Hunt"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(take & (byte == SYNC)):
+                    m.d.sync += crc.eq(0xFFFF)
+                    m.next = "Type"
+            with m.State("Type"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(take):
+                    with m.If(known):
+                        m.d.sync += [kind.eq(byte), length.eq(expected), crc.eq(crc_next)]
+                        m.next = "Length"
+                    with m.Else():
+                        drop(2)
+            with m.State("Length"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(take):
+                    with m.If(byte == length):
+                        m.d.sync += [crc.eq(crc_next), index.eq(0)]
+                        m.next = "Payload"
+                    with m.Else():
+                        drop(3)
+            with m.State("Payload"):
+                with m.If(index == length):
+                    m.next = "CRC high"
+                with m.Else():
+                    m.d.comb += self.i.ready.eq(1)
+                    with m.If(take):
+                        m.d.sync += [payload[index].eq(byte), index.eq(index + 1),
+                                     crc.eq(crc_next)]
+            with m.State("CRC high"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(take):
+                    m.d.sync += received.eq(byte)
+                    m.next = "CRC low"
+            with m.State("CRC low"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(take):
+                    with m.If(Cat(byte, received) != crc):
+                        drop(1)
+                    with m.Elif(kind == QUERY):
+                        m.d.comb += self.query.eq(1)
+                        m.next = "Hunt"
+                    with m.Elif(kind == ABORT):
+                        m.d.comb += self.abort.eq(1)
+                        m.next = "Hunt"
+                    with m.Else():
+                        m.next = "Offer"
+            with m.State("Offer"):
+                m.d.comb += self.o.valid.eq(1)
+                with m.If(self.o.ready):
+                    m.next = "Hunt"
+        return m
+
+
+class FrameEncoder(wiring.Component):
+    """Replies out as frames: one reply in, its bytes (sync, type, length, payload, CRC) out.
+
+    Members
+    -------
+    i : :py:`In(stream.Signature(Reply()))`
+        A reply: its type and payload bytes (only the type's length of them is sent).
+    o : :py:`Out(stream.Signature(8))`
+        The bytes, one frame after another.
+    """
+
+    @staticmethod
+    def Reply():
+        return data.StructLayout({"kind": 8, "payload": data.ArrayLayout(
+            8, max(LENGTHS[kind] for kind in (OUTCOME, STATUS, ERROR)))})
+
+    def __init__(self):
+        super().__init__({"i": In(stream.Signature(self.Reply())), "o": Out(stream.Signature(8))})
+
+    def elaborate(self, platform):
+        m = Module()
+        reply = Signal(self.Reply())
+        length = Signal(8)
+        index = Signal(range(len(reply.payload) + 1))
+        crc = Signal(16)
+        sent = self.o.valid & self.o.ready
+        crc_next = crc16_byte(m, crc, self.o.payload)
+        lengths = {kind: LENGTHS[kind] for kind in (OUTCOME, STATUS, ERROR)}
+        length_of = Signal(8)
+        with m.Switch(self.i.payload.kind):
+            for kind, count in lengths.items():
+                with m.Case(kind):
+                    m.d.comb += length_of.eq(count)
+
+        with m.FSM(name="encoder"):
+            with m.State("Idle"):
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(self.i.valid):
+                    m.d.sync += [reply.eq(self.i.payload), length.eq(length_of),
+                                 crc.eq(0xFFFF)]
+                    m.next = "Sync"
+            with m.State("Sync"):
+                m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(SYNC)]
+                with m.If(sent):
+                    m.next = "Type"
+            with m.State("Type"):
+                m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(reply.kind)]
+                with m.If(sent):
+                    m.d.sync += crc.eq(crc_next)
+                    m.next = "Length"
+            with m.State("Length"):
+                m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(length)]
+                with m.If(sent):
+                    m.d.sync += [crc.eq(crc_next), index.eq(0)]
+                    m.next = "Payload"
+            with m.State("Payload"):
+                with m.If(index == length):
+                    m.next = "CRC high"
+                with m.Else():
+                    byte = reply.payload[index]
+                    m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(byte)]
+                    with m.If(sent):
+                        m.d.sync += [crc.eq(crc_next), index.eq(index + 1)]
+            with m.State("CRC high"):
+                m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(crc[8:])]
+                with m.If(sent):
+                    m.next = "CRC low"
+            with m.State("CRC low"):
+                m.d.comb += [self.o.valid.eq(1), self.o.payload.eq(crc[:8])]
+                with m.If(sent):
+                    m.next = "Idle"
+        return m

@@ -1,0 +1,181 @@
+"""The host side of the link protocol of :mod:`hdl.motion.link`: frames as bytes, replies back.
+
+The frame types, payload lengths and error codes are :mod:`hdl.motion.link`'s own constants;
+the CRC is :func:`binascii.crc_hqx` (CRC-16/CCITT, initial value 0xFFFF), which the gateware's
+``crc16_byte`` reproduces bit for bit.
+"""
+
+import binascii
+import struct
+from dataclasses import dataclass
+
+from hdl.motion.link import (ABORT, ARC, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE, OUTCOME,
+                             QUERY, STATUS, STOP, SYNC)
+
+__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "query", "abort", "Reply",
+           "ReplyParser", "crc"]
+
+
+def crc(body):
+    """CRC-16/CCITT of ``body`` (type, length, payload)."""
+    return binascii.crc_hqx(bytes(body), 0xFFFF)
+
+
+def frame(kind, payload=b""):
+    """The bytes of a frame of type ``kind`` with ``payload``."""
+    payload = bytes(payload)
+    if LENGTHS.get(kind) != len(payload):
+        raise ValueError(f"A frame of type {kind:#04x} has {LENGTHS.get(kind)} payload bytes, "
+                         f"not {len(payload)}")
+    body = bytes([kind, len(payload)]) + payload
+    return bytes([SYNC]) + body + crc(body).to_bytes(2, "big")
+
+
+def line(x, y):
+    return frame(LINE, struct.pack("<ii", x, y))
+
+
+def arc(x0, y0, x1, y1, cw):
+    return frame(ARC, struct.pack("<iiiiB", x0, y0, x1, y1, int(bool(cw))))
+
+
+def dwell(clocks):
+    return frame(DWELL, struct.pack("<I", clocks))
+
+
+def feed(entry, cruise, exit, accel, decelerate):
+    """A FEED frame: rates in steps a clock as Q0.32 integers, ``accel`` as Q0.48, and the
+    number of steps of the next move before its ramp down."""
+    return frame(FEED, struct.pack("<IIIII", entry, cruise, exit, accel, decelerate))
+
+
+def stop():
+    return frame(STOP)
+
+
+def query():
+    return frame(QUERY)
+
+
+def abort():
+    return frame(ABORT)
+
+
+@dataclass(frozen=True)
+class Reply:
+    """A reply from the machine: ``kind`` (OUTCOME, STATUS, ERROR) and its fields."""
+    kind: int
+    fields: tuple
+
+    def __str__(self):
+        if self.kind == OUTCOME:
+            number, outcome = self.fields
+            return f"frame {number}: {('done', 'refused', 'aborted')[outcome]}"
+        if self.kind == STATUS:
+            x, y, free, flags = self.fields
+            return f"at ({x}, {y}), {free} queue slots free, flags {flags:#04x}"
+        return f"error: {ERRORS.get(self.fields[0], self.fields[0])}"
+
+
+class ReplyParser:
+    """Bytes from the machine in (:meth:`feed`), :class:`Reply` objects out.
+
+    Bytes that do not form a frame with a good CRC are skipped (counted in :attr:`dropped`),
+    so a reply stream joined in the middle resynchronises at the next good frame.
+    """
+
+    FORMATS = {OUTCOME: "<BB", STATUS: "<iiBB", ERROR: "<B"}
+
+    def __init__(self):
+        self.buffer = bytearray()
+        self.dropped = 0
+
+    def feed(self, data):
+        """Take ``data``; return the replies completed by it."""
+        self.buffer += data
+        replies = []
+        while True:
+            start = self.buffer.find(bytes([SYNC]))
+            if start < 0:
+                self.dropped += len(self.buffer)
+                self.buffer.clear()
+                return replies
+            self.dropped += start
+            del self.buffer[:start]
+            if len(self.buffer) < 3:
+                return replies
+            kind, length = self.buffer[1], self.buffer[2]
+            if kind not in self.FORMATS or LENGTHS[kind] != length:
+                self.dropped += 1
+                del self.buffer[:1]
+                continue
+            if len(self.buffer) < 5 + length:
+                return replies
+            body = bytes(self.buffer[1:3 + length])
+            received = int.from_bytes(self.buffer[3 + length:5 + length], "big")
+            if crc(body) != received:
+                self.dropped += 1
+                del self.buffer[:1]
+                continue
+            replies.append(Reply(kind, struct.unpack(self.FORMATS[kind], body[2:])))
+            del self.buffer[:5 + length]
+
+
+class CommandParser:
+    """The machine's frame decoder (:class:`hdl.motion.link.FrameDecoder`), byte for byte.
+
+    :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
+    queued frame, ``("query",)``, ``("abort",)``, ``("error", code)`` for a dropped frame. Like
+    the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
+    type, a wrong length) or at a bad CRC, and hunts again from the next byte.
+    """
+
+    def __init__(self):
+        self.state = "hunt"
+        self.kind = self.length = 0
+        self.body = bytearray()
+
+    def feed(self, data):
+        events = []
+        for byte in bytes(data):
+            event = self._byte(byte)
+            if event is not None:
+                events.append(event)
+        return events
+
+    def _byte(self, byte):
+        if self.state == "hunt":
+            if byte == SYNC:
+                self.state, self.body = "type", bytearray()
+        elif self.state == "type":
+            if byte in LENGTHS and byte not in (OUTCOME, STATUS, ERROR):
+                self.kind, self.length = byte, LENGTHS[byte]
+                self.body.append(byte)
+                self.state = "length"
+            else:
+                self.state = "hunt"
+                return ("error", 2)
+        elif self.state == "length":
+            if byte == self.length:
+                self.body.append(byte)
+                self.state = "payload" if self.length else "crc high"
+            else:
+                self.state = "hunt"
+                return ("error", 3)
+        elif self.state == "payload":
+            self.body.append(byte)
+            if len(self.body) == 2 + self.length:
+                self.state = "crc high"
+        elif self.state == "crc high":
+            self.high = byte
+            self.state = "crc low"
+        else:
+            self.state = "hunt"
+            if (self.high << 8 | byte) != crc(self.body):
+                return ("error", 1)
+            if self.kind == QUERY:
+                return ("query",)
+            if self.kind == ABORT:
+                return ("abort",)
+            return ("frame", self.kind, bytes(self.body[2:]))
+        return None
