@@ -1,13 +1,31 @@
 """Feed: step permissions for an engine (:class:`~hdl.engine.FeedSignature`)."""
 
+import math
+
 from amaranth import *
-from amaranth.lib import wiring
-from amaranth.lib.wiring import In
+from amaranth.lib import data, wiring
+from amaranth.lib.wiring import In, Out
 
 from ..elements._checks import check_width
 from ..engine import FeedSignature
 
-__all__ = ["FeedDivider"]
+__all__ = ["FeedDivider", "FeedGenerator", "Profile", "ONE", "SQRT2", "rate_limit"]
+
+#: Distances in the generator's accumulator: one axial step and one diagonal step (Q2.32).
+ONE = 1 << 32
+SQRT2 = round(math.sqrt(2) * ONE)
+
+
+def Profile():
+    """The feed of one move: rates in steps a clock (Q0.24), the rate's change a clock (Q0.48),
+    and the steps before the ramp down (the FEED frame of :mod:`hdl.motion.link`)."""
+    return data.StructLayout({"entry": 24, "cruise": 24, "exit": 24, "accel": 32,
+                              "decelerate": 24})
+
+
+def rate_limit(min_interval):
+    """The highest rate (Q0.24) that keeps axial steps ``min_interval`` clocks apart."""
+    return ((1 << 24) - 1) // min_interval
 
 
 class FeedDivider(wiring.Component):
@@ -51,4 +69,109 @@ class FeedDivider(wiring.Component):
         last = phase == self._divider - 1
         m.d.sync += phase.eq(Mux(last, 0, phase + 1))
         m.d.comb += self.feed.tick.eq(last & ~self.pause)
+        return m
+
+
+class FeedGenerator(wiring.Component):
+    """The feed: step permissions at a contour speed ramped between a move's rates.
+
+    The seeds' block 15. A rate (steps a clock, kept to 48 fractional bits) changes by
+    ``accel`` every clock toward the move's ``cruise`` rate, and after ``decelerate`` steps of
+    the move toward its ``exit`` rate; it never overshoots either, and never exceeds
+    ``max_rate``. Every clock the rate is added to a distance accumulator; a step is permitted
+    when the accumulator holds the length of the engine's next step: 1 for an axial step,
+    √2 for a diagonal (:py:`feed.diagonal`), so the tool moves along the contour at the rate
+    whatever the direction. A step made takes its length off the accumulator; while a
+    permission waits for the engine (or :py:`hold` is high) the accumulator stands still, so a
+    wait never turns into a burst. :py:`start`
+    begins a move: the rate becomes its ``entry`` rate and its step count zero. Rates change
+    by at most ``accel`` a clock, so no step interval changes faster than the acceleration
+    allows.
+
+    Parameters
+    ----------
+    max_rate : :class:`int`
+        The highest rate, Q0.24 (default: one step a clock); see :func:`rate_limit`.
+
+    Members
+    -------
+    feed : :py:`In(FeedSignature())`
+        To the engine.
+    profile : :py:`In(Profile())`
+        The running move's feed.
+    start : :py:`In(1)`
+        A move begins in this clock (its rate from ``entry`` from the next clock).
+    hold : :py:`In(1)`
+        No permission while high (the rate goes on).
+    rate : :py:`Out(24)`
+        The rate now, Q0.24 (for monitoring).
+    steps : :py:`Out(24)`
+        Steps of the running move so far.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``max_rate`` is not an integer from 1 to 2**24 - 1.
+    """
+
+    def __init__(self, *, max_rate=(1 << 24) - 1):
+        check_width("Highest rate", max_rate)
+        if max_rate >= 1 << 24:
+            raise TypeError(f"Highest rate must be below 2**24 (one step a clock), "
+                            f"not {max_rate!r}")
+        self._max_rate = max_rate
+        super().__init__({
+            "feed":    In(FeedSignature()),
+            "profile": In(Profile()),
+            "start":   In(1),
+            "hold":    In(1),
+            "rate":    Out(24),
+            "steps":   Out(24),
+        })
+
+    @property
+    def max_rate(self):
+        return self._max_rate
+
+    def elaborate(self, platform):
+        m = Module()
+        p = self.profile
+        limit = self._max_rate << 24
+        rate = Signal(48)                       # Q0.48
+        distance = Signal(34)                   # Q2.32, at most √2 between steps
+        steps = Signal(24)
+
+        target = Signal(48)
+        m.d.comb += target.eq(Mux(steps < p.decelerate, p.cruise, p.exit) << 24)
+        clamped = Mux(target > limit, limit, target)
+        up = rate + p.accel
+        down = rate - p.accel
+        following = Signal(48)
+        with m.If(rate < clamped):
+            m.d.comb += following.eq(Mux(up > clamped, clamped, up))
+        with m.Else():
+            m.d.comb += following.eq(Mux((down < clamped) | (p.accel > rate), clamped, down))
+
+        length = Mux(self.feed.diagonal, SQRT2, ONE)
+        tick = Signal()
+        step = Signal()
+        grown = distance + rate[16:]
+        m.d.comb += [
+            tick.eq(~self.hold & (distance >= length)),
+            self.feed.tick.eq(tick),
+            step.eq(tick & self.feed.due),
+            self.rate.eq(rate[24:]),
+            self.steps.eq(steps),
+        ]
+        with m.If(step):
+            m.d.sync += distance.eq(grown - length)
+        with m.Elif(~self.hold & ~tick):            # a pending permission holds its distance
+            m.d.sync += distance.eq(grown)
+        with m.If(self.start):
+            entry = p.entry << 24
+            m.d.sync += [rate.eq(Mux(entry > limit, limit, entry)), steps.eq(0)]
+        with m.Else():
+            m.d.sync += rate.eq(following)
+            with m.If(step):
+                m.d.sync += steps.eq(steps + 1)
         return m

@@ -16,10 +16,10 @@ frame     type  payload                                                    queue
 LINE      0x10  x, y: int32: a relative move                               yes
 ARC       0x11  x0, y0, x1, y1: int32, relative to the centre; cw: uint8   yes
 DWELL     0x12  clocks: uint32                                             yes
-FEED      0x13  entry, cruise, exit: uint32 step rates (steps a clock,     yes
-                Q0.32); accel: uint32 (rate change a clock, Q0.48);
-                decelerate: uint32 (steps of the next move before the
-                ramp down); for the moves that follow
+FEED      0x13  entry, cruise, exit: uint24 step rates (steps a clock,     yes
+                Q0.24); accel: uint32 (rate change a clock, Q0.48);
+                decelerate: uint24 (steps before the ramp down); for the
+                next move (LINE or ARC)
 STOP      0x14  (none): the end of a program                               yes
 QUERY     0x20  (none): asks for a STATUS reply                            no
 ABORT     0x21  (none): stops the motion at once and ends every queued     no
@@ -60,7 +60,7 @@ OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 QUEUED = (LINE, ARC, DWELL, FEED, STOP)
 
 #: Payload length of every frame type, both directions.
-LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 20, STOP: 0, QUERY: 0, ABORT: 0,
+LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 16, STOP: 0, QUERY: 0, ABORT: 0,
            OUTCOME: 2, STATUS: 10, ERROR: 1}
 
 #: ERROR codes.

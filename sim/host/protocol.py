@@ -44,9 +44,16 @@ def dwell(clocks):
 
 
 def feed(entry, cruise, exit, accel, decelerate):
-    """A FEED frame: rates in steps a clock as Q0.32 integers, ``accel`` as Q0.48, and the
-    number of steps of the next move before its ramp down."""
-    return frame(FEED, struct.pack("<IIIII", entry, cruise, exit, accel, decelerate))
+    """A FEED frame for the next move: rates in steps a clock as Q0.24 integers, ``accel``
+    (the rate's change a clock) as Q0.48, and the number of steps before its ramp down."""
+    for name, value, bits in (("entry", entry, 24), ("cruise", cruise, 24), ("exit", exit, 24),
+                              ("accel", accel, 32), ("decelerate", decelerate, 24)):
+        if not 0 <= value < 1 << bits:
+            raise ValueError(f"FEED {name} must be an unsigned {bits}-bit integer, "
+                             f"not {value!r}")
+    return frame(FEED, b"".join(v.to_bytes(n, "little") for v, n in
+                                ((entry, 3), (cruise, 3), (exit, 3), (accel, 4),
+                                 (decelerate, 3))))
 
 
 def stop():

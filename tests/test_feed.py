@@ -1,0 +1,114 @@
+"""The feed generator: contour rate (√2 for diagonals), linear ramps, no bursts; and the model."""
+
+import math
+import random
+import unittest
+
+from hdl.motion.feed import ONE, SQRT2, FeedGenerator, rate_limit
+from sim.models.motion import FeedGeneratorModel
+
+from .utils import simulate
+
+Q24 = 1 << 24
+
+
+def profile(entry=0.0, cruise=0.0, exit=0.0, accel=0.0, decelerate=0):
+    """A profile from rates in steps a clock and an acceleration in steps a clock²."""
+    return {"entry": round(entry * Q24), "cruise": round(cruise * Q24),
+            "exit": round(exit * Q24), "accel": round(accel * (1 << 48)),
+            "decelerate": decelerate}
+
+
+def run(moves, *, due=lambda clock: 1, diagonal=lambda step: 0, clocks=None, max_rate=None):
+    """Run ``moves`` (profiles, each for its step count) through the RTL and the model;
+    return the clocks of the steps. The moves follow one another (start at each move's
+    first clock)."""
+    kwargs = {} if max_rate is None else {"max_rate": max_rate}
+    dut = FeedGenerator(**kwargs)
+    model = FeedGeneratorModel(**kwargs)
+    plan = [(p, count) for p, count in moves]
+    stepped = []
+
+    async def testbench(ctx):
+        index, made, starting = 0, 0, True
+        clock = 0
+        while index < len(plan) and (clocks is None or clock < clocks):
+            p, count = plan[index]
+            d, diag = due(clock), diagonal(len(stepped))
+            ctx.set(dut.profile, p)
+            ctx.set(dut.start, starting)
+            ctx.set(dut.feed.due, d)
+            ctx.set(dut.feed.diagonal, diag)
+            tick = model.cycle(profile=p, start=starting, due=d, diagonal=diag)
+            assert ctx.get(dut.feed.tick) == tick, f"clock {clock}"
+            starting = False
+            if tick and d:
+                stepped.append(clock)
+                made += 1
+                if made == count:
+                    index, made, starting = index + 1, 0, True
+            await ctx.tick()
+            clock += 1
+
+    simulate(dut, testbench, name="feed_generator")
+    return stepped
+
+
+class FeedGeneratorTestCase(unittest.TestCase):
+    def test_cruise_rate_and_diagonals(self):
+        # At a quarter step a clock, axial steps come every 4 clocks, diagonals every 4√2.
+        fast = profile(entry=0.25, cruise=0.25, exit=0.25, decelerate=10_000)
+        axial = run([(fast, 200)])
+        gaps = [b - a for a, b in zip(axial, axial[1:])]
+        self.assertEqual(set(gaps), {4})
+        diagonal = run([(fast, 200)], diagonal=lambda step: 1)
+        self.assertAlmostEqual((diagonal[-1] - diagonal[0]) / 199, 4 * math.sqrt(2), places=2)
+
+    def test_ramp_up_cruise_down(self):
+        # From rest, accelerate to cruise, hold it, decelerate to rest over the last steps;
+        # the step rate never changes faster than the acceleration (plus the accumulator's
+        # quantisation: one clock of a step interval).
+        accel, cruise, count, down = 1e-5, 0.05, 600, 450
+        clocks = run([(profile(0, cruise, 0.002, accel, down), count)])
+        intervals = [b - a for a, b in zip(clocks, clocks[1:])]
+        self.assertLessEqual(min(intervals), math.ceil(1 / cruise))
+        self.assertGreater(intervals[0], 50)                     # slow start
+        self.assertGreater(intervals[-1], 50)                    # slow stop
+        for i in range(1, len(intervals)):
+            dt = intervals[i]
+            rate_change = abs(1 / intervals[i] - 1 / intervals[i - 1])
+            self.assertLessEqual(rate_change, accel * (dt + intervals[i - 1]) + 1 / dt ** 2 * 2,
+                                 i)
+
+    def test_waits_do_not_burst(self):
+        # The engine has no step due for a while: the first step after the wait comes at once,
+        # the next ones at the rate again, never two clocks in a row.
+        p = profile(0.1, 0.1, 0.1, 0, 10 ** 6)
+        clocks = run([(p, 100)], due=lambda clock: int(not 100 <= clock < 400))
+        intervals = [b - a for a, b in zip(clocks, clocks[1:])]
+        self.assertGreaterEqual(min(intervals), 10)
+
+    def test_random_against_model_and_limit(self):
+        rng = random.Random(4)
+        moves = [(profile(rng.random() * 0.3, rng.random() * 0.5, rng.random() * 0.3,
+                          rng.random() * 1e-5, rng.randrange(50)), rng.randrange(1, 60))
+                 for _ in range(20)]
+        clocks = run(moves, due=lambda clock: int(rng.random() < 0.8),
+                     diagonal=lambda step: step % 3 == 0, max_rate=rate_limit(5))
+        intervals = [b - a for a, b in zip(clocks, clocks[1:])]
+        self.assertGreaterEqual(min(intervals), 5)               # the rate limit holds
+
+    def test_constants_and_parameters(self):
+        self.assertEqual(ONE, 1 << 32)
+        self.assertEqual(SQRT2, round(math.sqrt(2) * (1 << 32)))
+        self.assertEqual(rate_limit(4), (Q24 - 1) // 4)
+        with self.assertRaisesRegex(TypeError,
+                r"^Highest rate must be below 2\*\*24 \(one step a clock\), not 16777216$"):
+            FeedGenerator(max_rate=Q24)
+        with self.assertRaisesRegex(TypeError, r"^Highest rate must be a positive integer, "
+                                               r"not 0$"):
+            FeedGenerator(max_rate=0)
+
+
+if __name__ == "__main__":
+    unittest.main()
