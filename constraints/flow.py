@@ -153,6 +153,20 @@ def parse_utilisation(text):
 
 # ---- tool runs -----------------------------------------------------------------------------
 
+# Yosys 0.70 can fail in ABC9 on Amaranth's netlists with "Assert `count_id(wire->name) ==
+# 0' failed" (YosysHQ/yosys#4349); splitting the nets before the LUT mapping avoids it, as the
+# Yosys developers suggest there. synth_ice40 runs in two parts with `splitnets` between.
+_SYNTH_FIRST = "-run :map_luts"
+
+
+def _synth_rest(name):
+    return f"splitnets\nsynth_ice40 -top {name} -run map_luts:"
+
+
+def _synth(name):
+    return f"synth_ice40 -top {name} {_SYNTH_FIRST}; {_synth_rest(name).replace(chr(10), '; ')}"
+
+
 def measure_area(component, name, build_dir):
     """Synthesize ``component`` for the iCE40 and pack it; return its cell counts.
 
@@ -168,7 +182,7 @@ def measure_area(component, name, build_dir):
     build_dir.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     (build_dir / f"{name}.il").write_text(rtlil.convert(component, name=name))
-    script = (f"read_rtlil {name}.il; synth_ice40 -top {name}; "
+    script = (f"read_rtlil {name}.il; {_synth(name)}; "
               f"tee -q -o {name}.stat stat; tee -q -o {name}.stat.json stat -json; "
               f"write_json {name}.json")
     _run([tool_path("yosys"), "-q", "-l", f"{name}.yosys.log", "-p", script],
@@ -201,7 +215,8 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top"):
     with toolchain_env():
         try:
             platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
-                           nextpnr_opts=f"--seed {seed}")
+                           nextpnr_opts=f"--seed {seed}", synth_opts=_SYNTH_FIRST,
+                           script_after_synth=_synth_rest(name))
         except subprocess.CalledProcessError as error:
             raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
                                  f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")

@@ -3,8 +3,11 @@
 import random
 import unittest
 
-from hdl.motion.link import (ABORT, ARC, DWELL, FEED, LINE, OUTCOME, PAYLOAD_BYTES, QUERY,
-                             STATUS, STOP, SYNC, ERROR, FrameDecoder, FrameEncoder)
+from amaranth import Module
+
+from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
+                             PAYLOAD_BYTES, QUERY, STATUS, STOP, SYNC, FrameDecoder, FrameEncoder)
+from hdl.motion.queue import FrameQueue
 from sim.host import protocol
 
 from .utils import simulate
@@ -14,7 +17,7 @@ def random_frames(rng, count):
     """Bytes of ``count`` frames, good and bad, with noise between some of them."""
     stream = bytearray()
     for _ in range(count):
-        kind = rng.choice([LINE, ARC, DWELL, FEED, STOP, QUERY, ABORT])
+        kind = rng.choice([LINE, ARC, DWELL, FEED, STOP, CONFIG, QUERY, ABORT])
         payload = bytes(rng.randrange(256) for _ in range(protocol.LENGTHS[kind]))
         data = bytearray(protocol.frame(kind, payload))
         damage = rng.random()
@@ -33,51 +36,98 @@ def random_frames(rng, count):
 
 
 class DecoderTestCase(unittest.TestCase):
-    def decode(self, data, *, seed):
+    def decode(self, data, *, seed, depth=512):
+        """Decode ``data`` into a frame queue read with random stalls; return the events:
+        the frames read back from the queue, and the query, abort and error signals."""
         rng = random.Random(seed)
-        dut = FrameDecoder()
-        events = []
+        m = Module()
+        m.submodules.decoder = dut = FrameDecoder()
+        m.submodules.queue = queue = FrameQueue(depth)
+        m.d.comb += [
+            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
+            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
+            dut.q_room.eq(queue.w_room),
+        ]
+        frames, signals = [], []
 
         async def testbench(ctx):
-            queue = list(data)
-            for _ in range(len(data) * 4 + 100):
-                ctx.set(dut.i.valid, bool(queue) and rng.random() < 0.7)
-                if queue:
-                    ctx.set(dut.i.payload, queue[0])
+            pending = list(data)
+            current = []
+            for _ in range(len(data) * 4 + 200):
+                ctx.set(dut.i.valid, bool(pending) and rng.random() < 0.7)
+                if pending:
+                    ctx.set(dut.i.payload, pending[0])
                 ready = rng.random() < 0.6
-                ctx.set(dut.o.ready, ready)
+                ctx.set(queue.r.ready, ready)
                 ctx.set(dut.error.ready, 1)
-                if ctx.get(dut.o.valid) and ready:
-                    command = ctx.get(dut.o.payload)
-                    length = protocol.LENGTHS[command.kind]
-                    events.append(("frame", command.kind,
-                                   bytes(command.payload[i] for i in range(length))))
+                if ctx.get(queue.r.valid) and ready:
+                    current.append(ctx.get(queue.r.payload))
+                    if len(current) == 1 + protocol.LENGTHS[current[0]]:
+                        frames.append(("frame", current[0], bytes(current[1:])))
+                        current = []
                 if ctx.get(dut.query):
-                    events.append(("query",))
+                    signals.append(("query",))
                 if ctx.get(dut.abort):
-                    events.append(("abort",))
+                    signals.append(("abort",))
                 if ctx.get(dut.error.valid):
-                    events.append(("error", ctx.get(dut.error.payload)))
-                if queue and ctx.get(dut.i.valid) and ctx.get(dut.i.ready):
-                    queue.pop(0)
+                    signals.append(("error", ctx.get(dut.error.payload)))
+                if pending and ctx.get(dut.i.valid) and ctx.get(dut.i.ready):
+                    pending.pop(0)
                 await ctx.tick()
-            self.assertEqual(queue, [])
+            self.assertEqual((pending, current), ([], []))
 
-        simulate(dut, testbench, name=f"link_decoder_{seed}")
-        return events
+        simulate(m, testbench, name=f"link_decoder_{seed}")
+        return frames, signals
 
     def test_random_frames_as_the_reference(self):
         for seed in range(3):
             data = random_frames(random.Random(seed), 150)
             expected = protocol.CommandParser().feed(data)
-            self.assertEqual(self.decode(data, seed=seed), expected)
+            frames, signals = self.decode(data, seed=seed)
+            self.assertEqual(frames, [e for e in expected if e[0] == "frame"])
+            self.assertEqual(signals, [e for e in expected if e[0] != "frame"])
             self.assertGreater(sum(e[0] == "error" for e in expected), 10)
             self.assertGreater(sum(e[0] == "frame" for e in expected), 50)
 
+    def test_queue_full_drops_and_reports(self):
+        # A 32-byte queue nobody reads: frames fit until one does not; that one is dropped
+        # whole (code 5), and nothing of it is readable.
+        data = b"".join(protocol.line(i, -i) for i in range(5))
+        m = Module()
+        m.submodules.decoder = dut = FrameDecoder()
+        m.submodules.queue = queue = FrameQueue(32)
+        m.d.comb += [
+            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
+            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
+            dut.q_room.eq(queue.w_room),
+        ]
+        codes, levels = [], []
+
+        async def testbench(ctx):
+            for byte in data:
+                ctx.set(dut.i.valid, 1)
+                ctx.set(dut.i.payload, byte)
+                ctx.set(dut.error.ready, 1)
+                while not ctx.get(dut.i.ready):
+                    await ctx.tick()
+                if ctx.get(dut.error.valid):
+                    codes.append(ctx.get(dut.error.payload))
+                await ctx.tick()
+            for _ in range(4):
+                if ctx.get(dut.error.valid):
+                    codes.append(ctx.get(dut.error.payload))
+                levels.append(ctx.get(queue.r_level))
+                await ctx.tick()
+
+        simulate(m, testbench, name="link_queue_full")
+        self.assertEqual(levels[-1], 3 * 9)                 # three whole frames of 9 bytes
+        self.assertEqual(codes.count(5), 2)
+
+class ReferenceTestCase(unittest.TestCase):
     def test_reference_never_passes_a_damaged_frame(self):
         rng = random.Random(7)
         for _ in range(300):
-            kind = rng.choice([LINE, ARC, FEED])
+            kind = rng.choice([LINE, ARC, FEED, CONFIG])
             payload = bytes(rng.randrange(256) for _ in range(protocol.LENGTHS[kind]))
             good = protocol.frame(kind, payload)
             self.assertEqual(protocol.CommandParser().feed(good), [("frame", kind, payload)])
@@ -88,11 +138,18 @@ class DecoderTestCase(unittest.TestCase):
             self.assertEqual(events[-1], ("frame", STOP, b""))          # and recovers
             self.assertTrue(any(e[0] == "error" for e in events))
 
-    def test_payload_bytes(self):
+    def test_frames_and_their_checks(self):
         self.assertEqual(PAYLOAD_BYTES, 17)
         with self.assertRaisesRegex(ValueError,
                 r"^A frame of type 0x10 has 8 payload bytes, not 3$"):
             protocol.frame(LINE, b"abc")
+        with self.assertRaisesRegex(ValueError,
+                r"^FEED exit must be an unsigned 24-bit integer, not 16777216$"):
+            protocol.feed(0, 1 << 24, 0)
+        with self.assertRaisesRegex(ValueError,
+                r"^CONFIG accel must be an unsigned 32-bit integer, not -1$"):
+            protocol.config(-1)
+        self.assertEqual(protocol.feed(1, 2, 3)[3:12], bytes([1, 0, 0, 2, 0, 0, 3, 0, 0]))
 
 
 class EncoderTestCase(unittest.TestCase):

@@ -11,16 +11,16 @@ from ..engine import FeedSignature
 
 __all__ = ["FeedDivider", "FeedGenerator", "Profile", "ONE", "SQRT2", "rate_limit"]
 
-#: Distances in the generator's accumulator: one axial step and one diagonal step (Q2.32).
-ONE = 1 << 32
+#: Distances in the generator's accumulator: one axial step and one diagonal step (Q2.24).
+ONE = 1 << 24
 SQRT2 = round(math.sqrt(2) * ONE)
 
 
 def Profile():
-    """The feed of one move: rates in steps a clock (Q0.24), the rate's change a clock (Q0.48),
-    and the steps before the ramp down (the FEED frame of :mod:`hdl.motion.link`)."""
-    return data.StructLayout({"entry": 24, "cruise": 24, "exit": 24, "accel": 32,
-                              "decelerate": 24})
+    """The feed of one move (the FEED frame of :mod:`hdl.motion.link`): its cruise and exit
+    rates in steps a clock (Q0.24), and the steps it makes before it ramps down to the exit
+    rate."""
+    return data.StructLayout({"cruise": 24, "exit": 24, "decelerate": 24})
 
 
 def rate_limit(min_interval):
@@ -75,18 +75,18 @@ class FeedDivider(wiring.Component):
 class FeedGenerator(wiring.Component):
     """The feed: step permissions at a contour speed ramped between a move's rates.
 
-    The seeds' block 15. A rate (steps a clock, kept to 48 fractional bits) changes by
-    ``accel`` every clock toward the move's ``cruise`` rate, and after ``decelerate`` steps of
-    the move toward its ``exit`` rate; it never overshoots either, and never exceeds
-    ``max_rate``. Every clock the rate is added to a distance accumulator; a step is permitted
-    when the accumulator holds the length of the engine's next step: 1 for an axial step,
-    √2 for a diagonal (:py:`feed.diagonal`), so the tool moves along the contour at the rate
+    The seeds' block 15. A rate (steps a clock, kept to 40 fractional bits) changes by
+    :py:`accel` every clock toward the move's ``cruise`` rate, and after ``decelerate`` steps
+    of the move toward its ``exit`` rate; it never overshoots either and never exceeds
+    ``max_rate``. A move starts at the rate the move before ended at, so the rate is
+    continuous across moves and no step interval ever changes faster than the acceleration
+    allows (the host's planner chooses each move's exit rate so that the next can go on from
+    it, or stop). Every clock the rate is added to a distance accumulator; a step is permitted
+    when the accumulator holds the length of the engine's next step: 1 for an axial step, √2
+    for a diagonal (:py:`feed.diagonal`), so the tool moves along the contour at the rate
     whatever the direction. A step made takes its length off the accumulator; while a
-    permission waits for the engine (or :py:`hold` is high) the accumulator stands still, so a
-    wait never turns into a burst. :py:`start`
-    begins a move: the rate becomes its ``entry`` rate and its step count zero. Rates change
-    by at most ``accel`` a clock, so no step interval changes faster than the acceleration
-    allows.
+    permission waits for the engine (or :py:`hold` is high) the accumulator stands still, so
+    a wait never turns into a burst.
 
     Parameters
     ----------
@@ -99,12 +99,14 @@ class FeedGenerator(wiring.Component):
         To the engine.
     profile : :py:`In(Profile())`
         The running move's feed.
+    accel : :py:`In(32)`
+        The rate's change a clock, Q0.40 (the configured acceleration).
     start : :py:`In(1)`
-        A move begins in this clock (its rate from ``entry`` from the next clock).
+        A move begins in this clock: its step count starts from zero.
     hold : :py:`In(1)`
         No permission while high (the rate goes on).
     rate : :py:`Out(24)`
-        The rate now, Q0.24 (for monitoring).
+        The rate now, Q0.24.
     steps : :py:`Out(24)`
         Steps of the running move so far.
 
@@ -123,6 +125,7 @@ class FeedGenerator(wiring.Component):
         super().__init__({
             "feed":    In(FeedSignature()),
             "profile": In(Profile()),
+            "accel":   In(32),
             "start":   In(1),
             "hold":    In(1),
             "rate":    Out(24),
@@ -136,21 +139,25 @@ class FeedGenerator(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         p = self.profile
-        limit = self._max_rate << 24
-        rate = Signal(48)                       # Q0.48
-        distance = Signal(34)                   # Q2.32, at most √2 between steps
+        rate = Signal(40)                       # Q0.40
+        distance = Signal(26)                   # Q2.24: below √2 + 1
         steps = Signal(24)
 
-        target = Signal(48)
-        m.d.comb += target.eq(Mux(steps < p.decelerate, p.cruise, p.exit) << 24)
-        clamped = Mux(target > limit, limit, target)
-        up = rate + p.accel
-        down = rate - p.accel
-        following = Signal(48)
-        with m.If(rate < clamped):
-            m.d.comb += following.eq(Mux(up > clamped, clamped, up))
+        target = Signal(40)
+        wanted = Mux(steps < p.decelerate, p.cruise, p.exit)
+        m.d.comb += target.eq(Mux(wanted > self._max_rate, self._max_rate, wanted) << 16)
+        diff = Signal(signed(41))
+        m.d.comb += diff.eq(target - rate)
+        with m.If(diff >= 0):
+            with m.If(diff <= self.accel):
+                m.d.sync += rate.eq(target)
+            with m.Else():
+                m.d.sync += rate.eq(rate + self.accel)
         with m.Else():
-            m.d.comb += following.eq(Mux((down < clamped) | (p.accel > rate), clamped, down))
+            with m.If(-diff <= self.accel):
+                m.d.sync += rate.eq(target)
+            with m.Else():
+                m.d.sync += rate.eq(rate - self.accel)
 
         length = Mux(self.feed.diagonal, SQRT2, ONE)
         tick = Signal()
@@ -160,7 +167,7 @@ class FeedGenerator(wiring.Component):
             tick.eq(~self.hold & (distance >= length)),
             self.feed.tick.eq(tick),
             step.eq(tick & self.feed.due),
-            self.rate.eq(rate[24:]),
+            self.rate.eq(rate[16:]),
             self.steps.eq(steps),
         ]
         with m.If(step):
@@ -168,10 +175,7 @@ class FeedGenerator(wiring.Component):
         with m.Elif(~self.hold & ~tick):            # a pending permission holds its distance
             m.d.sync += distance.eq(grown)
         with m.If(self.start):
-            entry = p.entry << 24
-            m.d.sync += [rate.eq(Mux(entry > limit, limit, entry)), steps.eq(0)]
-        with m.Else():
-            m.d.sync += rate.eq(following)
-            with m.If(step):
-                m.d.sync += steps.eq(steps + 1)
+            m.d.sync += steps.eq(Mux(step, 1, 0))
+        with m.Elif(step):
+            m.d.sync += steps.eq(steps + 1)
         return m

@@ -16,11 +16,13 @@ frame     type  payload                                                    queue
 LINE      0x10  x, y: int32: a relative move                               yes
 ARC       0x11  x0, y0, x1, y1: int32, relative to the centre; cw: uint8   yes
 DWELL     0x12  clocks: uint32                                             yes
-FEED      0x13  entry, cruise, exit: uint24 step rates (steps a clock,     yes
-                Q0.24); accel: uint32 (rate change a clock, Q0.48);
-                decelerate: uint24 (steps before the ramp down); for the
-                next move (LINE or ARC)
+FEED      0x13  cruise, exit: uint24 step rates (steps a clock, Q0.24);    yes
+                decelerate: uint24 (steps before the ramp down to exit);
+                for the next move (LINE or ARC); a move starts at the
+                rate the one before it ended at
 STOP      0x14  (none): the end of a program                               yes
+CONFIG    0x15  accel: uint32, the rate's change a clock (Q0.40); takes    yes
+                effect when dispatched: send it while nothing moves
 QUERY     0x20  (none): asks for a STATUS reply                            no
 ABORT     0x21  (none): stops the motion at once and ends every queued     no
                 frame ABORTED
@@ -47,25 +49,25 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "QUERY", "ABORT", "OUTCOME",
+__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "QUERY", "ABORT", "OUTCOME",
            "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES", "crc16_byte",
-           "Command", "FrameDecoder", "FrameEncoder"]
+           "FrameDecoder", "FrameEncoder"]
 
 SYNC = 0xA5
-LINE, ARC, DWELL, FEED, STOP = 0x10, 0x11, 0x12, 0x13, 0x14
+LINE, ARC, DWELL, FEED, STOP, CONFIG = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15
 QUERY, ABORT = 0x20, 0x21
 OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 
 #: Frames that go into the queue.
-QUEUED = (LINE, ARC, DWELL, FEED, STOP)
+QUEUED = (LINE, ARC, DWELL, FEED, STOP, CONFIG)
 
 #: Payload length of every frame type, both directions.
-LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 16, STOP: 0, QUERY: 0, ABORT: 0,
+LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
            OUTCOME: 2, STATUS: 10, ERROR: 1}
 
 #: ERROR codes.
 ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
-          4: "serial framing error or overrun"}
+          4: "serial framing error or overrun", 5: "frame queue full"}
 
 #: The longest payload of a frame from the host.
 PAYLOAD_BYTES = max(LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT))
@@ -85,21 +87,17 @@ def crc16_byte(m, crc, byte):
     return crc
 
 
-def Command():
-    """Layout of a queued frame: its type and its payload bytes."""
-    return data.StructLayout({"kind": 8, "payload": data.ArrayLayout(8, PAYLOAD_BYTES)})
-
-
 class FrameDecoder(wiring.Component):
-    """Bytes from the host in, checked frames out: a corrupt frame is dropped and reported.
+    """Bytes from the host in, checked frames into the frame queue; a corrupt frame dropped.
 
-    The decoder hunts for the sync byte, takes the type and the length (an unknown type or a
-    length that is not the type's drops the frame at once: ``ERROR`` codes 2 and 3), the
-    payload and the CRC; a frame whose CRC checks is offered on :py:`o` (queued types) or
-    signalled on :py:`query` / :py:`abort` (immediate types), a frame whose CRC does not is
-    dropped (code 1). While a frame is offered the decoder takes no byte. :py:`error`
-    carries the code of each dropped frame (and of the serial errors given on
-    :py:`line_error`, code 4); nothing a dropped frame held reaches :py:`o`.
+    The decoder hunts for the sync byte and takes the type and the length: an unknown type or
+    a length that is not the type's drops the frame at once (``ERROR`` codes 2 and 3). A
+    queued type is written into the frame queue (:class:`~hdl.motion.queue.FrameQueue`) as it
+    arrives, its type byte then its payload, and committed only when its CRC checks; a frame
+    whose CRC does not check is rolled back (code 1), one the queue has no room for is dropped
+    (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals on
+    :py:`query` or :py:`abort` when its CRC checks. :py:`error` carries the code of each
+    dropped frame (and of the serial errors given on :py:`line_error`, code 4).
 
     Members
     -------
@@ -107,19 +105,26 @@ class FrameDecoder(wiring.Component):
         Bytes from the host.
     line_error : :py:`In(1)`
         A character was lost on the line (framing error or overrun).
-    o : :py:`Out(stream.Signature(Command()))`
-        Checked queued frames.
+    q_data, q_en, q_commit, q_rollback : :py:`Out(8)`, :py:`Out(1)` ...
+        To the frame queue's write side.
+    q_room : :py:`In(16)`
+        Bytes the queue can still take.
     query, abort : :py:`Out(1)`
         A checked QUERY or ABORT frame ended in this clock.
     error : :py:`Out(stream.Signature(8))`
-        Codes of dropped frames (:data:`ERRORS`).
+        Codes of dropped frames (:data:`ERRORS`); a code not yet taken is replaced by the
+        next.
     """
 
     def __init__(self):
         super().__init__({
             "i":          In(stream.Signature(8)),
             "line_error": In(1),
-            "o":          Out(stream.Signature(Command())),
+            "q_data":     Out(8),
+            "q_en":       Out(1),
+            "q_commit":   Out(1),
+            "q_rollback": Out(1),
+            "q_room":     In(16),
             "query":      Out(1),
             "abort":      Out(1),
             "error":      Out(stream.Signature(8)),
@@ -129,90 +134,85 @@ class FrameDecoder(wiring.Component):
         m = Module()
         byte = self.i.payload
         kind = Signal(8)
+        queued = Signal()                       # the frame goes into the queue
         length = Signal(range(PAYLOAD_BYTES + 1))
         index = Signal(range(PAYLOAD_BYTES + 1))
-        payload = Signal(data.ArrayLayout(8, PAYLOAD_BYTES))
         crc = Signal(16)
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
         take = self.i.valid & self.i.ready
+        m.d.comb += self.q_data.eq(byte)
 
         code = Signal(8)                        # an error to report; 0: none
-        m.d.comb += [
-            self.o.payload.kind.eq(kind),
-            self.o.payload.payload.eq(payload),
-            self.error.valid.eq(code != 0),
-            self.error.payload.eq(code),
-        ]
+        m.d.comb += [self.error.valid.eq(code != 0), self.error.payload.eq(code)]
         with m.If(self.error.ready):
             m.d.sync += code.eq(0)
-        with m.If(self.line_error):
-            m.d.sync += code.eq(4)
 
         known = Signal()
+        queued_type = Signal()
         expected = Signal(range(PAYLOAD_BYTES + 1))
         with m.Switch(byte):
             for frame_type, count in LENGTHS.items():
                 if frame_type in QUEUED + (QUERY, ABORT):
                     with m.Case(frame_type):
-                        m.d.comb += [known.eq(1), expected.eq(count)]
+                        m.d.comb += [known.eq(1), expected.eq(count),
+                                     queued_type.eq(frame_type in QUEUED)]
 
-        def drop(error_code):
+        def drop(error_code, rollback):
             m.d.sync += code.eq(error_code)
+            if rollback:
+                m.d.comb += self.q_rollback.eq(queued)
             m.next = "Hunt"
 
-        with m.FSM(name="decoder"):
+        with m.FSM(name="decoder") as fsm:
             with m.State("Hunt"):
-                m.d.comb += self.i.ready.eq(1)
                 with m.If(take & (byte == SYNC)):
                     m.d.sync += crc.eq(0xFFFF)
                     m.next = "Type"
             with m.State("Type"):
-                m.d.comb += self.i.ready.eq(1)
                 with m.If(take):
-                    with m.If(known):
-                        m.d.sync += [kind.eq(byte), length.eq(expected), crc.eq(crc_next)]
-                        m.next = "Length"
+                    with m.If(~known):
+                        drop(2, rollback=False)
+                    with m.Elif(queued_type & (self.q_room < expected + 1)):
+                        drop(5, rollback=False)
                     with m.Else():
-                        drop(2)
+                        m.d.comb += self.q_en.eq(queued_type)
+                        m.d.sync += [kind.eq(byte), queued.eq(queued_type),
+                                     length.eq(expected), crc.eq(crc_next)]
+                        m.next = "Length"
             with m.State("Length"):
-                m.d.comb += self.i.ready.eq(1)
                 with m.If(take):
                     with m.If(byte == length):
                         m.d.sync += [crc.eq(crc_next), index.eq(0)]
                         m.next = "Payload"
                     with m.Else():
-                        drop(3)
+                        drop(3, rollback=True)
             with m.State("Payload"):
                 with m.If(index == length):
                     m.next = "CRC high"
-                with m.Else():
-                    m.d.comb += self.i.ready.eq(1)
-                    with m.If(take):
-                        m.d.sync += [payload[index].eq(byte), index.eq(index + 1),
-                                     crc.eq(crc_next)]
+                with m.Elif(self.i.valid):          # (ready here)
+                    m.d.comb += self.q_en.eq(queued)
+                    m.d.sync += [index.eq(index + 1), crc.eq(crc_next)]
             with m.State("CRC high"):
-                m.d.comb += self.i.ready.eq(1)
                 with m.If(take):
                     m.d.sync += received.eq(byte)
                     m.next = "CRC low"
             with m.State("CRC low"):
-                m.d.comb += self.i.ready.eq(1)
                 with m.If(take):
                     with m.If(Cat(byte, received) != crc):
-                        drop(1)
-                    with m.Elif(kind == QUERY):
-                        m.d.comb += self.query.eq(1)
-                        m.next = "Hunt"
-                    with m.Elif(kind == ABORT):
-                        m.d.comb += self.abort.eq(1)
-                        m.next = "Hunt"
+                        drop(1, rollback=True)
                     with m.Else():
-                        m.next = "Offer"
-            with m.State("Offer"):
-                m.d.comb += self.o.valid.eq(1)
-                with m.If(self.o.ready):
-                    m.next = "Hunt"
+                        m.d.comb += [
+                            self.q_commit.eq(queued),
+                            self.query.eq(kind == QUERY),
+                            self.abort.eq(kind == ABORT),
+                        ]
+                        m.next = "Hunt"
+        # Every byte is taken at once, but in the clock between a payload and its CRC.
+        m.d.comb += self.i.ready.eq(~(fsm.ongoing("Payload") & (index == length)))
+        # A serial error is the newest news (after this clock's frame error, if any).
+        with m.If(self.line_error):
+            m.d.sync += code.eq(4)
         return m
 
 

@@ -9,11 +9,11 @@ import binascii
 import struct
 from dataclasses import dataclass
 
-from hdl.motion.link import (ABORT, ARC, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE, OUTCOME,
-                             QUERY, STATUS, STOP, SYNC)
+from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
+                             OUTCOME, QUERY, STATUS, STOP, SYNC)
 
-__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "query", "abort", "Reply",
-           "ReplyParser", "crc"]
+__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "query", "abort",
+           "Reply", "ReplyParser", "CommandParser", "crc"]
 
 
 def crc(body):
@@ -43,17 +43,22 @@ def dwell(clocks):
     return frame(DWELL, struct.pack("<I", clocks))
 
 
-def feed(entry, cruise, exit, accel, decelerate):
-    """A FEED frame for the next move: rates in steps a clock as Q0.24 integers, ``accel``
-    (the rate's change a clock) as Q0.48, and the number of steps before its ramp down."""
-    for name, value, bits in (("entry", entry, 24), ("cruise", cruise, 24), ("exit", exit, 24),
-                              ("accel", accel, 32), ("decelerate", decelerate, 24)):
-        if not 0 <= value < 1 << bits:
-            raise ValueError(f"FEED {name} must be an unsigned {bits}-bit integer, "
-                             f"not {value!r}")
-    return frame(FEED, b"".join(v.to_bytes(n, "little") for v, n in
-                                ((entry, 3), (cruise, 3), (exit, 3), (accel, 4),
-                                 (decelerate, 3))))
+def _unsigned(name, value, bits):
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 1 << bits:
+        raise ValueError(f"{name} must be an unsigned {bits}-bit integer, not {value!r}")
+    return value.to_bytes(bits // 8, "little")
+
+
+def feed(cruise, exit, decelerate):
+    """A FEED frame for the next move: its cruise and exit rates in steps a clock (Q0.24
+    integers) and the steps it makes before ramping down to the exit rate."""
+    return frame(FEED, _unsigned("FEED cruise", cruise, 24) + _unsigned("FEED exit", exit, 24)
+                 + _unsigned("FEED decelerate", decelerate, 24))
+
+
+def config(accel):
+    """A CONFIG frame: the acceleration, the rate's change a clock (Q0.40 integer)."""
+    return frame(CONFIG, _unsigned("CONFIG accel", accel, 32))
 
 
 def stop():

@@ -1,0 +1,361 @@
+"""The machine controller: frames over a serial line in, step/dir out.
+
+UART (:mod:`.uart`) -> :class:`~.link.FrameDecoder` -> frame queue (block RAM) -> dispatcher ->
+engines (a line engine and an arc engine) -> step/dir stage; outcomes, errors and status
+replies go back through :class:`~.link.FrameEncoder` and the UART. The protocol is
+:mod:`.link`'s.
+"""
+
+from amaranth import *
+from amaranth.lib import data, fifo, wiring
+from amaranth.lib.wiring import In, Out
+
+from ..elements._checks import check_width
+from ..engine import MotionSignature, Outcome
+from .feed import FeedGenerator, Profile, rate_limit
+from .link import (ARC, CONFIG, DWELL, ERROR, FEED, LENGTHS, LINE, OUTCOME, PAYLOAD_BYTES,
+                   QUEUED, STATUS, FrameDecoder, FrameEncoder)
+from .player import check_engine
+from .queue import FrameQueue
+from .stepdir import StepDirStage
+from .uart import UARTReceiver, UARTTransmitter, divisor_for
+
+__all__ = ["MotionController", "Turn"]
+
+#: What a turn is for: nothing to move (FEED, STOP, CONFIG, an aborted frame), a line, an
+#: arc, a dwell.
+NONE_UNIT, LINE_UNIT, ARC_UNIT, DWELL_UNIT = 0, 1, 2, 3
+
+
+def Turn():
+    """A queued frame's turn: which unit it runs on, whether it was aborted before it ran, and
+    its argument (a move's feed profile, or a dwell's clocks)."""
+    return data.StructLayout({"unit": 2, "aborted": 1, "argument": Profile()})
+
+
+def _little(payload, first, count, *, signed_value=False):
+    value = Cat(*(payload[i] for i in range(first, first + count)))
+    return value.as_signed() if signed_value else value
+
+
+class MotionController(wiring.Component):
+    """The machine: a frame queue fed over a serial line, two engines, a feed, step/dir pins.
+
+    Frames (:mod:`hdl.motion.link`) arrive on :py:`rx`. A checked queued frame goes into the
+    frame queue (``queue_frames`` of them, in block RAM); the dispatcher hands each to its unit in
+    order as soon as the unit can take it (a line or arc to its engine, which may prepare it
+    while the move before runs: an arc is planned while the line before it is still moving),
+    and records its *turn*. Turns are taken in order: only the engine whose turn it is gets
+    the feed's permissions, so moves on different engines follow the program exactly, with no
+    idle clock at a joint when the next move is prepared in time. A FEED frame sets the
+    profile (cruise and exit rates, ramp-down point) of the move after it, CONFIG the
+    acceleration; a DWELL waits its clocks; STOP marks the end of a program. Every queued frame ends, in
+    order, with an ``OUTCOME`` reply (its number and outcome); a corrupt frame is dropped with
+    an ``ERROR`` reply; ``QUERY`` answers ``STATUS`` (position, free queue slots, flags);
+    ``ABORT`` stops the motion at once (the engines' abort) and ends every frame queued before
+    it ``ABORTED``.
+
+    The engines' steps go through :class:`~hdl.motion.stepdir.StepDirStage` (``dir_setup``,
+    ``step_width``); the feed never permits steps closer than ``dir_setup + step_width + 1``
+    clocks, so the pulses always fit. The maximum step rate is therefore ``clock_hz /
+    (dir_setup + step_width + 1)``.
+
+    Parameters
+    ----------
+    line, arc : :class:`~amaranth.lib.wiring.Component`
+        The engines (``LineEngine`` and ``ArcEngine`` with 32-bit frame coordinates).
+    clock_hz : :class:`float`
+        Clock frequency.
+    baud : :class:`int`
+        Serial rate (8N1).
+    queue_frames : :class:`int`
+        Frames the queue holds (its bytes are in block RAM).
+    dir_setup, step_width : :class:`int`
+        Step/dir timing in clocks (see :class:`~hdl.motion.stepdir.StepDirStage`).
+
+    Members
+    -------
+    rx : :py:`In(1, init=1)`
+        Serial line from the host.
+    tx : :py:`Out(1, init=1)`
+        Serial line to the host.
+    motion : :py:`Out(MotionSignature(2))`
+        Step/dir pins, timed for drivers.
+    enable : :py:`Out(1)`
+        Driver enable (high once out of reset).
+    position : :py:`Out(data.ArrayLayout(signed(32), 2))`
+        Absolute position, steps per axis since reset.
+    busy : :py:`Out(1)`
+        Frames are queued or running.
+    error : :py:`Out(1)`
+        A frame has been dropped since reset (sticky).
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If an engine lacks the engine signature, or a number is not a positive integer.
+    :exc:`ValueError`
+        If the clock cannot make the baud rate.
+    """
+
+    def __init__(self, *, line, arc, clock_hz=12e6, baud=115200, queue_frames=32,
+                 dir_setup=12, step_width=24):
+        check_engine(line)
+        check_engine(arc)
+        check_width("Queue length", queue_frames, minimum=2)
+        check_width("Direction setup", dir_setup, minimum=0)
+        check_width("Step pulse width", step_width)
+        divisor = divisor_for(clock_hz, baud)
+        self._line, self._arc = line, arc
+        self._queue_frames = queue_frames
+        self._clock_hz = clock_hz
+        self._min_interval = dir_setup + step_width + 1
+        longest = 1 + PAYLOAD_BYTES
+        self.uart_rx = UARTReceiver(divisor)
+        self.uart_tx = UARTTransmitter(divisor)
+        self.decoder = FrameDecoder()
+        self.queue = FrameQueue(1 << (queue_frames * longest - 1).bit_length())
+        self.encoder = FrameEncoder()
+        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
+        self.stepdir = StepDirStage(dir_setup=dir_setup, step_width=step_width)
+        super().__init__({
+            "rx":       In(1, init=1),
+            "tx":       Out(1, init=1),
+            "motion":   Out(MotionSignature(2)),
+            "enable":   Out(1),
+            "position": Out(data.ArrayLayout(signed(32), 2)),
+            "busy":     Out(1),
+            "error":    Out(1),
+        })
+
+    @property
+    def queue_frames(self):
+        return self._queue_frames
+
+    @property
+    def max_step_rate(self):
+        """Steps a second at most, per axis (the step/dir timing's limit)."""
+        return self._clock_hz / self._min_interval
+
+    def elaborate(self, platform):
+        m = Module()
+        line, arc = self._line, self._arc
+        for name in ("uart_rx", "uart_tx", "decoder", "queue", "encoder", "feed", "stepdir"):
+            m.submodules[name] = getattr(self, name)
+        m.submodules.line = line
+        m.submodules.arc = arc
+        decoder, queue, feed = self.decoder, self.queue, self.feed
+
+        # ---- serial line in, checked frames into the queue ----------------------------------
+        m.d.comb += [
+            self.uart_rx.rx.eq(self.rx),
+            decoder.line_error.eq(self.uart_rx.error | self.uart_rx.overrun),
+            queue.w_data.eq(decoder.q_data),
+            queue.w_en.eq(decoder.q_en),
+            queue.commit.eq(decoder.q_commit),
+            queue.rollback.eq(decoder.q_rollback),
+            decoder.q_room.eq(queue.w_room),
+        ]
+        wiring.connect(m, self.uart_rx.o, decoder.i)
+        queued = Signal(range(self._queue_frames + 2))      # whole frames in the queue
+
+        # ---- dispatcher: a frame from the queue into the frame register, then to its unit ---
+        kind = Signal(8)
+        payload = Signal(data.ArrayLayout(8, PAYLOAD_BYTES))
+        length = Signal(range(PAYLOAD_BYTES + 1))
+        index = Signal(range(PAYLOAD_BYTES + 1))
+        lengths = Signal(range(PAYLOAD_BYTES + 1))
+        with m.Switch(queue.r.payload):
+            for frame_type in QUEUED:
+                with m.Case(frame_type):
+                    m.d.comb += lengths.eq(LENGTHS[frame_type])
+        held = Signal()                                     # the frame register holds a frame
+        take = Signal()
+        frame_start = Signal()                              # a frame's type byte is read
+        with m.FSM(name="dispatch"):
+            with m.State("Kind"):
+                m.d.comb += [queue.r.ready.eq(1), frame_start.eq(queue.r.valid)]
+                with m.If(queue.r.valid):
+                    m.d.sync += [kind.eq(queue.r.payload), length.eq(lengths), index.eq(0)]
+                    m.next = "Payload"
+            with m.State("Payload"):
+                with m.If(index == length):
+                    m.d.sync += held.eq(1)
+                    m.next = "Ready"
+                with m.Else():
+                    m.d.comb += queue.r.ready.eq(1)
+                    with m.If(queue.r.valid):
+                        m.d.sync += [payload[index].eq(queue.r.payload), index.eq(index + 1)]
+            with m.State("Ready"):
+                with m.If(take):
+                    m.d.sync += held.eq(0)
+                    m.next = "Kind"
+        m.d.sync += queued.eq(queued + decoder.q_commit - frame_start)
+
+        m.submodules.turns = turns = fifo.SyncFIFOBuffered(width=Turn().size, depth=16)
+        profile = Signal(Profile())                 # the last FEED's: for the next move
+        accel = Signal(32)                          # CONFIG: the acceleration
+        flush = Signal(range(self._queue_frames + 3))   # frames before an abort still to end
+        aborting = flush != 0
+        unit = Signal(2)
+        with m.Switch(kind):
+            with m.Case(LINE):
+                m.d.comb += unit.eq(LINE_UNIT)
+            with m.Case(ARC):
+                m.d.comb += unit.eq(ARC_UNIT)
+            with m.Case(DWELL):
+                m.d.comb += unit.eq(DWELL_UNIT)
+        offer = held & turns.w_rdy & ~aborting
+        m.d.comb += [
+            line.cmd.payload.x.eq(_little(payload, 0, 4, signed_value=True)),
+            line.cmd.payload.y.eq(_little(payload, 4, 4, signed_value=True)),
+            line.cmd.valid.eq(offer & (unit == LINE_UNIT)),
+            arc.cmd.payload.x0.eq(_little(payload, 0, 4, signed_value=True)),
+            arc.cmd.payload.y0.eq(_little(payload, 4, 4, signed_value=True)),
+            arc.cmd.payload.x1.eq(_little(payload, 8, 4, signed_value=True)),
+            arc.cmd.payload.y1.eq(_little(payload, 12, 4, signed_value=True)),
+            arc.cmd.payload.cw.eq(payload[16][0]),
+            arc.cmd.valid.eq(offer & (unit == ARC_UNIT)),
+            take.eq(held & turns.w_rdy & (
+                aborting | Mux(unit == LINE_UNIT, line.cmd.ready,
+                               Mux(unit == ARC_UNIT, arc.cmd.ready, 1)))),
+            turns.w_en.eq(take),
+        ]
+        turn_in = Turn()(turns.w_data)
+        m.d.comb += [
+            turn_in.unit.eq(Mux(aborting, NONE_UNIT, unit)),
+            turn_in.aborted.eq(aborting),
+            turn_in.argument.eq(Mux(unit == DWELL_UNIT, _little(payload, 0, 4), profile)),
+        ]
+        with m.If(take & ~aborting & (kind == FEED)):
+            m.d.sync += profile.eq(_little(payload, 0, 9))
+        with m.If(take & ~aborting & (kind == CONFIG)):
+            m.d.sync += accel.eq(_little(payload, 0, 4))
+        with m.If(decoder.abort):
+            # The frames queued before the abort: those in the queue, and one being read.
+            m.d.sync += flush.eq(queued + Mux(held | (index != length), 1, 0))
+        with m.Elif(take & aborting):
+            m.d.sync += flush.eq(flush - 1)
+        # ---- turns: one unit moves at a time, in order --------------------------------------
+        current = Turn()(turns.r_data)
+        turn = Signal(2)
+        m.d.comb += turn.eq(Mux(turns.r_rdy, current.unit, NONE_UNIT))
+        started = Signal()
+        first = turns.r_rdy & ~started
+        # Outcomes wait here for the serial line: their numbers count every queued frame.
+        m.submodules.outcomes = outcomes = fifo.SyncFIFOBuffered(width=2, depth=16)
+        room = outcomes.w_rdy
+
+        dwell_left = Signal(32)
+        complete = Signal()
+        outcome = Signal(Outcome)
+        line_ends = line.status.valid & line.status.ready
+        arc_ends = arc.status.valid & arc.status.ready
+        m.d.comb += [
+            line.status.ready.eq(room & (turn == LINE_UNIT)),
+            arc.status.ready.eq(room & (turn == ARC_UNIT)),
+            line.abort.eq(decoder.abort),
+            arc.abort.eq(decoder.abort),
+        ]
+        with m.Switch(turn):
+            with m.Case(LINE_UNIT):
+                m.d.comb += [complete.eq(line_ends), outcome.eq(line.status.payload.outcome)]
+            with m.Case(ARC_UNIT):
+                m.d.comb += [complete.eq(arc_ends), outcome.eq(arc.status.payload.outcome)]
+            with m.Case(DWELL_UNIT):
+                m.d.comb += [
+                    complete.eq(room & started & ((dwell_left == 0) | decoder.abort)),
+                    outcome.eq(Mux(decoder.abort, Outcome.ABORTED, Outcome.DONE)),
+                ]
+            with m.Default():
+                m.d.comb += [
+                    complete.eq(room & turns.r_rdy),
+                    outcome.eq(Mux(current.aborted, Outcome.ABORTED, Outcome.DONE)),
+                ]
+        m.d.comb += [
+            turns.r_en.eq(complete),
+            outcomes.w_en.eq(complete),
+            outcomes.w_data.eq(outcome),
+        ]
+        with m.If(complete):
+            m.d.sync += started.eq(0)
+        with m.Elif(turns.r_rdy):
+            m.d.sync += started.eq(1)
+        with m.If(first):
+            m.d.sync += dwell_left.eq(current.argument.as_value()[:32])
+        with m.Elif(dwell_left != 0):
+            m.d.sync += dwell_left.eq(dwell_left - 1)
+
+        # ---- the feed: permissions for the engine whose turn it is --------------------------
+        moving = (turn == LINE_UNIT) | (turn == ARC_UNIT)
+        m.d.comb += [
+            feed.profile.eq(current.argument),
+            feed.accel.eq(accel),
+            feed.start.eq(first & moving),
+            feed.feed.due.eq(Mux(turn == ARC_UNIT, arc.feed.due,
+                                 Mux(turn == LINE_UNIT, line.feed.due, 0))),
+            feed.feed.diagonal.eq(Mux(turn == ARC_UNIT, arc.feed.diagonal, line.feed.diagonal)),
+            line.feed.tick.eq(feed.feed.tick & (turn == LINE_UNIT)),
+            arc.feed.tick.eq(feed.feed.tick & (turn == ARC_UNIT)),
+        ]
+
+        # ---- motion: the position, and the pins --------------------------------------------
+        step = Signal(2)
+        direction = Signal(2)
+        m.d.comb += [
+            step.eq(line.motion.step | arc.motion.step),
+            direction.eq(Mux(turn == ARC_UNIT, arc.motion.dir, line.motion.dir)),
+            self.stepdir.i.step.eq(step),
+            self.stepdir.i.dir.eq(direction),
+        ]
+        wiring.connect(m, self.stepdir.o, wiring.flipped(self.motion))
+        for axis in range(2):
+            with m.If(step[axis]):
+                m.d.sync += self.position[axis].eq(
+                    self.position[axis] + Mux(direction[axis], -1, 1))
+        m.d.sync += self.enable.eq(1)
+
+        # ---- replies: outcomes first, then errors, then status ------------------------------
+        reply = FrameEncoder.Reply()(self.encoder.i.payload)
+        number = Signal(8)
+        query = Signal()
+        error_sent = Signal()
+        with m.If(decoder.query):
+            m.d.sync += query.eq(1)
+        sending = self.encoder.i.valid & self.encoder.i.ready
+        with m.If(outcomes.r_rdy):
+            m.d.comb += [
+                reply.kind.eq(OUTCOME),
+                reply.payload[0].eq(number),
+                reply.payload[1].eq(outcomes.r_data),
+                self.encoder.i.valid.eq(1),
+                outcomes.r_en.eq(self.encoder.i.ready),
+            ]
+            with m.If(sending):
+                m.d.sync += number.eq(number + 1)
+        with m.Elif(decoder.error.valid):
+            m.d.comb += [
+                reply.kind.eq(ERROR),
+                reply.payload[0].eq(decoder.error.payload),
+                self.encoder.i.valid.eq(1),
+                decoder.error.ready.eq(self.encoder.i.ready),
+            ]
+            with m.If(sending):
+                m.d.sync += error_sent.eq(1)
+        with m.Elif(query):
+            free = self._queue_frames - queued - held
+            status = Cat(self.position[0], self.position[1], free[:8], turns.r_rdy, error_sent)
+            m.d.comb += [
+                reply.kind.eq(STATUS),
+                reply.payload.as_value().eq(status),
+                self.encoder.i.valid.eq(1),
+            ]
+            with m.If(sending):
+                m.d.sync += query.eq(0)
+        m.d.comb += [
+            self.busy.eq(held | (queued != 0) | turns.r_rdy),
+            self.error.eq(error_sent),
+        ]
+        wiring.connect(m, self.encoder.o, self.uart_tx.i)
+        m.d.comb += self.tx.eq(self.uart_tx.tx)
+        return m

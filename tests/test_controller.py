@@ -1,0 +1,167 @@
+# amaranth: UnusedElaboratable=no
+"""The machine controller end to end in Amaranth's simulator: frames over the serial pin,
+steps on the step/dir pins, replies back; against the step-level models."""
+
+import random
+import unittest
+
+from hdl.motion.controller import MotionController
+from hdl.motion.link import OUTCOME, STATUS
+from sim import registry
+from sim.host import protocol
+
+from .test_uart import line_levels
+from .utils import simulate
+
+CLOCK, BAUD = 1e6, 125_000                 # 8 clocks a bit: quick to simulate
+BIT = round(CLOCK / BAUD)
+Q24 = 1 << 24
+
+
+def controller(**kwargs):
+    return MotionController(line=registry.make_engine("line", width=12),
+                            arc=registry.make_engine("arc", "fast", width=12),
+                            clock_hz=CLOCK, baud=BAUD, dir_setup=1, step_width=2,
+                            **kwargs)
+
+
+def run(frames, *, clocks, depth=8, inject=None, name):
+    """Send ``frames`` (bytes each) as a host would (at most ``depth`` unanswered queued
+    frames), and ``inject`` (clock to bytes) at those clocks; collect the pins and replies.
+    Returns ``(moves, replies, trace)``: the ``(clock, dx, dy)`` of every step pulse, the
+    replies, and ``(step, dir)`` per clock."""
+    inject = inject or {}
+    dut = controller(queue_frames=depth)
+    moves, trace, tx_levels = [], [], []
+    replies = []
+
+    async def testbench(ctx):
+        sending, pending_levels = list(frames), []
+        outstanding = 0
+        parser = protocol.ReplyParser()
+        rx_bits, rx_timer, rx_byte, rx_state = [], 0, 0, "idle"
+        previous = 0
+        for clock in range(clocks):
+            # ---- host to machine: a frame's levels once the window allows it ------------
+            if not pending_levels and sending:
+                data = sending[0]
+                queued = data[1] not in (0x20, 0x21)
+                if not queued or outstanding < depth:
+                    sending.pop(0)
+                    outstanding += queued
+                    pending_levels = [level for byte in data
+                                      for level in line_levels(byte, BIT)]
+            if clock in inject:
+                pending_levels += [level for byte in inject[clock]
+                                   for level in line_levels(byte, BIT)]
+            ctx.set(dut.rx, pending_levels.pop(0) if pending_levels else 1)
+            # ---- machine to host: sample the tx line in the middle of each bit ----------
+            level = ctx.get(dut.tx)
+            if rx_state == "idle" and level == 0:
+                rx_state, rx_timer, rx_bits = "bits", BIT + BIT // 2, []
+            elif rx_state == "bits":
+                rx_timer -= 1
+                if rx_timer == 0:
+                    rx_bits.append(level)
+                    rx_timer = BIT
+                    if len(rx_bits) == 9:            # 8 data bits and the stop bit
+                        byte = sum(b << i for i, b in enumerate(rx_bits[:8]))
+                        for reply in parser.feed(bytes([byte])):
+                            replies.append(reply)
+                            outstanding -= reply.kind == OUTCOME
+                        rx_state = "idle"
+            # ---- the pins ------------------------------------------------------------------
+            step, direction = ctx.get(dut.motion.step), ctx.get(dut.motion.dir)
+            trace.append((step, direction))
+            rising = step & ~previous
+            if rising:
+                dx = (-1 if direction & 1 else 1) if rising & 1 else 0
+                dy = (-1 if direction & 2 else 1) if rising & 2 else 0
+                moves.append((clock, dx, dy))
+            previous = step
+            await ctx.tick()
+        assert not sending and not pending_levels
+
+    simulate(dut, testbench, name=name)
+    return moves, replies, trace
+
+
+def expected(program):
+    """The steps of a program of ("line", payload) / ("arc", payload) items."""
+    steps = []
+    for kind, payload in program:
+        steps += registry.steps(kind, payload, registry.KINDS[kind].default_variant
+                                if kind == "line" else "fast", width=12)
+    return steps
+
+
+class ControllerTestCase(unittest.TestCase):
+    def program(self):
+        moves = [("line", {"x": 7, "y": -3}),
+                 ("arc", {"x0": 0, "y0": -6, "x1": 6, "y1": 0, "cw": 0}),
+                 ("line", {"x": -5, "y": 12}),
+                 ("arc", {"x0": 4, "y0": 3, "x1": 4, "y1": 3, "cw": 1})]
+        rate = round(0.05 * Q24)                          # a step every 20 clocks
+        frames = [protocol.config((1 << 32) - 1)]
+        for kind, p in moves:
+            frames.append(protocol.feed(rate, rate, 1 << 20))
+            frames.append(protocol.line(p["x"], p["y"]) if kind == "line" else
+                          protocol.arc(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"]))
+        frames.insert(5, protocol.dwell(200))
+        frames.append(protocol.stop())
+        frames.append(protocol.query())
+        return moves, frames
+
+    def test_program(self):
+        moves, frames = self.program()
+        pins, replies, trace = run(frames, clocks=60_000, name="controller_program")
+        self.assertEqual([(dx, dy) for _, dx, dy in pins], expected(moves))
+        outcomes = [r.fields for r in replies if r.kind == OUTCOME]
+        queued = len(frames) - 1                                   # all but the QUERY
+        self.assertEqual(outcomes, [(n, 0) for n in range(queued)])
+        (status,) = [r.fields for r in replies if r.kind == STATUS]
+        self.assertEqual(status[:2], (sum(dx for _, dx, _ in pins), sum(dy for _, _, dy in pins)))
+        self.assertEqual(status[2], 8)                             # the queue is empty again
+        # Step pulses 2 clocks long, directions set up 1 clock before and held through them,
+        # and never two pulses of an axis closer than the feed allows (20 clocks).
+        for axis in range(2):
+            level = [(s >> axis) & 1 for s, _ in trace]
+            ways = [(d >> axis) & 1 for _, d in trace]
+            edges = [c for c in range(1, len(level)) if level[c] and not level[c - 1]]
+            for c in edges:
+                self.assertEqual(level[c:c + 3], [1, 1, 0])
+                self.assertEqual(len(set(ways[c - 1:c + 2])), 1)
+            self.assertGreaterEqual(min(b - a for a, b in zip(edges, edges[1:])), 19)
+
+    def test_corrupt_frame_is_dropped(self):
+        moves, frames = self.program()
+        bad = bytearray(frames[2])                                 # the first LINE
+        bad[5] ^= 0x10
+        frames[2] = bytes(bad)
+        pins, replies, _ = run(frames[:5] + [protocol.query()], clocks=20_000,
+                               name="controller_corrupt")
+        errors = [r.fields for r in replies if r.kind == 0x82]
+        self.assertEqual(errors, [(1,)])                           # CRC mismatch
+        # The corrupt line never moved; the arc after it did, from where the machine was.
+        self.assertEqual([(dx, dy) for _, dx, dy in pins], expected(moves[1:2]))
+
+    def test_refused_and_abort(self):
+        rate = round(0.02 * Q24)
+        frames = [protocol.config((1 << 32) - 1), protocol.feed(rate, rate, 1 << 20),
+                  protocol.line(5000, 1),                           # too wide for 12 bits
+                  protocol.feed(rate, rate, 1 << 20), protocol.line(400, 100),
+                  protocol.feed(rate, rate, 1 << 20), protocol.line(3, 3)]
+        pins, replies, _ = run(frames, clocks=40_000, name="controller_abort",
+                               inject={12_000: protocol.abort(), 30_000: protocol.query()})
+        outcomes = [r.fields for r in replies if r.kind == OUTCOME]
+        self.assertEqual([n for n, _ in outcomes], list(range(len(frames))))
+        self.assertEqual(outcomes[2], (2, 1))                      # refused
+        self.assertEqual(outcomes[4][1], 2)                        # the long line aborted
+        self.assertEqual(outcomes[6], (6, 2))                      # and the one after it
+        self.assertLess(len(pins), 400)
+        (status,) = [r.fields for r in replies if r.kind == STATUS]
+        self.assertEqual(status[:2], (sum(dx for _, dx, _ in pins), sum(dy for _, _, dy in pins)))
+
+
+if __name__ == "__main__":
+    unittest.main()
