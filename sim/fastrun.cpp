@@ -1,0 +1,181 @@
+// The host side of a machine-controller run, inside the Verilator simulation.
+//
+// kontur's MotionController (Verilog "top", ports clk, rst, rx, tx, motion__step,
+// motion__dir) runs clock by clock; this testbench plays what a host does on the serial line:
+// it sends the frames of a file onto rx, 8N1 at `divisor` clocks a bit, keeping at most
+// `window` queued frames unanswered (the protocol's flow control), and parses the replies on
+// tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
+// "R clock type payload-hex" for every reply. Python sees the run only through these files.
+//
+// usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD]
+//   FRAMES: for each frame a 16-bit little-endian length, then its bytes.
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <memory>
+#include <vector>
+
+#include "Vtop.h"
+#include "verilated.h"
+#if VM_TRACE
+#include "verilated_vcd_c.h"
+#endif
+
+static const uint8_t SYNC = 0xA5, OUTCOME = 0x80;
+
+static uint16_t crc16(const std::vector<uint8_t> &data) {
+    uint16_t crc = 0xFFFF;
+    for (uint8_t byte : data)
+        for (int i = 7; i >= 0; i--) {
+            bool top = ((crc >> 15) & 1) ^ ((byte >> i) & 1);
+            crc = (uint16_t)(crc << 1);
+            if (top) crc ^= 0x1021;
+        }
+    return crc;
+}
+
+int main(int argc, char **argv) {
+    if (argc < 6) {
+        std::fprintf(stderr, "usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD]\n");
+        return 2;
+    }
+    FILE *in = std::fopen(argv[1], "rb");
+    FILE *out = std::fopen(argv[2], "w");
+    if (!in || !out) { std::perror("fastrun"); return 1; }
+    const long divisor = std::atol(argv[3]);
+    const long window = std::atol(argv[4]);
+    const unsigned long long max_clocks = std::strtoull(argv[5], nullptr, 10);
+
+    std::deque<std::vector<uint8_t>> frames;
+    for (;;) {
+        uint8_t size[2];
+        if (std::fread(size, 1, 2, in) != 2) break;
+        std::vector<uint8_t> frame(size[0] | size[1] << 8);
+        if (std::fread(frame.data(), 1, frame.size(), in) != frame.size()) return 1;
+        frames.push_back(frame);
+    }
+    std::fclose(in);
+
+    auto context = std::make_unique<VerilatedContext>();
+    context->commandArgs(1, argv);
+    auto top = std::make_unique<Vtop>(context.get());
+#if VM_TRACE
+    std::unique_ptr<VerilatedVcdC> vcd;
+    if (argc > 6) {
+        context->traceEverOn(true);
+        vcd = std::make_unique<VerilatedVcdC>();
+        top->trace(vcd.get(), 99);
+        vcd->open(argv[6]);
+    }
+#endif
+
+    // Host to machine: the bits of the frame being sent, one level every `divisor` clocks.
+    std::vector<uint8_t> levels;
+    size_t level_index = 0;
+    long level_left = 0;
+    long outstanding = 0;
+    // Machine to host: the tx line's bytes and the reply frames they make.
+    int rx_state = 0;                     // 0 idle, 1 receiving
+    long rx_timer = 0;
+    int rx_bit = 0;
+    unsigned rx_byte = 0;
+    std::vector<uint8_t> reply;
+    unsigned long long answered = 0, queued_sent = 0;
+    unsigned previous_step = 0;
+    unsigned long long idle_after = 0;
+
+    top->rst = 1;
+    top->rx = 1;
+    top->clk = 0;
+    top->eval();
+    unsigned long long clock = 0;
+    for (; clock < max_clocks; clock++) {
+        bool reset = clock < 4;
+        top->rst = reset;
+        // ---- host to machine -----------------------------------------------------------
+        if (!reset && level_index == levels.size() && !frames.empty()) {
+            const std::vector<uint8_t> &frame = frames.front();
+            bool queued = frame.size() < 2 || (frame[1] != 0x20 && frame[1] != 0x21);
+            if (!queued || outstanding < window) {
+                levels.clear();
+                level_index = 0;
+                for (uint8_t byte : frame) {
+                    levels.push_back(0);
+                    for (int i = 0; i < 8; i++) levels.push_back((byte >> i) & 1);
+                    levels.push_back(1);
+                }
+                outstanding += queued;
+                queued_sent += queued;
+                level_left = divisor;
+                frames.pop_front();
+            }
+        }
+        if (level_index < levels.size()) {
+            top->rx = levels[level_index];
+            if (--level_left == 0) { level_index++; level_left = divisor; }
+        } else {
+            top->rx = 1;
+        }
+        // ---- the clock edge ---------------------------------------------------------------
+        top->clk = 1;
+        top->eval();
+#if VM_TRACE
+        if (vcd) vcd->dump((uint64_t)(2 * clock + 1));
+#endif
+        top->clk = 0;
+        top->eval();
+#if VM_TRACE
+        if (vcd) vcd->dump((uint64_t)(2 * clock + 2));
+#endif
+        // ---- the pins, after the edge: the values of clock + 1 -----------------------------
+        unsigned step = top->motion___05Fstep;
+        unsigned rising = step & ~previous_step;
+        if (rising)
+            std::fprintf(out, "S %llu %u %u\n", clock + 1, rising, (unsigned)top->motion___05Fdir);
+        previous_step = step;
+        unsigned tx = top->tx;
+        if (rx_state == 0) {
+            if (!tx) { rx_state = 1; rx_timer = divisor + divisor / 2; rx_bit = 0; rx_byte = 0; }
+        } else if (--rx_timer == 0) {
+            rx_timer = divisor;
+            if (rx_bit < 8) {
+                rx_byte |= tx << rx_bit;
+                rx_bit++;
+            } else {
+                rx_state = 0;
+                reply.push_back((uint8_t)rx_byte);
+                // A reply is SYNC type length payload crc-high crc-low.
+                if (reply[0] != SYNC) reply.clear();
+                else if (reply.size() >= 3 && reply.size() == (size_t)reply[2] + 5u) {
+                    std::vector<uint8_t> body(reply.begin() + 1, reply.end() - 2);
+                    uint16_t crc = (uint16_t)(reply[reply.size() - 2] << 8 | reply.back());
+                    if (crc == crc16(body)) {
+                        std::fprintf(out, "R %llu %02x", clock + 1, reply[1]);
+                        for (size_t i = 3; i < reply.size() - 2; i++)
+                            std::fprintf(out, " %02x", reply[i]);
+                        std::fprintf(out, "\n");
+                        if (reply[1] == OUTCOME) { outstanding--; answered++; }
+                    }
+                    reply.clear();
+                }
+            }
+        }
+        // Done: everything sent and answered, the line quiet for a while.
+        if (frames.empty() && level_index == levels.size() && answered == queued_sent
+            && rx_state == 0) {
+            if (idle_after == 0) idle_after = clock + 64 * divisor;
+            if (clock >= idle_after) break;
+        } else {
+            idle_after = 0;
+        }
+    }
+    std::fprintf(out, "E %llu\n", clock);
+#if VM_TRACE
+    if (vcd) vcd->close();
+#endif
+    top->final();
+    std::fclose(out);
+    return clock >= max_clocks ? 3 : 0;
+}

@@ -1,0 +1,128 @@
+"""The machine controller on Verilator at full speed: the host side inside the simulation.
+
+:class:`FastRun` converts a top level (ports ``rx``, ``tx``, ``motion``; the
+:class:`~hdl.motion.controller.MotionController`) to Verilog, builds it once with Verilator and
+``sim/fastrun.cpp`` (a C++ testbench playing the host: the frames onto ``rx`` at the serial
+rate, the window flow control, the replies parsed off ``tx``, every step edge recorded), and
+runs programs on it. Nothing in Python runs per clock, so the simulation goes at Verilator's
+own speed (millions of clocks a second). Builds are shared between runs and processes under a
+lock, one directory per design digest, like :class:`sim.runners.CocotbBuild`'s.
+"""
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .runners import SimulatorError, _locked, verilator_environment
+
+__all__ = ["FastRun", "Run"]
+
+HARNESS = Path(__file__).resolve().parent / "fastrun.cpp"
+
+
+@dataclass
+class Run:
+    """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
+    ``replies`` ``(clock, type, payload bytes)``, the clocks simulated and the seconds it took
+    (the build apart)."""
+    steps: list
+    replies: list
+    clocks: int
+    seconds: float
+
+
+class FastRun:
+    """A Verilator build of a controller top level, with the host-side testbench.
+
+    Parameters
+    ----------
+    top : :class:`~amaranth.hdl.Elaboratable`
+        The design, with ports ``rx``, ``tx``, ``motion.step``, ``motion.dir``.
+    root : path
+        Where builds are kept (``root/<digest>``).
+    waves : bool
+        Build with VCD tracing (needed for :meth:`run` with ``vcd``).
+    """
+
+    def __init__(self, top, root, *, waves=False):
+        from amaranth.back import verilog
+
+        verilator_environment()
+        text = verilog.convert(top, name="top", emit_src=False)
+        source = HARNESS.read_text()
+        digest = hashlib.sha256(f"{int(waves)}\n{source}\n{text}".encode()).hexdigest()[:16]
+        self.build_dir = (Path(root) / digest).resolve()
+        self.build_dir.mkdir(parents=True, exist_ok=True)
+        self.waves = waves
+        self.binary = self.build_dir / "obj" / "fastrun"
+        with _locked(self.build_dir / ".lock"):
+            if not (self.build_dir / ".built").exists():
+                for item in self.build_dir.iterdir():
+                    if item.is_dir():
+                        shutil.rmtree(item)
+                    elif item.name != ".lock":
+                        item.unlink()
+                self._build(text)
+                (self.build_dir / ".built").touch()
+
+    def _build(self, text):
+        (self.build_dir / "top.v").write_text(text)
+        command = ["verilator", "--cc", "--exe", "--build", "-O3", "--top-module", "top",
+                   "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
+                   "-Wno-SYMRSVDWORD", "--prefix", "Vtop", "-Mdir", "obj", "-o", "fastrun",
+                   "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+                   *(["--trace"] if self.waves else []), "top.v", str(HARNESS)]
+        log = self.build_dir / "build.log"
+        with open(log, "w") as handle:
+            result = subprocess.run(command, cwd=self.build_dir, stdout=handle,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+        if result.returncode != 0:
+            raise SimulatorError(f"the Verilator build of the controller failed; see {log}")
+
+    def run(self, frames, *, divisor, window, max_clocks, vcd=None):
+        """Run ``frames`` (a list of bytes objects, in order); return a :class:`Run`.
+
+        Raises :exc:`SimulatorError` if the program did not end within ``max_clocks``.
+        """
+        if vcd is not None and not self.waves:
+            raise ValueError("a waveform needs a build made with waves=True")
+        runs = self.build_dir / "runs"
+        runs.mkdir(exist_ok=True)
+        run_dir = Path(tempfile.mkdtemp(prefix="run-", dir=runs))
+        (run_dir / "frames.bin").write_bytes(b"".join(len(f).to_bytes(2, "little") + bytes(f)
+                                                      for f in frames))
+        command = [str(self.binary), str(run_dir / "frames.bin"), str(run_dir / "events.txt"),
+                   str(divisor), str(window), str(max_clocks)]
+        if vcd is not None:
+            command.append(str(Path(vcd).resolve()))
+        started = time.monotonic()
+        process = subprocess.Popen(command, cwd=run_dir, start_new_session=True)
+        try:
+            code = process.wait()
+        except BaseException:
+            os.killpg(process.pid, 9)
+            process.wait()
+            raise
+        seconds = time.monotonic() - started
+        if code not in (0, 3):
+            raise SimulatorError(f"the controller run failed (status {code}); see {run_dir}")
+        steps, replies, clocks = [], [], 0
+        for line in (run_dir / "events.txt").read_text().splitlines():
+            kind, *fields = line.split()
+            if kind == "S":
+                steps.append(tuple(int(f) for f in fields))
+            elif kind == "R":
+                replies.append((int(fields[0]), int(fields[1], 16),
+                                bytes(int(f, 16) for f in fields[2:])))
+            else:
+                clocks = int(fields[0])
+        if code == 3:
+            raise SimulatorError(f"the program did not end within {max_clocks} clocks "
+                                 f"({run_dir})")
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return Run(steps, replies, clocks, seconds)
