@@ -1,0 +1,103 @@
+"""A machine's configuration: resolution, speeds, acceleration, timing, link; read from TOML.
+
+```toml
+# machine.toml: every key optional; the defaults are those below.
+steps_per_mm = 80          # X and Y alike (arcs are circles on the step lattice)
+max_feed = 3000            # mm/min: G0, and the cap of every F
+accel = 500                # mm/s^2 along the contour
+junction_deviation = 0.01  # mm (GRBL's): how fast corners may be taken
+arc_tolerance = 0.05       # mm: an arc's start and end radii may differ by this much
+clock_hz = 12e6
+baud = 115200
+dir_setup_us = 1.0         # step/dir timing of the drivers
+step_width_us = 2.0
+queue_frames = 32
+```
+"""
+
+import math
+from dataclasses import dataclass, fields
+
+__all__ = ["Machine", "MachineError"]
+
+
+class MachineError(ValueError):
+    """A configuration the machine cannot run with: the message names the key."""
+
+
+@dataclass(frozen=True)
+class Machine:
+    steps_per_mm: float = 80.0
+    max_feed: float = 3000.0
+    accel: float = 500.0
+    junction_deviation: float = 0.01
+    arc_tolerance: float = 0.05
+    clock_hz: float = 12e6
+    baud: int = 115200
+    dir_setup_us: float = 1.0
+    step_width_us: float = 2.0
+    queue_frames: int = 32
+
+    def __post_init__(self):
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise MachineError(f"{item.name} must be a number, not {value!r}")
+            if not math.isfinite(value) or value <= 0:
+                raise MachineError(f"{item.name} must be positive, not {value!r}")
+        for name in ("baud", "queue_frames"):
+            if int(getattr(self, name)) != getattr(self, name):
+                raise MachineError(f"{name} must be an integer, not {getattr(self, name)!r}")
+        if self.max_step_rate < self.max_feed / 60 * self.steps_per_mm:
+            raise MachineError(
+                f"max_feed {self.max_feed:g} mm/min is {self.max_feed / 60 * self.steps_per_mm:.0f}"
+                f" steps/s, more than the {self.max_step_rate:.0f} the step/dir timing allows")
+
+    @classmethod
+    def from_toml(cls, path, **overrides):
+        """Read ``path`` (TOML); keys given in ``overrides`` (not ``None``) win."""
+        import tomllib
+        try:
+            with open(path, "rb") as handle:
+                table = tomllib.load(handle)
+        except OSError as error:
+            raise MachineError(f"cannot read the machine file {path}: {error.strerror}")
+        except tomllib.TOMLDecodeError as error:
+            raise MachineError(f"{path}: {error}")
+        known = {item.name for item in fields(cls)}
+        for key in table:
+            if key not in known:
+                raise MachineError(f"{path}: unknown key {key!r} (known: {', '.join(sorted(known))})")
+        table.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**table)
+
+    # ---- in the gateware's units --------------------------------------------------------
+
+    @property
+    def dir_setup(self):
+        """Direction set-up in clocks."""
+        return math.ceil(self.dir_setup_us * 1e-6 * self.clock_hz)
+
+    @property
+    def step_width(self):
+        """Step pulse width in clocks."""
+        return max(1, math.ceil(self.step_width_us * 1e-6 * self.clock_hz))
+
+    @property
+    def max_step_rate(self):
+        """Steps a second per axis at most: one every ``dir_setup + step_width + 1`` clocks."""
+        return self.clock_hz / (self.dir_setup + self.step_width + 1)
+
+    def rate(self, mm_per_s):
+        """A contour speed as the feed generator's rate: step lengths a clock, Q0.24."""
+        return min(round(mm_per_s * self.steps_per_mm / self.clock_hz * (1 << 24)),
+                   (1 << 24) - 1)
+
+    @property
+    def accel_q40(self):
+        """The acceleration as the feed generator's rate change a clock, Q0.40."""
+        value = round(self.accel * self.steps_per_mm / self.clock_hz ** 2 * (1 << 40))
+        if not 1 <= value < 1 << 32:
+            raise MachineError(f"accel {self.accel:g} mm/s^2 does not fit the feed generator "
+                               f"at {self.clock_hz:g} Hz and {self.steps_per_mm:g} steps/mm")
+        return value

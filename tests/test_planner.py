@@ -1,0 +1,129 @@
+"""The host's planner: moves onto the step lattice, junction speeds, trapezoids, frames."""
+
+import math
+import unittest
+from collections import namedtuple
+from fractions import Fraction
+
+from sim.host.machine import Machine, MachineError
+from sim.host.planner import ProgramError, frames, lattice, plan
+
+Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 600))
+
+
+def walk(segments):
+    x, y = segments[0].start
+    for segment in segments:
+        assert (x, y) == segment.start
+        for dx, dy in segment.steps:
+            x, y = x + dx, y + dy
+        assert (x, y) == segment.end
+    return x, y
+
+
+class LatticeTestCase(unittest.TestCase):
+    machine = Machine(steps_per_mm=10, arc_tolerance=0.2)
+
+    def test_ends_exactly_where_programmed(self):
+        # A square with a rounded corner whose centre is off the grid: every move ends on its
+        # programmed point rounded to the step, and the program at its end.
+        moves = [Move(1, "line", (0, 0), (Fraction(303, 100), 0)),
+                 Move(2, "arc", (Fraction(303, 100), 0), (Fraction(503, 100), 2),
+                      centre=(Fraction(303, 100), 2), cw=False),
+                 Move(3, "line", (Fraction(503, 100), 2), (Fraction(503, 100), 5)),
+                 Move(4, "rapid", (Fraction(503, 100), 5), (0, 0))]
+        segments = lattice(moves, self.machine)
+        self.assertEqual(walk(segments), (0, 0))
+        self.assertEqual([s.end for s in segments if s.line == 2][-1], (50, 20))
+        self.assertEqual(segments[-1].feed, self.machine.max_feed / 60)
+
+    def test_arc_radii_beyond_the_tolerance(self):
+        moves = [Move(7, "arc", (0, 0), (Fraction(21, 10), Fraction(21, 10)),
+                      centre=(2, 0), cw=False)]
+        with self.assertRaisesRegex(ProgramError,
+                r"^line 7: the arc's radius is 2\.0000 mm at its start and 2\.1024 mm at its "
+                r"end: 0\.1024 mm apart, more than the 0\.05 mm tolerance$"):
+            lattice(moves, Machine(steps_per_mm=10, arc_tolerance=0.05))
+        segments = lattice(moves, self.machine)            # within 0.2 mm: traced, and ends
+        self.assertEqual(walk(segments), (21, 21))
+        self.assertEqual([s.kind for s in segments], ["arc", "line"])
+        with self.assertRaisesRegex(ProgramError,
+                r"^line 3: the arc's start is its centre: radius zero$"):
+            lattice([Move(3, "arc", (1, 1), (1, 1), centre=(1, 1))], self.machine)
+
+    def test_full_circle(self):
+        segments = lattice([Move(1, "arc", (5, 0), (5, 0), centre=(0, 0), cw=True)],
+                           self.machine)
+        self.assertEqual(len(segments), 1)
+        self.assertEqual(walk(segments), (50, 0))
+        self.assertGreater(len(segments[0].steps), 4 * 50)
+
+
+class PlanTestCase(unittest.TestCase):
+    machine = Machine(steps_per_mm=100, accel=200, junction_deviation=0.02, max_feed=6000)
+
+    def corner(self, angle):
+        """Two 20 mm lines at F3000 meeting at ``angle`` degrees of turn."""
+        turn = math.radians(angle)
+        end = (20 + 20 * math.cos(turn), 20 * math.sin(turn))
+        moves = [Move(1, "line", (0, 0), (20, 0), feed=3000),
+                 Move(2, "line", (20, 0), (round(end[0], 2), round(end[1], 2)), feed=3000)]
+        segments = lattice(moves, self.machine)
+        return plan(segments, self.machine)
+
+    def test_junction_speed_drops_with_the_angle(self):
+        speeds = [self.corner(angle)[0].exit for angle in (0, 10, 45, 90, 135, 179)]
+        self.assertAlmostEqual(speeds[0], 50.0, places=6)            # straight on: F3000
+        self.assertEqual(speeds, sorted(speeds, reverse=True))
+        self.assertLess(speeds[-1], 3.0)                           # almost a reversal
+        # GRBL's formula at 90 degrees: v² = a δ sin(θ/2) / (1 - sin(θ/2)), θ = 90°.
+        s = math.sin(math.radians(45))
+        self.assertAlmostEqual(speeds[3], math.sqrt(200 * 0.02 * s / (1 - s)), places=2)
+
+    def test_trapezoids(self):
+        items = self.corner(90)
+        first, second = items
+        self.assertEqual(first.entry, 0.0)
+        self.assertEqual(first.cruise, 50.0)                        # reached in 6.25 mm
+        self.assertAlmostEqual(second.entry, first.exit)
+        # The program ends at the slowest speed the gateware may end a move at: one step's
+        # acceleration from rest (it must not stop short of the last step).
+        self.assertAlmostEqual(second.exit, math.sqrt(2 * 200 / 100))
+        # Time: up to 50 mm/s and down to the corner speed within 20 mm.
+        v1 = first.exit
+        expected = 50 / 200 + (50 - v1) / 200 + (20 - 50 ** 2 / 400 - (50 ** 2 - v1 ** 2) / 400) / 50
+        self.assertAlmostEqual(first.seconds, expected, places=6)
+        # The ramp down starts with room to reach the exit speed.
+        segment = lattice([Move(1, "line", (0, 0), (20, 0), feed=3000)], self.machine)[0]
+        down = (50 ** 2 - v1 ** 2) / (2 * 200) * 100
+        self.assertLessEqual(first.decelerate, len(segment.steps) - down)
+
+    def test_frames(self):
+        segments = lattice([Move(1, "line", (0, 0), (3, 4))], self.machine)
+        out, lines = frames(segments, plan(segments, self.machine), self.machine)
+        self.assertEqual([frame[1] for frame in out], [0x15, 0x13, 0x10, 0x14])
+        self.assertEqual(lines, [None, 1, 1, None])
+
+
+class MachineTestCase(unittest.TestCase):
+    def test_units(self):
+        m = Machine(steps_per_mm=80, accel=500, clock_hz=12e6)
+        self.assertEqual(m.dir_setup, 12)
+        self.assertEqual(m.step_width, 24)
+        self.assertAlmostEqual(m.max_step_rate, 12e6 / 37)
+        self.assertEqual(m.rate(50), round(50 * 80 / 12e6 * (1 << 24)))
+        self.assertEqual(m.accel_q40, round(500 * 80 / 144e12 * (1 << 40)))
+
+    def test_wrong(self):
+        with self.assertRaisesRegex(MachineError, r"^accel must be positive, not 0$"):
+            Machine(accel=0)
+        with self.assertRaisesRegex(MachineError, r"^baud must be an integer, not 9600\.5$"):
+            Machine(baud=9600.5)
+        with self.assertRaisesRegex(MachineError,
+                r"^max_feed 1e\+06 mm/min is 1333333 steps/s, more than the 324324 the "
+                r"step/dir timing allows$"):
+            Machine(max_feed=1e6)
+
+
+if __name__ == "__main__":
+    unittest.main()
