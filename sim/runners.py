@@ -167,7 +167,8 @@ class CocotbBuild:
     Parameters
     ----------
     engine : wiring.Component
-        The engine to convert to Verilog (``verilog.convert``).
+        The design to convert to Verilog (``verilog.convert``): an engine, for :meth:`run`, or
+        any design, for :meth:`test`.
     simulator : ``"icarus"`` or ``"verilator"``
     root : path
         Directory under which builds are kept (``root/<simulator>/<digest>``).
@@ -187,8 +188,9 @@ class CocotbBuild:
             sys.path.insert(0, str(ROOT))
         self.simulator = simulator
         self.waves = waves
-        self.fields = _payload_fields(engine)
-        self.status = status_fields(engine)
+        is_engine = hasattr(engine, "cmd") and hasattr(engine, "status")
+        self.fields = _payload_fields(engine) if is_engine else None
+        self.status = status_fields(engine) if is_engine else None
         text = verilog.convert(engine, name="engine", emit_src=False)
         digest = hashlib.sha256(f"{simulator} {int(waves)}\n{text}".encode()).hexdigest()[:16]
         self.build_dir = (Path(root) / simulator / digest).resolve()

@@ -289,7 +289,9 @@ class MotionController(wiring.Component):
         # ---- the feed: permissions for the engine whose turn it is --------------------------
         moving = (turn == LINE_UNIT) | (turn == ARC_UNIT)
         m.d.comb += [
-            feed.profile.eq(current.argument),
+            # Only a move's turn has a profile (a dwell's argument is its clocks, and with no
+            # turn the FIFO's output is undefined): otherwise the rate ramps down to rest.
+            feed.profile.eq(Mux(moving, current.argument, 0)),
             feed.accel.eq(accel),
             feed.start.eq(first & moving),
             feed.feed.due.eq(Mux(turn == ARC_UNIT, arc.feed.due,
@@ -343,8 +345,9 @@ class MotionController(wiring.Component):
             with m.If(sending):
                 m.d.sync += error_sent.eq(1)
         with m.Elif(query):
-            free = self._queue_frames - queued - held
-            status = Cat(self.position[0], self.position[1], free[:8], turns.r_rdy, error_sent)
+            free = Signal(8)                    # a byte, as the protocol has it
+            m.d.comb += free.eq(self._queue_frames - queued - held)
+            status = Cat(self.position[0], self.position[1], free, turns.r_rdy, error_sent)
             m.d.comb += [
                 reply.kind.eq(STATUS),
                 reply.payload.as_value().eq(status),

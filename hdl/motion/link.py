@@ -40,9 +40,11 @@ STATUS    0x81  x, y: int32 absolute position; free: uint8 queue slots;
 ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
 ========  ====  ==========================================================
 
-Flow control: the host keeps at most the queue depth (``STATUS.free`` right after reset)
-frames sent and not yet answered by an ``OUTCOME``; the queue can then never overflow, and
-it never starves while the host has frames to send.
+Flow control: the host keeps at most the queue's length (``STATUS.free`` right after reset)
+queued frames sent and not yet answered; each is answered by its ``OUTCOME``, or by an
+``ERROR`` when it was dropped. The queue can then never overflow, and it never starves while
+the host has frames to send. (After serial noise, which also draws an ``ERROR``, the host
+resynchronises its count from ``STATUS.free``.)
 """
 
 from amaranth import *

@@ -1,0 +1,187 @@
+"""The whole machine controller on Icarus and Verilator, end to end over its serial pin.
+
+A host coroutine sends a planned program's frames with ``cocotbext-uart`` (keeping at most
+the queue's length unanswered), a monitor records the step/dir pins every clock, and the
+checks compare them with the golden models: the exact step sequence, the final position, the
+direction set-up and the pulse widths, the acceleration limit, a corrupt frame rejected and
+never executed, and the queue never overflowing under the flow control.
+"""
+
+import math
+import os
+from collections import namedtuple
+from fractions import Fraction
+
+import cocotb
+import pytest
+from cocotb.clock import Clock
+from cocotb.triggers import ReadOnly, RisingEdge, Timer
+
+from hdl.motion.controller import MotionController
+from hdl.motion.link import ERROR, OUTCOME, STATUS
+from sim import registry
+from sim.host import protocol
+from sim.host.machine import Machine
+from sim.host.planner import frames as program_frames
+from sim.host.planner import lattice, plan
+from sim.runners import CocotbBuild
+
+from .conftest import cocotb_build_root, selected_simulators
+
+MACHINE = Machine(steps_per_mm=10, clock_hz=1e6, baud=125_000, dir_setup_us=1,
+                  step_width_us=2, accel=2e5, max_feed=90_000, junction_deviation=0.05,
+                  arc_tolerance=0.2, queue_frames=8)
+VARIANTS, WIDTHS = ("exact", "fast"), (16, 24)
+Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 60_000))
+
+
+def controller():
+    return MotionController(line=registry.make_engine("line", VARIANTS[0], width=WIDTHS[0]),
+                            arc=registry.make_engine("arc", VARIANTS[1], width=WIDTHS[1]),
+                            clock_hz=MACHINE.clock_hz, baud=MACHINE.baud,
+                            queue_frames=MACHINE.queue_frames, dir_setup=MACHINE.dir_setup,
+                            step_width=MACHINE.step_width)
+
+
+def part():
+    """A plate with a rounded corner and a hole: lines, arcs, a full circle, two feeds."""
+    f = Fraction
+    return [
+        Move(1, "line", (0, 0), (20, 0)),
+        Move(2, "line", (20, 0), (20, 10), feed=30_000),
+        Move(3, "arc", (20, 10), (15, 15), centre=(15, 10), cw=False),
+        Move(4, "line", (15, 15), (0, 15)),
+        Move(5, "rapid", (0, 15), (f(45, 10), f(75, 10))),
+        Move(6, "arc", (f(45, 10), f(75, 10)), (f(45, 10), f(75, 10)), centre=(f(75, 10),
+                                                                             f(75, 10)), cw=True),
+        Move(7, "line", (f(45, 10), f(75, 10)), (0, 0), feed=45_000),
+    ]
+
+
+async def run_program(dut, frames, *, query=False):
+    """Reset, send ``frames`` with the window flow control, record every clock's pins until
+    all are answered (and then, with ``query``, until the reply to a QUERY); return
+    ``(levels, replies)``."""
+    from cocotbext.uart import UartSink, UartSource
+
+    Clock(dut.clk, 1, unit="us").start(start_high=False)
+    dut.rst.value = 1
+    dut.rx.value = 1
+    await Timer(3500, unit="ns")
+    dut.rst.value = 0
+    source = UartSource(dut.rx, baud=MACHINE.baud)
+    sink = UartSink(dut.tx, baud=MACHINE.baud)
+    parser = protocol.ReplyParser()
+    replies, levels = [], []
+    state = {"outstanding": 0}
+
+    async def host():
+        for frame in frames:
+            queued = frame[1] not in (0x20, 0x21)
+            while queued and state["outstanding"] >= MACHINE.queue_frames:
+                await RisingEdge(dut.clk)
+            state["outstanding"] += queued
+            await source.write(frame)
+            await source.wait()
+
+    cocotb.start_soon(host())
+    queued_total = sum(frame[1] not in (0x20, 0x21) for frame in frames)
+    answered = 0
+    asked = False                                   # the QUERY sent, its STATUS awaited
+    for _ in range(3_000_000):
+        await RisingEdge(dut.clk)
+        await ReadOnly()
+        levels.append((int(dut.motion__step.value), int(dut.motion__dir.value)))
+        if not sink.empty():
+            for reply in parser.feed(sink.read_nowait(sink.count())):
+                replies.append(reply)
+                if reply.kind in (OUTCOME, ERROR):      # a dropped frame gets an ERROR
+                    state["outstanding"] -= 1
+                    answered += 1
+        if answered == queued_total and query and not asked:
+            asked = True
+            await RisingEdge(dut.clk)
+            await source.write(protocol.query())
+        finished = answered == queued_total and (not asked or replies[-1].kind == STATUS)
+        if finished:
+            for _ in range(50):
+                await RisingEdge(dut.clk)
+            return levels, replies
+    raise AssertionError("the program did not end")
+
+
+def edges(levels):
+    """``(clock, dx, dy)`` at every rising step edge."""
+    moves, previous = [], 0
+    for clock, (step, direction) in enumerate(levels):
+        rising = step & ~previous
+        if rising:
+            moves.append((clock, (-1 if direction & 1 else 1) if rising & 1 else 0,
+                          (-1 if direction & 2 else 1) if rising & 2 else 0))
+        previous = step
+    return moves
+
+
+def check_timing(levels, moves):
+    """Pulse widths, direction set-up, and the acceleration limit on the pins."""
+    setup, width = MACHINE.dir_setup, MACHINE.step_width
+    for axis in range(2):
+        level = [(s >> axis) & 1 for s, _ in levels]
+        ways = [(d >> axis) & 1 for _, d in levels]
+        for c in range(1, len(level) - width):
+            if level[c] and not level[c - 1]:
+                assert level[c:c + width + 1] == [1] * width + [0], f"pulse at {c}"
+                assert len(set(ways[c - setup:c + width])) == 1, f"dir moves at {c}"
+    # The contour rate between steps changes by at most the acceleration (with the
+    # accumulator's quantisation: one clock in an interval).
+    accel = MACHINE.accel_q40 / (1 << 40)
+    for (c0, *s0), (c1, *s1), (c2, *s2) in zip(moves, moves[1:], moves[2:]):
+        l1 = math.sqrt(2) if all(s1) else 1
+        l2 = math.sqrt(2) if all(s2) else 1
+        t1, t2 = c1 - c0, c2 - c1
+        change = abs(l2 / t2 - l1 / t1)
+        assert change <= accel * (t1 + t2) + 1.5 * l2 / (t2 * (t2 - 1)), (c1, change)
+
+
+def planned():
+    segments = lattice(part(), MACHINE, variants=VARIANTS, widths=WIDTHS)
+    frames, _ = program_frames(segments, plan(segments, MACHINE), MACHINE)
+    return segments, frames
+
+
+@cocotb.test()
+async def part_program(dut):
+    segments, frames = planned()
+    levels, replies = await run_program(dut, frames, query=True)
+    moves = edges(levels)
+    assert [(dx, dy) for _, dx, dy in moves] == [s for seg in segments for s in seg.steps]
+    end = (sum(dx for _, dx, _ in moves), sum(dy for _, _, dy in moves))
+    assert end == segments[-1].end == (0, 0)
+    outcomes = [r.fields for r in replies if r.kind == OUTCOME]
+    assert outcomes == [(n, 0) for n in range(len(frames))]
+    assert not [r for r in replies if r.kind == ERROR]          # no overflow, no error
+    status = [r.fields for r in replies if r.kind == STATUS][-1]
+    assert status[:3] == (0, 0, MACHINE.queue_frames)
+    check_timing(levels, moves)
+
+
+@cocotb.test()
+async def corrupt_frame(dut):
+    segments, frames = planned()
+    index = 2 + 2 * 3                                           # the fourth move (line 4)
+    bad = bytearray(frames[index])
+    bad[-1] ^= 0x01                                             # its CRC
+    frames[index] = bytes(bad)
+    levels, replies = await run_program(dut, frames)
+    errors = [r.fields for r in replies if r.kind == ERROR]
+    assert errors == [(1,)]
+    moves = [(dx, dy) for _, dx, dy in edges(levels)]
+    skipped = segments[3]
+    assert moves == [s for seg in segments if seg is not skipped for s in seg.steps]
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("simulator", selected_simulators())
+def test_controller(simulator):
+    build = CocotbBuild(controller(), simulator, cocotb_build_root())
+    build.test(__name__)
