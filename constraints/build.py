@@ -1,8 +1,11 @@
-"""``kontur build``: the demo bitstream for a board, with the figures of its build.
+"""``kontur build``: a board's bitstream, with the figures of its build.
 
-The board's platform and demo top come from the registry (:data:`sim.registry.BOARDS`; the
-iCEBreaker's demo is :class:`hdl.top.DemoTop`, the octagon played in a loop through a line
-engine, on PMOD1A and the LEDs); the tools are those of :func:`constraints.flow.toolchain_env`
+Two tops (:data:`TOPS`): ``controller``, the machine controller
+(:class:`hdl.top.ControllerTop` around :func:`sim.registry.make_controller`: frames over the
+board's USB serial port, step/dir/enable on its header), and ``player``, the board's demo
+(:class:`hdl.top.DemoTop` on the iCEBreaker: the octagon played in a loop through a line
+engine, no host needed). The board's platform comes from the registry
+(:data:`sim.registry.BOARDS`); the tools are those of :func:`constraints.flow.toolchain_env`
 (the yowasp builds from PyPI by default). Nothing is ever programmed.
 """
 
@@ -10,41 +13,69 @@ import sys
 
 from .flow import ROOT, SEED, ToolchainError, place_and_route
 
-__all__ = ["build", "summary", "main"]
+__all__ = ["TOPS", "build", "summary", "main"]
+
+#: What ``kontur build --top`` builds.
+TOPS = ("controller", "player")
 
 
-def build(board, build_dir, *, seed=SEED, out=None):
-    """Build the demo bitstream for ``board`` in ``build_dir``; return the build's figures.
+def _top(item, top, machine):
+    if top == "player":
+        if item.demo is None:
+            raise ValueError(f"The {item.name} has no demo player; build the controller")
+        return item.demo()
+    from hdl.top import ControllerTop
+    from sim import registry
+    from sim.host.machine import Machine
+    if machine is None:
+        machine = Machine(clock_hz=item.clock_hz)
+    return ControllerTop(registry.make_controller(item.name, machine))
 
-    Runs ``platform.build(DemoTop(), name="top", build_dir=build_dir, do_program=False)``
-    (Yosys, nextpnr-ice40 with ``--seed seed``, icepack). Returns ``{"board", "bitstream",
-    "log", "lc", "utilisation", "fmax", "seed", "seconds"}`` (see
-    :func:`constraints.flow.place_and_route`); with ``out``, also writes a summary there.
+
+def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=None):
+    """Build the bitstream of ``top`` (one of :data:`TOPS`) for ``board`` in ``build_dir``;
+    return the build's figures.
+
+    ``machine`` (a :class:`sim.host.machine.Machine`, clocked as the board) gives the
+    controller its serial rate, queue and step/dir timing; by default the
+    :class:`~sim.host.machine.Machine` defaults. Runs ``platform.build(...,
+    do_program=False)`` (Yosys, nextpnr with ``--seed seed``, the packer). Returns
+    ``{"board", "top", "bitstream", "log", "logic", "utilisation", "fmax", "seed",
+    "seconds"}`` (see :func:`constraints.flow.place_and_route`); with ``out``, also writes a
+    summary there.
 
     Raises
     ------
     :exc:`ValueError`
-        If ``board`` is not a registered board.
+        If ``board`` is not a registered board or ``top`` not one of :data:`TOPS`.
     :exc:`constraints.flow.ToolchainError`
         If a tool is missing or fails.
     """
     from sim import registry
-    if board not in registry.BOARDS:
-        options = ", ".join(repr(name) for name in registry.BOARDS)
-        raise ValueError(f"Board must be one of {options}, not {board!r}")
-    item = registry.BOARDS[board]
-    result = place_and_route(item.platform(), item.demo(), build_dir, seed=seed)
+    item = registry.board(board)
+    if top not in TOPS:
+        raise ValueError(f"Top must be one of {', '.join(map(repr, TOPS))}, not {top!r}")
+    result = place_and_route(item.platform(), _top(item, top, machine), build_dir, seed=seed)
     result["board"] = board
+    result["top"] = top
     if out is not None:
         out.write(summary(result))
     return result
 
 
+#: The utilisation lines of a summary: nextpnr's cell type and what it is, per device.
+_CELLS = [("ICESTORM_LC", "logic"), ("ICESTORM_RAM", "block RAM"), ("SB_IO", "I/O"),
+          ("TRELLIS_COMB", "logic"), ("TRELLIS_FF", "flip-flops"), ("DP16KD", "block RAM"),
+          ("TRELLIS_IO", "I/O")]
+
+
 def summary(result):
-    """Return the text :func:`build` writes: bitstream, logic cells, Fmax, seed, time."""
-    used, available = result["lc"]
-    lines = [f"bitstream  {result['bitstream']}",
-             f"logic      {used}/{available} ICESTORM_LC ({100 * used / available:.0f}%)"]
+    """Return the text :func:`build` writes: bitstream, utilisation, Fmax, seed, time."""
+    lines = [f"bitstream  {result['bitstream']}"]
+    for cell, what in _CELLS:
+        if cell in result["utilisation"]:
+            used, available = result["utilisation"][cell]
+            lines.append(f"{what:<10} {used}/{available} {cell} ({100 * used / available:.0f}%)")
     for clock, (mhz, verdict, target) in result["fmax"].items():
         constraint = f" ({verdict} at {target:g} MHz)" if target else ""
         lines.append(f"fmax       {mhz:.2f} MHz{constraint}, clock {clock!r}")
@@ -60,14 +91,15 @@ def main(argv=None):
     import argparse
     from sim import registry
     parser = argparse.ArgumentParser(prog="python -m constraints.build",
-                                     description="Build the demo bitstream (never programs).")
+                                     description="Build a board's bitstream (never programs).")
     parser.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
+    parser.add_argument("--top", choices=TOPS, default="controller")
     parser.add_argument("--build-dir", default=None,
                         help="build directory (default build/<board>)")
     args = parser.parse_args(argv)
-    build_dir = args.build_dir or ROOT / "build" / args.board
+    build_dir = args.build_dir or ROOT / "build" / f"{args.board}-{args.top}"
     try:
-        build(args.board, build_dir, out=sys.stdout)
+        build(args.board, build_dir, top=args.top, out=sys.stdout)
     except ToolchainError as error:
         sys.stderr.write(f"kontur build: {error}\n")
         return 1

@@ -2,8 +2,10 @@
 
 Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests only its own):
 
-* ``stepper`` (:class:`~hdl.top.DemoTop`): step/dir of two stepper drivers on PMOD1A,
-  pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y (FPGA pins 4, 2, 47, 45);
+* ``stepper`` (:class:`~hdl.top.ControllerTop`, :class:`~hdl.top.DemoTop`): step/dir of two
+  stepper drivers on PMOD1A, pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y, pin 7 the
+  drivers' enable, active low (FPGA pins 4, 2, 47, 45, 3); the serial line is the board's
+  ``uart`` (FTDI channel B: FPGA pins 6 rx, 9 tx), as ``amaranth_boards`` defines it;
 * ``shift_in`` (:class:`~hdl.top.ShiftInTop` through :class:`~hdl.top.PinnedTop`, for the
   place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
   PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
@@ -14,7 +16,7 @@ ground and 3.3 V). PMOD2 is the board's snap-off LED and button section; ``shift
 two of its pins, which the benchmark builds never share with the LEDs or buttons.
 """
 
-from amaranth.build import Attrs, Pins, Resource, Subsignal
+from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.icebreaker import ICEBreakerPlatform
 
 __all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "platform"]
@@ -28,6 +30,7 @@ STEPPER = [
     Resource("stepper", 0,
              Subsignal("step", Pins("1 2", dir="o", conn=_PMOD1A)),    # X, Y
              Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),     # X, Y; 1 = negative
+             Subsignal("enable", PinsN("7", dir="o", conn=_PMOD1A)),   # EN/ENA-: low = on
              _LVCMOS),
 ]
 

@@ -1,8 +1,8 @@
-"""Board tops: a few-pin measurement wrapper for any engine, pins for any component, and the
-iCEBreaker demo.
+"""Board tops: a few-pin measurement wrapper for any engine, pins for any component, the
+machine controller on a board, and the iCEBreaker demo.
 
 Only this module calls ``platform.request()``; the resources it asks for (``shift_in``,
-``stepper``, ``led_r``, ``led_g``, ``button``) are defined in ``constraints/``.
+``stepper``, ``uart``, ``led_r``, ``led_g``, ``button``) are defined in ``constraints/``.
 """
 
 from amaranth import *
@@ -15,7 +15,7 @@ from .linear import LinearCore
 from .motion import ProgramPlayer
 from .motion.player import check_engine, check_timing
 
-__all__ = ["ShiftInTop", "PinnedTop", "DemoTop", "OCTAGON"]
+__all__ = ["ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
 #: The demo program: a closed octagon, one segment in each octant, relative moves. The same
 #: frames as ``OCTAGON`` in ``sim/host/demo.py`` (copied: ``hdl/`` never imports ``sim/``; a
@@ -195,6 +195,60 @@ class PinnedTop(Elaboratable):
         return m
 
 
+class ControllerTop(Elaboratable):
+    """A :class:`~hdl.motion.controller.MotionController` on a board's pins.
+
+    The serial line on the board's ``uart`` resource (the USB serial port of its FTDI chip);
+    step, dir and enable on the ``stepper`` resource, each registered in its I/O cell (one clock
+    later than the controller's members, all alike, so the direction set-up and the pulse width
+    are kept); the green LED (``led_g``) lights while frames are queued or running, the red one
+    (``led_r``) once a frame has been dropped. The receiver synchronises ``rx`` itself; ``tx``
+    comes straight from the transmitter's flip-flop.
+
+    Parameters
+    ----------
+    controller : :class:`~hdl.motion.controller.MotionController`
+        Built for the board's clock.
+    """
+
+    def __init__(self, controller):
+        from .motion.controller import MotionController
+        if not isinstance(controller, MotionController):
+            raise TypeError(f"Controller must be a MotionController, not {controller!r}")
+        self._controller = controller
+
+    @property
+    def controller(self):
+        return self._controller
+
+    def elaborate(self, platform):
+        if platform is None:
+            raise TypeError("ControllerTop needs a platform; simulate MotionController instead")
+        m = Module()
+        m.submodules.controller = controller = self._controller
+        uart = platform.request("uart", 0, dir="-")
+        stepper = platform.request("stepper", 0, dir="-")
+        m.submodules.rx_buffer = rx = io.Buffer("i", uart.rx)
+        # tx straight from the transmitter's flip-flop: an I/O-cell register would start at 0,
+        # a false start bit on the host's line at configuration.
+        m.submodules.tx_buffer = tx = io.Buffer("o", uart.tx)
+        m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step)
+        m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir)
+        m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable)
+        m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
+        m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
+        m.d.comb += [
+            controller.rx.eq(rx.i),
+            tx.o.eq(controller.tx),
+            step.o.eq(controller.motion.step),
+            dir_.o.eq(controller.motion.dir),
+            enable.o.eq(controller.enable),
+            led_busy.o.eq(controller.busy),
+            led_error.o.eq(controller.error),
+        ]
+        return m
+
+
 class DemoTop(Elaboratable):
     """iCEBreaker demo: a program played in a loop through an engine, on PMOD pins and LEDs.
 
@@ -250,6 +304,7 @@ class DemoTop(Elaboratable):
         stepper = platform.request("stepper", 0, dir="-")
         m.submodules.step_buffer = step_buffer = io.FFBuffer("o", stepper.step)
         m.submodules.dir_buffer = dir_buffer = io.FFBuffer("o", stepper.dir)
+        m.submodules.enable_buffer = enable_buffer = io.FFBuffer("o", stepper.enable)
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
         m.submodules.button = button = io.Buffer("i", platform.request("button", 0, dir="-"))
@@ -257,6 +312,7 @@ class DemoTop(Elaboratable):
         m.d.comb += [
             step_buffer.o.eq(player.motion.step),
             dir_buffer.o.eq(player.motion.dir),
+            enable_buffer.o.eq(1),
             led_busy.o.eq(player.busy),
             led_error.o.eq(player.error),
         ]

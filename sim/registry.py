@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from .models.errors import InputError
 
 __all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "InputError", "register", "variant",
-           "variants", "make_engine", "make_model", "check", "steps"]
+           "variants", "make_engine", "make_model", "board", "make_controller", "check", "steps"]
 
 
 @dataclass(frozen=True)
@@ -52,11 +52,17 @@ class Variant:
 
 @dataclass(frozen=True)
 class Board:
-    """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top."""
+    """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top (a
+    program played in a loop); ``clock_hz`` is its clock, ``line`` and ``arc`` the
+    ``(variant, width)`` of the machine controller's engines on it (see
+    :func:`make_controller`)."""
     name: str
     help: str
     platform: object
     demo: object
+    clock_hz: float
+    line: tuple = ("exact", 16)
+    arc: tuple = ("fast", 24)
 
 
 KINDS = {}
@@ -127,6 +133,30 @@ def make_model(kind_name, variant_name=None, *, width=None, **params):
     """The cycle model of :func:`make_engine` with the same arguments."""
     item = variant(kind_name, variant_name)
     return KINDS[kind_name].model(item.model(**_arguments(item, width, params)))
+
+
+def board(name):
+    """The :class:`Board` ``name``; :exc:`ValueError` if there is none."""
+    if name not in BOARDS:
+        raise ValueError(f"Board must be one of {', '.join(map(repr, BOARDS))}, not {name!r}")
+    return BOARDS[name]
+
+
+def make_controller(board_name, machine):
+    """The machine controller of a board (:class:`hdl.motion.controller.MotionController`)
+    with its engines, its clock, and the serial rate, queue length and step/dir timing of
+    ``machine`` (a :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
+    """
+    from hdl.motion.controller import MotionController
+    item = board(board_name)
+    if machine.clock_hz != item.clock_hz:
+        raise ValueError(f"The machine's clock is {machine.clock_hz:g} Hz, the {item.name}'s "
+                         f"{item.clock_hz:g} Hz")
+    return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
+                            arc=make_engine("arc", item.arc[0], width=item.arc[1]),
+                            clock_hz=item.clock_hz, baud=machine.baud,
+                            queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
+                            step_width=machine.step_width)
 
 
 def check(kind_name, payload, width):
@@ -238,4 +268,4 @@ register(Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks
 register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
                  _fast_core, _fast_model, _arc_trajectory, params=("period",)))
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
-               _icebreaker_demo))
+               _icebreaker_demo, clock_hz=12e6))

@@ -7,12 +7,14 @@ max_feed = 3000            # mm/min: G0, and the cap of every F
 accel = 500                # mm/s^2 along the contour
 junction_deviation = 0.01  # mm (GRBL's): how fast corners may be taken
 arc_tolerance = 0.05       # mm: an arc's start and end radii may differ by this much
-clock_hz = 12e6
 baud = 115200
 dir_setup_us = 1.0         # step/dir timing of the drivers
 step_width_us = 2.0
 queue_frames = 32
 ```
+
+The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
+--board``; :data:`sim.registry.BOARDS`), given to :meth:`Machine.from_toml` by the caller.
 """
 
 import math
@@ -54,8 +56,9 @@ class Machine:
                 f" steps/s, more than the {self.max_step_rate:.0f} the step/dir timing allows")
 
     @classmethod
-    def from_toml(cls, path, **overrides):
-        """Read ``path`` (TOML); keys given in ``overrides`` (not ``None``) win."""
+    def from_toml(cls, path, *, clock_hz, **overrides):
+        """Read ``path`` (TOML) for a board clocked at ``clock_hz``; keys given in
+        ``overrides`` (not ``None``) win."""
         import tomllib
         try:
             with open(path, "rb") as handle:
@@ -64,12 +67,15 @@ class Machine:
             raise MachineError(f"cannot read the machine file {path}: {error.strerror}")
         except tomllib.TOMLDecodeError as error:
             raise MachineError(f"{path}: {error}")
-        known = {item.name for item in fields(cls)}
+        known = {item.name for item in fields(cls)} - {"clock_hz"}
         for key in table:
+            if key == "clock_hz":
+                raise MachineError(f"{path}: clock_hz is the board's, not the machine's: choose "
+                                   f"the board (--board)")
             if key not in known:
                 raise MachineError(f"{path}: unknown key {key!r} (known: {', '.join(sorted(known))})")
         table.update({k: v for k, v in overrides.items() if v is not None})
-        return cls(**table)
+        return cls(**table, clock_hz=clock_hz)
 
     # ---- in the gateware's units --------------------------------------------------------
 
