@@ -866,7 +866,7 @@ def step_signs(element, function, point):
     steps occur (``(x_axis, y_axis)``): a line its major axis and the diagonal, an arc in the
     quadrant of ``point`` (the one the motion enters on an axis) both axes and the diagonal."""
     if element.kind == "line":
-        major = 1 if function.sec > 0 else -1
+        major = -1 if function.sec < 0 else 1
         if function.swap:
             return (function.s, major), (0, 1)
         return (major, function.s), (1, 0)
@@ -896,7 +896,7 @@ def line_step(function, value):
     (register III overflows), back when it is more than half a step behind; a step along the
     minor axis alone when the line is half a step ahead already."""
     half = function.one >> 1
-    major = 1 if function.sec > 0 else -1
+    major = -1 if function.sec < 0 else 1
     s = function.s
     if value >= half:
         step = (0, s)
@@ -958,19 +958,27 @@ def program_frames(profile, *, treatment="extend", detection="normal", formats=F
             for e in elements(profile, treatment=treatment, detection=detection)]
 
 
-def prepare(profile, radius, *, treatment="extend", detection="normal", formats=Formats()):
+def prepare(profile, radius, *, treatment="extend", detection="normal", formats=Formats(),
+            verify=True):
     """Check ``profile`` at the cutter radius ``radius`` and prepare the hardware's frames.
 
     The element frames do not depend on the radius (:func:`program_frames`); the radius frame
     and the start point do: the start is the lattice point nearest where the equidistant
     begins (halves rounded up).
 
+    With ``verify`` (the default) the step level is run and every point the cutter's centre
+    would visit is measured against the exact geometry: farther than :data:`PATH_BOUND` from
+    the equidistant, or nearer the profile than ``radius - PATH_BOUND`` (where the
+    equidistant of one part of the profile comes too near another: a slot narrower than the
+    cutter), and the profile is refused before anything moves.
+
     Raises
     ------
     ProfileError
-        For impossible geometry (:func:`offset_path`) or numbers beyond the formats: a
+        For impossible geometry (:func:`offset_path`), numbers beyond the formats (a
         coordinate or centre beyond ``±(2**width - 1)``, the radius beyond ``2**width - 1``,
-        an arc's equidistant too large for the arc core, the cutter's path out of range.
+        an arc's equidistant too large for the arc core, the cutter's path out of range), or
+        a path that would leave the equidistant or cut into the part (``verify``).
     """
     limit = (1 << formats.width) - 1
     if isinstance(radius, bool) or not isinstance(radius, int) or radius < 0:
@@ -1020,7 +1028,37 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
             break
         start = end
         prepared = made(start)
+    if verify:
+        _verify(prepared)
     return prepared
+
+
+#: Every point the cutter's centre visits lies within this distance of the exact equidistant
+#: (and no nearer the profile than the radius less it): checked on every profile prepared.
+PATH_BOUND = Fraction(17, 20)
+
+
+def _verify(prepared):
+    """Refuse a prepared profile whose trace leaves the equidistant or cuts into the part."""
+    r = prepared.radius
+    point = prepared.start
+    for element, steps in trace_elements(prepared):
+        line = element.line if element is not None else prepared.profile.segments[0].line
+        for step in [None, *steps]:
+            if step is not None:
+                point = (point[0] + step[0], point[1] + step[1])
+            off = distance_to_path(point, prepared.pieces, r)
+            if off > PATH_BOUND:
+                raise ProfileError(f"line {line}: the cutter's centre would pass {float(off):.3g}"
+                                   f" steps from the equidistant at {point}: the interpolator "
+                                   f"cannot follow this corner")
+            near = distance_to_profile(point, prepared.profile)
+            if near < r - PATH_BOUND:
+                seg = min(prepared.profile.segments, key=lambda g: distance_to_profile(
+                    point, Profile((g,), prepared.profile.side)))
+                raise ProfileError(f"line {line}: the cutter (radius {r}) would cut "
+                                   f"{float(r - near):.3g} steps into the part at line "
+                                   f"{seg.line} (its centre at {point})")
 
 
 # ---- step level --------------------------------------------------------------------------
@@ -1029,19 +1067,45 @@ def _ends(target, h, point, tau2, r):
     return 2 * h * target.value(point, r) + tau2 >= 0
 
 
-def trace_elements(prepared):
-    """The steps of every element: a list of ``(element, steps)``, then ``(None, steps)`` for
-    the return to the start of a closed profile (step level: every function evaluated at every
-    point from its definition)."""
-    formats, r = prepared.formats, prepared.radius
-    point = prepared.start
+@dataclass(frozen=True)
+class _Traced:
+    """An element as its frame gives it to the step level."""
+    kind: str
+    own: object
+    target: object              # the function that ends the element *before* this one
+    h: int
+    last: bool
+    centre: tuple = None
+    cw: bool = False
+
+
+def _from_frame(frame, formats):
+    one = formats.one
+    if frame["kind"] == KIND["line"]:
+        own = LineFunction(frame["swap"], frame["minor"], frame["k"], frame["b"], frame["sec"],
+                           frame["side"] * frame["sec"], one)
+        traced = dict(kind="line", own=own)
+    else:
+        sigma = 1 if (frame["side"] == 1) == bool(frame["cw"]) else -1
+        own = CircleFunction((frame["x"], frame["y"]), frame["e"], frame["g"], sigma,
+                             formats.fraction)
+        traced = dict(kind="arc", own=own, centre=(frame["x"], frame["y"]),
+                      cw=bool(frame["cw"]))
+    target = own
+    if frame["entry"]:
+        target = LineFunction(frame["eswap"], frame["eminor"], frame["ek"], frame["eb"], 0,
+                              frame["eg"], one)
+    return _Traced(target=target, h=-1 if frame["h"] else 1, last=bool(frame["last"]),
+                   **traced)
+
+
+def _trace_contour(traced, point, r):
+    """The steps of every element of a contour from ``point``: ``(steps per element,
+    end point)``."""
     out = []
-    found = prepared.elements
-    for i in range(len(found) - 1):
-        element, after = found[i], found[i + 1]
-        own = own_function(element, formats)
-        target = target_function(after, formats)
-        h = after.h
+    for i in range(len(traced) - 1):
+        element, after = traced[i], traced[i + 1]
+        own, target, h = element.own, after.target, after.h
         steps = []
 
         def move(step):
@@ -1074,15 +1138,80 @@ def trace_elements(prepared):
                     if _ends(target, h, point, tau2, r):
                         ended = True
                         break
-        out.append((element, steps))
-    if prepared.closed:
-        steps = []
-        while point != prepared.start:
-            step = tuple((t > p) - (t < p) for p, t in zip(point, prepared.start))
-            point = (point[0] + step[0], point[1] + step[1])
-            steps.append(step)
-        out.append((None, steps))
+        out.append(steps)
+    out.append([])                               # the terminal: aimed at, not traced
+    return out, point
+
+
+def frame_outcomes(frames, formats=None):
+    """What the hardware makes of ``frames``, frame by frame (step level): a list of
+    ``(outcome, steps)``, ``outcome`` 0 (done) or 1 (refused), as
+    :class:`EquidistantEngineModel` and the RTL have them with no abort.
+
+    Every function is evaluated afresh at every point from the frame's numbers (the
+    hardware integrates them). Refused: an element with no contour open, an unknown kind, a
+    negative radius.
+
+    Raises
+    ------
+    InputError
+        For a program the hardware would wait on for ever: a radius, start or return frame
+        inside a contour (before its terminal), or a contour that never ends.
+    """
+    formats = formats or Formats()
+    out = []
+    r = 0
+    point = start = (0, 0)
+    contour = None                               # indices and elements of an open contour
+    for frame in frames:
+        frame = _frame_defaults(frame)
+        kind = frame["kind"]
+        if kind in (KIND["line"], KIND["arc"]):
+            if contour is None:
+                out.append((REFUSED_CODE, []))
+                continue
+            contour.append((len(out), _from_frame(frame, formats)))
+            out.append(None)
+            if frame["last"]:
+                traced, point = _trace_contour([e for _, e in contour], point, r)
+                for (index, _), steps in zip(contour, traced):
+                    out[index] = (DONE_CODE, steps)
+                contour = None
+            continue
+        if contour is not None and kind <= KIND["close"]:
+            raise InputError("a radius, start or return frame inside a contour (before its "
+                             "terminal): the engine would wait for ever")
+        if kind > KIND["close"] or (kind == KIND["radius"] and frame["x"] < 0):
+            out.append((REFUSED_CODE, []))
+        elif kind == KIND["radius"]:
+            r = frame["x"]
+            out.append((DONE_CODE, []))
+        elif kind == KIND["start"]:
+            point = start = (frame["x"], frame["y"])
+            contour = []
+            out.append((DONE_CODE, []))
+        else:
+            steps = []
+            while point != start:
+                step = tuple((t > p) - (t < p) for p, t in zip(point, start))
+                point = (point[0] + step[0], point[1] + step[1])
+                steps.append(step)
+            out.append((DONE_CODE, steps))
+    if contour is not None and contour:
+        raise InputError("the contour has no terminal frame: the engine would wait for ever")
     return out
+
+
+def trace_elements(prepared):
+    """The steps of every element of a prepared profile: a list of ``(element, steps)``,
+    then ``(None, steps)`` for the return to the start of a closed profile."""
+    outcomes = frame_outcomes(prepared.frames, prepared.formats)
+    parts = [(element, steps) for element, (_, steps)
+             in zip(prepared.elements, outcomes[2:2 + len(prepared.elements)])]
+    parts = parts[:-1]                           # (the terminal makes no step)
+    if prepared.closed:
+        parts.append((None, outcomes[-1][1]))
+    return parts
 
 
 def trace(prepared):
