@@ -16,7 +16,7 @@ STAMP   := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,fpga]'
+	$(BIN)/python -m pip install --quiet -e '.[test,fpga,plot]'
 	touch $@
 
 .PHONY: icarus
