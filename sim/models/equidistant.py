@@ -518,6 +518,7 @@ class Element:
     entry: tuple = None
     h: int = 1
     last: bool = False
+    split: bool = False          # its entry cuts a line in two: not a corner
 
     @property
     def sigma(self):
@@ -640,8 +641,8 @@ def elements(profile, *, treatment="extend", detection="normal"):
         if (element.kind == "line" and after is not None and after.kind == "arc"
                 and after.entry is None):
             middle = _add(element.base, (element.d[0] // 2, element.d[1] // 2))
-            split.append((replace(element, entry=(middle, _left(element.d), Fraction(0))),
-                          middle, element.d))
+            split.append((replace(element, entry=(middle, _left(element.d), Fraction(0)),
+                                  split=True), middle, element.d))
     items = split
 
     out = []
@@ -1240,30 +1241,76 @@ def _arc_distance(point, centre, rho, start, end, cw, full=False):
     return min(_norm(_sub(point, start)), _norm(_sub(point, end)))
 
 
+def _nearest(point, parts, exact, rough):
+    """The least of ``exact(part)`` over ``parts``, computed exactly only for the parts whose
+    floating-point estimate ``rough(part)`` is within ``2**-20`` of the least estimate."""
+    estimates = [rough(part) for part in parts]
+    least = min(estimates)
+    return min(exact(part) for part, e in zip(parts, estimates) if e <= least + 2 ** -20)
+
+
+def _rough_segment(point, a, b):
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    px, py = float(point[0]), float(point[1])
+    dx, dy = bx - ax, by - ay
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0 else min(max(((px - ax) * dx + (py - ay) * dy) / length2, 0.0), 1.0)
+    return math.hypot(px - ax - t * dx, py - ay - t * dy)
+
+
 def distance_to_path(point, pieces, radius):
     """The distance (exact rational, roots to ``2**-96``) from ``point`` to the equidistant."""
-    best = None
-    for piece in pieces:
+    def exact(piece):
         if piece.kind == "line":
-            d = _segment_distance(point, piece.start, piece.end)
-        else:
-            d = _arc_distance(point, piece.centre, piece.radius(radius), piece.start,
-                              piece.end, piece.cw, full=piece.start == piece.end)
-        best = d if best is None else min(best, d)
-    return best
+            return _segment_distance(point, piece.start, piece.end)
+        return _arc_distance(point, piece.centre, piece.radius(radius), piece.start, piece.end,
+                             piece.cw, full=piece.start == piece.end)
+
+    def rough(piece):
+        if piece.kind == "line":
+            return _rough_segment(point, piece.start, piece.end)
+        return abs(math.hypot(point[0] - piece.centre[0], point[1] - piece.centre[1])
+                   - float(piece.radius(radius))) if _within(point, piece) else \
+            min(_rough_segment(point, piece.start, piece.start),
+                _rough_segment(point, piece.end, piece.end))
+    return _nearest(point, pieces, exact, rough)
+
+
+def _within(point, piece):
+    """Whether the direction of ``point`` from an arc piece's centre lies in its span
+    (floating point: for estimates only)."""
+    cx, cy = float(piece.centre[0]), float(piece.centre[1])
+    if (point[0], point[1]) == piece.centre or piece.start == piece.end:
+        return True
+
+    def angle(p):
+        return math.atan2(float(p[1]) - cy, float(p[0]) - cx)
+
+    def turn(a, b):
+        t = (b - a) % (2 * math.pi)
+        return (2 * math.pi - t) % (2 * math.pi) if piece.cw else t
+    a0 = angle(piece.start)
+    return turn(a0, angle(point)) <= turn(a0, angle(piece.end)) + 1e-12
 
 
 def distance_to_profile(point, profile):
     """The distance from ``point`` to the profile (every segment)."""
-    best = None
-    for seg in profile.segments:
+    def exact(seg):
         if seg.kind == "line":
-            d = _segment_distance(point, seg.start, seg.end)
-        else:
-            d = _arc_distance(point, seg.centre, _sqrt(seg.r2), seg.start, seg.end, seg.cw,
-                              full=seg.start == seg.end)
-        best = d if best is None else min(best, d)
-    return best
+            return _segment_distance(point, seg.start, seg.end)
+        return _arc_distance(point, seg.centre, _sqrt(seg.r2), seg.start, seg.end, seg.cw,
+                             full=seg.start == seg.end)
+
+    def rough(seg):
+        if seg.kind == "line":
+            return _rough_segment(point, seg.start, seg.end)
+        piece = Piece("arc", seg.start, seg.end, seg.line, "arc", centre=seg.centre, cw=seg.cw)
+        if _within(point, piece):
+            return abs(math.hypot(point[0] - seg.centre[0], point[1] - seg.centre[1])
+                       - math.sqrt(seg.r2))
+        return min(_rough_segment(point, seg.start, seg.start),
+                   _rough_segment(point, seg.end, seg.end))
+    return _nearest(point, profile.segments, exact, rough)
 
 
 def path_points(start, steps):
@@ -1310,7 +1357,10 @@ def check_trace(prepared, traced=None):
         near = q if near is None else min(near, q)
         far = q if far is None else max(far, q)
     ends = []
-    for line, p in corners:
+    found = list(prepared.elements)
+    for n, (line, p) in enumerate(corners):
+        if n + 1 < len(found) and found[n + 1].split:
+            continue
         ends.append((line, min(_norm(_sub(p, piece.end)) for piece in pieces)))
     return Report(worst, near, far, visited[-1] == visited[0], tuple(ends), len(visited))
 
