@@ -978,7 +978,7 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
     ProfileError
         For impossible geometry (:func:`offset_path`), numbers beyond the formats (a
         coordinate or centre beyond ``±(2**width - 1)``, the radius beyond ``2**width - 1``,
-        an arc's equidistant too large for the arc core, the cutter's path out of range), or
+        the cutter's path out of range), or
         a path that would leave the equidistant or cut into the part (``verify``).
     """
     limit = (1 << formats.width) - 1
@@ -998,9 +998,6 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
                                f"{formats.width}-bit registers (at most {limit}) here")
         if seg.kind == "arc":
             rho = _sqrt(seg.r2) + radius
-            if rho + 4 >= 1 << (formats.core - 2):
-                raise ProfileError(f"line {seg.line}: the arc's equidistant (radius "
-                                   f"{float(rho):.6g}) is too large for the arc core")
             if max(abs(seg.centre[0]), abs(seg.centre[1])) + rho + 2 > limit:
                 raise ProfileError(f"line {seg.line}: the cutter's path would leave the "
                                    f"{formats.width}-bit registers (at most {limit}) here")
