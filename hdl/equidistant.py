@@ -561,6 +561,7 @@ class EquidistantEngine(wiring.Component):
             self.cmd.ready.eq(Mux(bad, refuse, Mux(is_element, take_element, take_control))),
         ]
         accept = self.cmd.valid & self.cmd.ready
+        taken = accept & ~bad                # accepted and not refused
         new = Signal(slot)
         m.d.comb += [
             new.valid.eq(1), new.computing.eq(1), new.last.eq(frame.last),
@@ -587,7 +588,7 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += [
             b5x.start.eq(launching),
             b5y.start.eq(launching),
-            b6.start.eq(launching | ((unit == 0) & accept & (kind == Kind.RADIUS))),
+            b6.start.eq(launching | ((unit == 0) & taken & (kind == Kind.RADIUS))),
             b5x.a.eq(Mux(circle, _abs(u0), Mux(~lswap, _abs(lk), 0))),
             b5x.b.eq(Mux(circle, _abs(u0), _abs(base_x))),
             b5y.a.eq(Mux(circle, _abs(v0), Mux(lswap, _abs(lk), 0))),
@@ -621,7 +622,7 @@ class EquidistantEngine(wiring.Component):
         with m.If(self.abort):
             m.d.sync += unit.eq(0)
         with m.Elif(unit == 0):
-            with m.If(accept & (kind == Kind.RADIUS)):
+            with m.If(taken & (kind == Kind.RADIUS)):
                 m.d.sync += [unit.eq(5), radius.eq(frame.x)]
         with m.Elif(unit == 1):
             m.d.sync += [unit.eq(2), p0x.eq(x), p0y.eq(y)]
@@ -670,8 +671,8 @@ class EquidistantEngine(wiring.Component):
                 m.d.sync += prep.eq(moved[2])
 
         # ---- control frames: the radius, the start, the return -----------------------------
-        start_now = accept & (kind == Kind.START)
-        close_now = accept & (kind == Kind.CLOSE)
+        start_now = taken & (kind == Kind.START)
+        close_now = taken & (kind == Kind.CLOSE)
         close_end = Signal()
         home_x_after = x + Mux(step_x, Mux(neg_x, -1, 1), 0)
         home_y_after = y + Mux(step_y, Mux(neg_y, -1, 1), 0)

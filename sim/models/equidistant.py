@@ -1572,8 +1572,9 @@ class EquidistantEngineModel:
                                        else bool(take_control))
         accept = int(bool(valid) and bool(ready))
 
-        start_now = int(accept and kind == KIND["start"])
-        close_now = int(accept and kind == KIND["close"])
+        taken = accept and not bad
+        start_now = int(taken and kind == KIND["start"])
+        close_now = int(taken and kind == KIND["close"])
         close_end = int((close_now and not home_dx and not home_dy)
                         or (home_step and (x + dx, y + dy) == self.start))
         radius_end = int(self.unit == 5 and self.left == 0)
@@ -1666,7 +1667,7 @@ class EquidistantEngineModel:
         if abort:
             self.unit = 0
         elif self.unit == 0:
-            if accept and kind == KIND["radius"]:
+            if taken and kind == KIND["radius"]:
                 self.unit, self.radius, self.left = 5, frame["x"], length
                 self.product = frame["x"] * frame["x"]
         elif self.unit == 1:
