@@ -105,8 +105,9 @@ class SerialMultiplier(wiring.Component):
 
     :py:`start` takes the magnitudes :py:`a` and :py:`b`; ``b_width`` clocks later
     :py:`product` holds ``a·b`` and :py:`done` pulses (in the clock after the last addition),
-    the product held until the next start. The partial sums are formed by an
-    :class:`~hdl.elements.AccumulatingAdder` (the multiplicand shifted left a place a clock).
+    the product held until the next start; :py:`clear` stops it and clears the product. The
+    partial sums are formed by an :class:`~hdl.elements.AccumulatingAdder` (loaded with zero
+    at the start, the multiplicand shifted left a place a clock).
 
     Parameters
     ----------
@@ -117,6 +118,8 @@ class SerialMultiplier(wiring.Component):
     -------
     start : :py:`In(1)`
         Take the operands.
+    clear : :py:`In(1)`
+        Stop, and clear the product (wins over :py:`start`).
     a : :py:`In(a_width)`
         Multiplicand.
     b : :py:`In(b_width)`
@@ -142,6 +145,7 @@ class SerialMultiplier(wiring.Component):
         self.adder = AccumulatingAdder(a_width + b_width + 1)
         super().__init__({
             "start":   In(1),
+            "clear":   In(1),
             "a":       In(a_width),
             "b":       In(b_width),
             "busy":    Out(1),
@@ -158,14 +162,17 @@ class SerialMultiplier(wiring.Component):
         count = Signal(range(self._b_width + 1))
         finish = Signal()
         m.d.comb += [
-            adder.clr.eq(self.start),
+            adder.load.eq(self.start),               # d is zero
+            adder.clr.eq(self.clear),
             adder.b.eq(multiplicand),
             adder.add.eq(~self.start & self.busy & multiplier[0]),
             self.product.eq(adder.q[:width]),
             self.done.eq(finish),
         ]
         m.d.sync += finish.eq(0)
-        with m.If(self.start):
+        with m.If(self.clear):
+            m.d.sync += self.busy.eq(0)
+        with m.Elif(self.start):
             m.d.sync += [multiplicand.eq(self.a), multiplier.eq(self.b),
                          count.eq(self._b_width), self.busy.eq(1)]
         with m.Elif(self.busy):
@@ -589,6 +596,9 @@ class EquidistantEngine(wiring.Component):
             b5x.start.eq(launching),
             b5y.start.eq(launching),
             b6.start.eq(launching | ((unit == 0) & taken & (kind == Kind.RADIUS))),
+            b5x.clear.eq(self.abort),
+            b5y.clear.eq(self.abort),
+            b6.clear.eq(self.abort),
             b5x.a.eq(Mux(circle, _abs(u0), Mux(~lswap, _abs(lk), 0))),
             b5x.b.eq(Mux(circle, _abs(u0), _abs(base_x))),
             b5y.a.eq(Mux(circle, _abs(v0), Mux(lswap, _abs(lk), 0))),
