@@ -10,7 +10,7 @@ from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
 from sim.models.equidistant import (DETECTIONS, KIND, PATH_BOUND, TREATMENTS,
                                     EquidistantEngineModel, Formats, InputError,
                                     ProfileError, check_trace, elements, frame_outcomes,
-                                    offset_path, path_points, prepare, profile_from_moves,
+                                    offset_path, prepare, profile_from_moves,
                                     program_frames, trace)
 from sim.stimulus import Job, record_outcomes, run_model
 
@@ -28,10 +28,6 @@ def load(name, side=None):
 
 def profile(text):
     return profile_from_moves(read(text).moves)
-
-
-def points_of(prepared):
-    return path_points(prepared.start, trace(prepared))
 
 
 class ProfileTestCase(unittest.TestCase):

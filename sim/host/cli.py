@@ -3,9 +3,10 @@
 ``kontur trace line X Y`` and ``kontur trace arc X0 Y0 X1 Y1`` print the steps of a segment
 or an arc, ``kontur trace profile FILE --radius R`` those of the cutter's centre round the
 compensated contour of a G-code program, one ``dx dy`` line per step and nothing else on
-standard output (with ``--cycles``: ``cycle dx dy``). Exit status: 0 when the command was traced; 2 for a refused command or any
-bad input or option (the reason is the last line on standard error, nothing is printed on
-standard output); 1 when a tool itself failed (its cause in one line); 130 on an interrupt.
+standard output (with ``--cycles``: ``cycle dx dy``). Exit status: 0 when the command was
+traced; 2 for a refused command or any bad input or option (the reason is the last line on
+standard error, nothing is printed on standard output); 1 when a tool itself failed (its cause
+in one line); 130 on an interrupt.
 """
 
 import argparse

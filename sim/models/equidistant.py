@@ -30,16 +30,18 @@ Functions of the hardware (the ``V`` of every element, exact integers):
 """
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from .arc import SIGNS, direction_bits, native, quadrant, real_step, type_a
 from .circular import native_moves
 from .errors import InputError
 
-__all__ = ["ProfileError", "Segment", "Profile", "Formats", "TREATMENTS", "KIND", "profile_from_moves",
-           "offset_path", "Piece", "Element", "prepare", "Prepared", "trace", "line_function",
-           "circle_function", "distance_to_path", "distance_to_profile", "check_trace",
+__all__ = ["ProfileError", "Segment", "Profile", "Formats", "TREATMENTS", "DETECTIONS", "KIND",
+           "PATH_BOUND", "profile_from_moves", "offset_path", "Piece", "Element", "elements",
+           "prepare", "program_frames", "Prepared", "frame_outcomes", "trace", "trace_elements",
+           "line_function", "circle_function", "LineFunction", "CircleFunction",
+           "distance_to_path", "distance_to_profile", "path_points", "check_trace", "Report",
            "EquidistantEngineModel"]
 
 #: Convex-corner treatments: ``extend`` the equidistants to their intersection (an arc
@@ -852,14 +854,6 @@ def own_function(element, formats):
     if element.kind == "line":
         return line_function(element.base, element.d, element.offset, formats)
     return circle_function(element.centre, element.r2, element.sigma, formats)
-
-
-def target_function(element, formats):
-    """The function whose crossing ends the element before ``element``: its entry line, or its
-    own equidistant."""
-    if element.entry is not None:
-        return line_function(*element.entry, formats)
-    return own_function(element, formats)
 
 
 def step_signs(element, function, point):
