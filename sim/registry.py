@@ -1,7 +1,9 @@
 """One registry of what kontur is made of: kinds of command, their variants, and boards.
 
 A *kind* is a kind of command with its engine (a front end of ``hdl/``) and the engine's
-cycle model: ``line`` (:class:`hdl.line.LineEngine`) and ``arc`` (:class:`hdl.arc.ArcEngine`).
+cycle model: ``line`` (:class:`hdl.line.LineEngine`), ``arc`` (:class:`hdl.arc.ArcEngine`) and
+``profile`` (:class:`hdl.equidistant.EquidistantEngine`, whose commands are a *program*: the
+frames of a contour, prepared by the host from G-code).
 A *variant* of a kind is a core that plugs into that engine, with the core's cycle model, its
 step-level model and the parameters it takes. A *board* has a platform (``constraints/``) and a
 demo top. ``kontur trace``, ``bench``, ``demo``, ``build`` and the tests all read this module,
@@ -14,7 +16,8 @@ from dataclasses import dataclass
 from .models.errors import InputError
 
 __all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "InputError", "register", "variant",
-           "variants", "make_engine", "make_model", "board", "make_controller", "check", "steps"]
+           "variants", "make_engine", "make_model", "board", "make_controller", "check", "steps",
+           "outcomes"]
 
 
 @dataclass(frozen=True)
@@ -23,7 +26,9 @@ class Kind:
 
     ``engine`` and ``model`` are called as ``engine(core)`` and ``model(core_model)``;
     ``fields`` are the frame's integer fields in command-line order; ``check(payload, width)``
-    raises :exc:`InputError` for a command the engine refuses.
+    raises :exc:`InputError` for a command the engine refuses. For a ``program`` kind the
+    payload is a list of frames, and a variant's ``steps(frames, width)`` gives every frame's
+    ``(outcome, steps)``.
     """
     name: str
     help: str
@@ -33,6 +38,7 @@ class Kind:
     check: object
     default_variant: str
     default_width: int
+    program: bool = False
 
 
 @dataclass(frozen=True)
@@ -165,9 +171,29 @@ def check(kind_name, payload, width):
 
 
 def steps(kind_name, payload, variant_name=None, *, width=None):
-    """The step-level trajectory of ``payload``: a list of ``(dx, dy)``."""
+    """The step-level trajectory of ``payload`` (a program's frames for a program kind): a
+    list of ``(dx, dy)``."""
     item = variant(kind_name, variant_name)
-    return item.steps(payload, _arguments(item, width, {})["width"])
+    width = _arguments(item, width, {})["width"]
+    if kind(kind_name).program:
+        return [step for _, path in item.steps(payload, width) for step in path]
+    return item.steps(payload, width)
+
+
+def outcomes(kind_name, frames, variant_name=None, *, width=None):
+    """What the engine makes of ``frames`` (no abort), frame by frame at the step level: a list
+    of ``(outcome, steps)``, ``outcome`` 0 (done) or 1 (refused)."""
+    item = variant(kind_name, variant_name)
+    width = _arguments(item, width, {})["width"]
+    if kind(kind_name).program:
+        return item.steps(frames, width)
+    result = []
+    for frame in frames:
+        try:
+            result.append((0, item.steps(frame, width)))
+        except InputError:
+            result.append((1, []))
+    return result
 
 
 # ---- the kinds and variants of kontur ----------------------------------------------------
@@ -244,6 +270,47 @@ def _fast_model(**params):
     return FastArcCoreModel(**params)
 
 
+def _profile_engine(core):
+    from hdl.equidistant import EquidistantEngine
+    return EquidistantEngine(core)
+
+
+def _profile_engine_model(core):
+    from .models.equidistant import EquidistantEngineModel
+    return EquidistantEngineModel(core)
+
+
+def _profile_check(frames, width):
+    from .models.equidistant import Formats, frame_outcomes
+    for number, (outcome, _) in enumerate(frame_outcomes(frames, Formats(width))):
+        if outcome:
+            raise InputError(f"frame {number} is refused")
+
+
+def _profile_trajectory(frames, width):
+    from .models.equidistant import Formats, frame_outcomes
+    return frame_outcomes(frames, Formats(width))
+
+
+def _profile_core(name):
+    """An arc core for the equidistant engine: two bits wider than its coordinates."""
+    def core(*, width, **params):
+        if name == "fast":
+            from hdl.circular import FastArcCore
+            return FastArcCore(width=width + 2, **params)
+        from hdl.circular import FaithfulArcCore
+        return FaithfulArcCore(width=width + 2, **params)
+
+    def model(*, width, **params):
+        if name == "fast":
+            from .models.circular import FastArcCoreModel
+            return FastArcCoreModel(width=width + 2, **params)
+        from .models.circular import FaithfulArcCoreModel
+        return FaithfulArcCoreModel(width=width + 2, **params)
+
+    return core, model
+
+
 def _icebreaker_platform():
     from constraints import icebreaker
     return icebreaker.platform()
@@ -267,5 +334,13 @@ register(Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks
                  _faithful_core, _faithful_model, _arc_trajectory, params=("timing",)))
 register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
                  _fast_core, _fast_model, _arc_trajectory, params=("period",)))
+register(Kind("profile", "a contour of a G-code program: the cutter's centre on its "
+                         "equidistant (T. Siimut, 1963)", _profile_engine, _profile_engine_model,
+              (), _profile_check, "fast", 16, program=True))
+register(Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
+                 *_profile_core("fast"), _profile_trajectory, params=("period",), min_width=4))
+register(Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
+                 *_profile_core("faithful"), _profile_trajectory, params=("timing",),
+                 min_width=4))
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=12e6))

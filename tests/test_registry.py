@@ -27,15 +27,18 @@ def staircase_registered():
 
 class LookupTestCase(unittest.TestCase):
     def test_kinds_and_variants(self):
-        self.assertEqual(list(registry.KINDS), ["line", "arc"])
+        self.assertEqual(list(registry.KINDS), ["line", "arc", "profile"])
         self.assertEqual(registry.variants("line"), ("device", "exact"))
         self.assertEqual(registry.variants("arc"), ("faithful", "fast"))
+        self.assertEqual(registry.variants("profile"), ("fast", "faithful"))
+        self.assertEqual([kind.program for kind in registry.KINDS.values()],
+                         [False, False, True])
         self.assertEqual(registry.variant("arc").name, "faithful")
         self.assertEqual(list(registry.BOARDS), ["icebreaker"])
 
     def test_unknown(self):
         with self.assertRaisesRegex(ValueError,
-                r"^Kind must be one of 'line', 'arc', not 'spline'$"):
+                r"^Kind must be one of 'line', 'arc', 'profile', not 'spline'$"):
             registry.variants("spline")
         with self.assertRaisesRegex(ValueError,
                 r"^line variant must be one of 'device', 'exact', not 'fast'$"):

@@ -1,10 +1,12 @@
 """The ``kontur`` command line.
 
 ``kontur trace line X Y`` and ``kontur trace arc X0 Y0 X1 Y1`` print the steps of a segment
-or an arc, one ``dx dy`` line per step and nothing else on standard output (with ``--cycles``:
-``cycle dx dy``). Exit status: 0 when the command was traced; 2 for a refused command or any
-bad input or option (the reason is the last line on standard error, nothing is printed on
-standard output); 1 when a tool itself failed (its cause in one line); 130 on an interrupt.
+or an arc, ``kontur trace profile FILE --radius R`` those of the cutter's centre round the
+compensated contour of a G-code program, one ``dx dy`` line per step and nothing else on
+standard output (with ``--cycles``: ``cycle dx dy``). Exit status: 0 when the command was
+traced; 2 for a refused command or any bad input or option (the reason is the last line on
+standard error, nothing is printed on standard output); 1 when a tool itself failed (its cause
+in one line); 130 on an interrupt.
 """
 
 import argparse
@@ -71,6 +73,61 @@ def _add_kind(kinds, kind):
                         help="trace runs of up to N clocks (see the limits below)")
 
 
+def _add_program(kinds, kind):
+    """``kontur trace profile FILE --radius R``: a contour of a G-code program."""
+    from ..models.equidistant import DETECTIONS, TREATMENTS
+    from ..runners import ENGINES
+    item = registry.KINDS[kind]
+    variants = registry.variants(kind)
+    parser = kinds.add_parser(kind, help=item.help, description=item.help,
+                              epilog="FILE is in lattice units: G90/G91, G0 G1 G2 G3 with X Y "
+                                     "(and I J for arcs), G41/G42/G40; the compensated moves "
+                                     "are the contour. The output starts where the cutter's "
+                                     "centre starts on the equidistant.")
+    parser.add_argument("file", metavar="FILE", help="the G-code program")
+    parser.add_argument("--radius", type=int, required=True, metavar="R",
+                        help="cutter radius in steps (the dial)")
+    helps = "; ".join(f"{name}: {registry.variant(kind, name).help}" for name in variants)
+    parser.add_argument("--variant", choices=variants, default=item.default_variant,
+                        help=f"arc core (default {item.default_variant}; {helps})")
+    parser.add_argument("--engine", choices=ENGINES, default="model", help=_ENGINES_HELP)
+    parser.add_argument("--width", type=int, default=None, help="coordinate width in bits")
+    parser.add_argument("--corner", choices=TREATMENTS, default=TREATMENTS[0],
+                        help="convex corners: extend the equidistants to their intersection "
+                             "(default) or go round on an arc of radius R")
+    parser.add_argument("--detect", choices=DETECTIONS, default=DETECTIONS[0],
+                        help="what ends a line at a corner with a line: the normal through "
+                             "the intersection (default) or the seed's next equidistant")
+    parser.add_argument("--vcd", metavar="FILE", default=None,
+                        help="write the waveform of the RTL run to FILE")
+    parser.add_argument("--cycles", action="store_true",
+                        help="prefix every step with its clock number")
+    parser.add_argument("--max-clocks", type=int, default=None, metavar="N",
+                        help="trace runs of up to N clocks")
+    parser.add_argument("--plot", metavar="FILE.png", default=None,
+                        help="draw the profile, its equidistant and the steps (matplotlib)")
+
+
+def _trace_program(args, out):
+    from .trace import UsageError, trace_profile
+    try:
+        with open(args.file, encoding="utf-8") as handle:
+            text = handle.read()
+    except (OSError, UnicodeDecodeError) as error:
+        raise UsageError(f"{args.file}: {error.strerror or error}") from None
+    run = trace_profile(text, radius=args.radius, name=args.file, variant=args.variant,
+                        engine=args.engine, width=args.width, vcd=args.vcd, cycles=args.cycles,
+                        max_clocks=args.max_clocks, treatment=args.corner,
+                        detection=args.detect)
+    if args.plot:
+        from .plot import plot_profile
+        plot_profile(run.prepared, run.moves, args.plot)
+    lines = [f"{cycle} {dx} {dy}" if args.cycles else f"{dx} {dy}" for cycle, dx, dy in run.moves]
+    if lines:
+        out.write("\n".join(lines) + "\n")
+    return 0
+
+
 def _parser():
     parser = _Parser(
         prog="kontur",
@@ -80,7 +137,7 @@ def _parser():
     trace = commands.add_parser("trace", help="print the steps of one command")
     kinds = trace.add_subparsers(dest="kind", required=True, parser_class=_Parser)
     for kind in registry.KINDS:
-        _add_kind(kinds, kind)
+        (_add_program if registry.KINDS[kind].program else _add_kind)(kinds, kind)
 
     commands.add_parser("demo", help="show the cores at work on a built-in program")
     bench = commands.add_parser("bench", help="measure accuracy (models), area and speed "
@@ -94,6 +151,8 @@ def _parser():
 
 
 def _trace(args, out):
+    if registry.KINDS[args.kind].program:
+        return _trace_program(args, out)
     from .trace import trace
     fields = registry.KINDS[args.kind].fields
     payload = {name: int(getattr(args, name)) for name in fields}

@@ -19,7 +19,7 @@ from ..runners import ENGINES, ROOT
 from ..stimulus import Job, record_moves, run_model
 
 __all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "MAX_STEPS", "SPEED",
-           "STEP_MODEL_SPEED"]
+           "STEP_MODEL_SPEED", "trace_profile", "ProfileRun"]
 
 #: Register widths a command may ask for.
 WIDTHS = range(2, 65)
@@ -218,3 +218,117 @@ def trace(kind, payload, **options):
     if refused:
         raise RuntimeError("the RTL refused a command the model accepts")
     return record_moves(record)
+
+
+# ---- programs: a contour of a G-code file ------------------------------------------------
+
+@dataclass(frozen=True)
+class ProfileRun:
+    """A traced contour: its moves ``[(cycle, dx, dy), ...]`` and what was traced (the
+    :class:`sim.models.equidistant.Prepared` profile)."""
+    moves: list
+    prepared: object
+
+
+def _profile_clocks(prepared, clocks_per_step):
+    """An upper bound on the clocks of a contour on the engine: forming every frame
+    (``2·(width + 2) + 6`` clocks each, a few frames at once before the first step), every step
+    (``clocks_per_step``, and two idle clocks for each quadrant run of an arc), plus slack."""
+    width = prepared.formats.width
+    frames = len(prepared.frames)
+    steps = sum(1 for _, steps in _parts(prepared) for _ in steps)
+    arcs = sum(1 for e in prepared.elements if e.kind == "arc")
+    return (frames * (2 * (width + 2) + 8) + clocks_per_step * (steps + 16)
+            + 10 * (arcs + 1) + 64), steps
+
+
+def _parts(prepared):
+    from ..models.equidistant import trace_elements
+    return trace_elements(prepared)
+
+
+def trace_profile(text, *, radius, name=None, variant=None, engine="model", width=None,
+                  vcd=None, cycles=False, max_clocks=None, treatment="extend",
+                  detection="normal", params=None):
+    """Trace the compensated contour of a G-code program (lattice units) at the cutter radius
+    ``radius`` on any engine; return a :class:`ProfileRun`.
+
+    Raises
+    ------
+    UsageError
+        For a program the reader cannot read (:exc:`sim.host.gcode.GCodeError`, naming the
+        line), an unknown engine, variant, treatment or detection, a width outside
+        :data:`WIDTHS`, a ``vcd`` that cannot be written or is asked of the model, a radius
+        that is not a non-negative integer, or a run longer than ``max_clocks``.
+    InputError
+        When the profile is refused (:class:`sim.models.equidistant.ProfileError`: impossible
+        geometry, numbers beyond the registers, a path that would cut into the part), naming
+        the program line.
+    RuntimeError
+        If the RTL refuses a frame of the prepared program.
+    """
+    from ..models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
+                                      profile_from_moves)
+    from .gcode import GCodeError, read
+    params = dict(params or {})
+    if engine not in ENGINES:
+        raise UsageError(f"engine must be one of {', '.join(ENGINES)}, not {engine!r}")
+    try:
+        item = registry.variant("profile", variant)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    width = registry.KINDS["profile"].default_width if width is None else width
+    if isinstance(width, bool) or not isinstance(width, int) or not 4 <= width < WIDTHS.stop:
+        raise UsageError(f"--width must be an integer from 4 to {WIDTHS.stop - 1}, "
+                         f"not {width!r}")
+    if isinstance(radius, bool) or not isinstance(radius, int) or radius < 0:
+        raise UsageError(f"--radius must be a non-negative integer, not {radius!r}")
+    if treatment not in TREATMENTS:
+        raise UsageError(f"--corner must be one of {', '.join(TREATMENTS)}, not {treatment!r}")
+    if detection not in DETECTIONS:
+        raise UsageError(f"--detect must be one of {', '.join(DETECTIONS)}, not "
+                         f"{detection!r}")
+    vcd = _check_vcd(vcd, engine)
+    limit = MAX_CLOCKS[engine] if max_clocks is None else max_clocks
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise UsageError(f"--max-clocks must be a positive integer, not {limit!r}")
+    try:
+        program = read(text, name=name)
+    except GCodeError as error:
+        raise UsageError(str(error)) from None
+    profile = profile_from_moves(program.moves)
+    prepared = prepare(profile, radius, treatment=treatment, detection=detection,
+                       formats=Formats(width))
+    clocks, steps = _profile_clocks(prepared, _clocks_per_step(item, params))
+    step_model = engine == "model" and not cycles
+    if not step_model and clocks > limit:
+        seconds = clocks / SPEED[engine]
+        raise UsageError(
+            f"this contour needs up to {clocks} clocks, more than the {limit} that --engine "
+            f"{engine} traces (about {_duration(seconds)} at {SPEED[engine]} clocks a second);"
+            f" raise --max-clocks to run it anyway")
+    step_limit = MAX_STEPS if max_clocks is None else limit
+    if step_model and steps > step_limit:
+        raise UsageError(f"this contour has {steps} steps, more than the {step_limit} that "
+                         f"--engine model traces; raise --max-clocks to run it anyway")
+    frames = list(prepared.frames)
+    if step_model:
+        moves = [(None, dx, dy) for dx, dy in registry.steps("profile", frames, item.name,
+                                                              width=width)]
+        return ProfileRun(moves, prepared)
+    job = Job(frames=frames, max_cycles=clocks)
+    if engine == "model":
+        record = run_model(registry.make_model("profile", item.name, width=width, **params),
+                           job)
+    else:
+        rtl = registry.make_engine("profile", item.name, width=width, **params)
+        if engine == "amaranth":
+            from ..runners import run_amaranth
+            record = run_amaranth(rtl, job, vcd=vcd)
+        else:
+            from ..runners import CocotbBuild
+            build = CocotbBuild(rtl, engine, build_root(), waves=vcd is not None, quiet=True)
+            record = build.run(job, vcd=vcd)
+    if any(entry.get("error") for entry in record):
+        raise RuntimeError("the RTL refused a frame of the prepared program")
+    return ProfileRun(record_moves(record), prepared)

@@ -1,0 +1,734 @@
+"""T. Siimut's interpolator with transition to the equidistant (1963): cutter-radius
+compensation in hardware.
+
+The program describes the part's profile; the cutter radius is a register (the console's
+dial, set by a frame); the engine moves the cutter's centre along the equidistant and finds by
+itself where the equidistant of one element meets the next one's. The seed's blocks keep their
+numbers (Fig. 4): ``block1`` the input and conversion of frames, ``block2`` the intermediate
+memory (three slots: the element traced, the next one, the one after), ``block3`` the pulse
+distributor of lines, ``block4``/``block10`` the integrators of every slot's function,
+``block5x``/``block5y`` and ``block6`` the multipliers (``C·x00``, ``D·y00``; ``G·r``),
+``block7``/``block8`` the sums they feed, ``block9`` the axis swap, ``block11`` the comparator,
+``block12``/``block13`` the position counters, ``block14``/``block15`` the step permission of
+the feed interface. ``docs/equidistant.md`` maps them and states what the text leaves open.
+"""
+
+from amaranth import *
+from amaranth.lib import data, wiring
+from amaranth.lib.wiring import In, Out
+
+from .arc import ArcCoreSignature, _quadrant, _x_falls
+from .elements import AccumulatingAdder, ReversibleCounter
+from .elements._checks import check_width
+from .engine import EngineSignature, Outcome, StatusUnit
+
+__all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine"]
+
+
+class Kind:
+    """Frame kinds (the ``kind`` field of :meth:`EquidistantEngine.Frame`)."""
+    RADIUS = 0       #: set the cutter radius (``x``); DONE once r² is formed
+    START = 1        #: the cutter's centre is at ``(x, y)``: a contour begins there
+    LINE = 2         #: a line element
+    ARC = 3          #: an arc element
+    CLOSE = 4        #: return to the start of the contour
+
+
+class Formats:
+    """The widths of the engine's numbers (:class:`sim.models.equidistant.Formats` mirrors it).
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Coordinate width: coordinates within ``±(2**width - 1)``, the radius below
+        ``2**width``.
+    fraction : :class:`int`
+        Fractional bits of ``k``, ``b``, ``1/cos α``, ``2R`` and of line functions (default
+        ``width + 4``).
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``width`` is not an integer of at least 4 or ``fraction`` not one of at least 2.
+    """
+
+    def __init__(self, width=16, fraction=None):
+        check_width("Coordinate width", width, minimum=4)
+        fraction = width + 4 if fraction is None else fraction
+        check_width("Fractional bits", fraction, minimum=2)
+        self.width = width
+        self.fraction = fraction
+
+    def __eq__(self, other):
+        return (type(other) is type(self) and other.width == self.width
+                and other.fraction == self.fraction)
+
+    def __hash__(self):
+        return hash((self.width, self.fraction))
+
+    def __repr__(self):
+        return f"Formats(width={self.width}, fraction={self.fraction})"
+
+    @property
+    def position(self):
+        """Width of the position counters (signed)."""
+        return self.width + 2
+
+    @property
+    def coefficient(self):
+        """Width of ``k`` and ``1/cos α`` (signed)."""
+        return self.fraction + 2
+
+    @property
+    def intercept(self):
+        """Width of ``b`` and of an offset coefficient (signed)."""
+        return self.width + self.fraction + 3
+
+    @property
+    def square(self):
+        """Width of ``R²`` (unsigned)."""
+        return 2 * self.width + 3
+
+    @property
+    def value(self):
+        """Width of a function's value (signed)."""
+        return max(self.fraction + self.width + 4, 2 * self.width + 5)
+
+    @property
+    def core(self):
+        """Register width of the arc core."""
+        return self.width + 2
+
+
+class SerialMultiplier(wiring.Component):
+    """Shift-and-add multiplier: one multiplier bit a clock, from the least significant.
+
+    :py:`start` takes the magnitudes :py:`a` and :py:`b`; ``b_width`` clocks later
+    :py:`product` holds ``a·b`` and :py:`done` pulses (in the clock after the last addition),
+    the product held until the next start; :py:`clear` stops it and clears the product. The
+    partial sums are formed by an :class:`~hdl.elements.AccumulatingAdder` (loaded with zero
+    at the start, the multiplicand shifted left a place a clock).
+
+    Parameters
+    ----------
+    a_width, b_width : :class:`int`
+        Widths of the multiplicand and the multiplier.
+
+    Members
+    -------
+    start : :py:`In(1)`
+        Take the operands.
+    clear : :py:`In(1)`
+        Stop, and clear the product (wins over :py:`start`).
+    a : :py:`In(a_width)`
+        Multiplicand.
+    b : :py:`In(b_width)`
+        Multiplier.
+    busy : :py:`Out(1)`
+        Multiplying.
+    done : :py:`Out(1)`
+        The product is ready (one clock).
+    product : :py:`Out(a_width + b_width)`
+        ``a·b``.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If a width is not a positive integer.
+    """
+
+    def __init__(self, a_width, b_width):
+        check_width("Multiplicand width", a_width)
+        check_width("Multiplier width", b_width)
+        self._a_width = a_width
+        self._b_width = b_width
+        self.adder = AccumulatingAdder(a_width + b_width + 1)
+        super().__init__({
+            "start":   In(1),
+            "clear":   In(1),
+            "a":       In(a_width),
+            "b":       In(b_width),
+            "busy":    Out(1),
+            "done":    Out(1),
+            "product": Out(a_width + b_width),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.adder = adder = self.adder
+        width = self._a_width + self._b_width
+        multiplicand = Signal(width)
+        multiplier = Signal(self._b_width)
+        count = Signal(range(self._b_width + 1))
+        finish = Signal()
+        m.d.comb += [
+            adder.load.eq(self.start),               # d is zero
+            adder.clr.eq(self.clear),
+            adder.b.eq(multiplicand),
+            adder.add.eq(~self.start & self.busy & multiplier[0]),
+            self.product.eq(adder.q[:width]),
+            self.done.eq(finish),
+        ]
+        m.d.sync += finish.eq(0)
+        with m.If(self.clear):
+            m.d.sync += self.busy.eq(0)
+        with m.Elif(self.start):
+            m.d.sync += [multiplicand.eq(self.a), multiplier.eq(self.b),
+                         count.eq(self._b_width), self.busy.eq(1)]
+        with m.Elif(self.busy):
+            m.d.sync += [multiplicand.eq(multiplicand << 1), multiplier.eq(multiplier >> 1),
+                         count.eq(count - 1)]
+            with m.If(count == 1):
+                m.d.sync += [self.busy.eq(0), finish.eq(1)]
+        return m
+
+
+def _frame(f):
+    w, fr = f.width, f.fraction
+    return data.StructLayout({
+        "kind": 3,                           # Kind
+        "last": 1,                           # the terminal: aimed at, not traced
+        "h": 1,                              # its function falls along the element before
+        "side": signed(2),                   # +1 left (G41), -1 right (G42), 0 no offset
+        "cw": 1,                             # arc: clockwise
+        "swap": 1,                           # line: the y, x system (|k| <= 1 in it)
+        "minor": 1,                          # line: the minor coordinate falls
+        "k": signed(f.coefficient),          # line: ±k · 2**F
+        "b": signed(f.intercept),            # line: ±b · 2**F (through its base point)
+        "sec": signed(f.coefficient),        # line: ±1/cos α · 2**F, sign of the major step
+        "x": signed(w + 1),                  # arc: centre; START: position; RADIUS: r
+        "y": signed(w + 1),
+        "e": unsigned(f.square),             # arc: R²
+        "g": unsigned(f.intercept),          # arc: 2R · 2**F
+        "entry": 1,                          # the element before ends on this line instead:
+        "eswap": 1,
+        "eminor": 1,
+        "ek": signed(f.coefficient),
+        "eb": signed(f.intercept),
+        "eg": signed(f.intercept),           # ... moved eg·r (2**F) along its minor axis
+    })
+
+
+def _slot(f):
+    return data.StructLayout({
+        "valid": 1, "ready": 1, "computing": 1, "last": 1, "arc": 1, "h": 1, "entry": 1,
+        "empty": 1,
+        "swap": 1, "minor": 1, "back": 1, "k": signed(f.coefficient),
+        "cx": signed(f.width + 1), "cy": signed(f.width + 1), "cw": 1,
+        "eswap": 1, "eminor": 1, "ek": signed(f.coefficient),
+        "v": signed(f.value),                # its own function at the position
+        "w": signed(f.value),                # its entry line's function at the position
+    })
+
+
+def _coefficients(swap, minor, k, one):
+    """``(C, D)`` of a line function (Table 1 with the sign ``s`` of the minor direction)."""
+    sk = Mux(minor, -k, k)
+    sone = Mux(minor, -one, one)
+    return Mux(swap, -sone, sk), Mux(swap, sk, -sone)
+
+
+def _term(c, step, negative):
+    """``c·d`` for a step ``d`` in {-1, 0, +1} given as (step, negative)."""
+    return Mux(step, Mux(negative, -c, c), 0)
+
+
+def _abs(value):
+    return Mux(value < 0, -value, value)
+
+
+class EquidistantEngine(wiring.Component):
+    """Cutter-radius compensation (T. Siimut, 1963) around a quadrant core: profile elements
+    in, the cutter centre's steps out.
+
+    Frames (:meth:`Frame`) on :py:`cmd`, in order: ``RADIUS`` (the dial: ``x = r``), ``START``
+    (the cutter's centre is at ``(x, y)``: a contour begins), the elements of the contour
+    (``LINE``: the seed's ``k``, ``b``, ``1/cos α``, system and direction flags, the side;
+    ``ARC``: centre, ``R²``, ``2R``, direction, side), the last of them the terminal
+    (``last``: its function only ends the element before), and for a closed contour ``CLOSE``
+    (return to the start: a no-op when the contour closed on it). No element frame depends on
+    the radius.
+
+    Every element's function (a line's deviation ``T`` in the minor axis, a circle's
+    ``S = u² + v² - N``) is formed when its frame enters the memory, by the multipliers,
+    at the position then (two elements ahead), and integrated over every step from there;
+    while an element is traced, the next one's function (or its entry line) is compared with
+    the threshold of the element's steps (block 11): the element ends at the first point where
+    ``2·h·F + 2τ >= 0`` (``2τ`` the largest change of ``F`` over one step of the element's
+    kinds), with that step or, when the point is reached already, without one. The next
+    element starts from there at once: a line from the next clock with its deviation in
+    register III, an arc by a quadrant run handed to the core two clocks before its first
+    step. Lines follow lines with no idle clock; an element whose frame is still being
+    prepared when its predecessor ends waits for it (``2·(width + 2) + 4`` clocks at most).
+
+    Everything else is the common interface (:class:`~hdl.engine.EngineSignature`): one
+    outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
+    (:attr:`~hdl.engine.Outcome.REFUSED`, taken when nothing is in flight): an element with no
+    contour open, an unknown kind, a negative radius.
+
+    Parameters
+    ----------
+    core : :class:`~amaranth.lib.wiring.Component`
+        A quadrant core (:class:`~hdl.arc.ArcCoreSignature`) of width ``width + 2``; it becomes
+        the submodule ``core``.
+    fraction : :class:`int`
+        Fractional bits (default ``width + 4``).
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(EquidistantEngine.Frame(formats)))`
+        Frames.
+    feed, motion, status, abort, busy
+        As :class:`~hdl.engine.EngineSignature`; positions are ``width + 3`` bits.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``core`` is not a component with an :class:`~hdl.arc.ArcCoreSignature` of width at
+        least 6, or ``fraction`` not an integer of at least 2.
+    """
+
+    @staticmethod
+    def Frame(formats):
+        return _frame(formats)
+
+    @staticmethod
+    def Slot(formats):
+        return _slot(formats)
+
+    def __init__(self, core, *, fraction=None):
+        if (not isinstance(core, wiring.Component)
+                or not isinstance(core.signature, ArcCoreSignature)):
+            raise TypeError(f"Core must be a component with an ArcCoreSignature, not {core!r}")
+        if core.signature.width < 6:
+            raise TypeError(f"Core width must be an integer of at least 6, not "
+                            f"{core.signature.width!r}")
+        self._formats = Formats(core.signature.width - 2, fraction)
+        self._core = core
+        f = self._formats
+        a5 = max(f.fraction + 1, f.width + 2)
+        self.block5x = SerialMultiplier(a5, f.width + 2)
+        self.block5y = SerialMultiplier(a5, f.width + 2)
+        self.block6 = SerialMultiplier(f.intercept, f.width + 2)
+        self.block12 = ReversibleCounter(f.position)
+        self.block13 = ReversibleCounter(f.position)
+        super().__init__(EngineSignature(_frame(f), position_width=f.width + 3))
+
+    @property
+    def core(self):
+        return self._core
+
+    @property
+    def formats(self):
+        return self._formats
+
+    @property
+    def width(self):
+        return self._formats.width
+
+    @property
+    def coord_width(self):
+        return self._formats.width + 1
+
+    def elaborate(self, platform):
+        m = Module()
+        f = self._formats
+        w, fr = f.width, f.fraction
+        one, half = 1 << fr, 1 << (fr - 1)
+        m.submodules.core = core = self._core
+        for name in ("block5x", "block5y", "block6", "block12", "block13"):
+            m.submodules[name] = getattr(self, name)
+        b5x, b5y, b6 = self.block5x, self.block5y, self.block6
+        block12, block13 = self.block12, self.block13
+        m.submodules.status = status = StatusUnit(position_width=w + 3,
+                                                  number_width=self.signature.number_width)
+        frame = self.cmd.payload
+        slot = _slot(f)
+        own = Signal(slot)                   # block 2: the element traced (register III in v)
+        cmp = Signal(slot)                   # ... the next one (its function in blocks 4, 10)
+        prep = Signal(slot)                  # ... the one after (being formed, blocks 5-8)
+        slots = (own, cmp, prep)
+
+        x, y = block12.q, block13.q          # blocks 12, 13: the cutter's centre
+        radius = Signal(w)
+        radius2 = Signal(2 * w)
+        start_x = Signal(signed(w + 1))
+        start_y = Signal(signed(w + 1))
+        contour = Signal()                   # a contour is open: elements are taken
+        homing = Signal()
+
+        # ---- this clock's step -----------------------------------------------------------
+        hold = status.hold
+        running = Signal()
+        end_now = Signal()
+        m.d.comb += running.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready
+                               & ~hold & ~self.abort)
+
+        # Block 3: the pulse distributor of lines. Register I holds |k|; register III the
+        # element's deviation T (+ 1/2): every step moves the major axis, and the minor one
+        # when the line is half a step ahead after it (overflow), back when it is more than
+        # half a step behind; a step along the minor axis alone when it is half a step ahead
+        # already (the catch-up after a corner).
+        register1 = Mux(own.k < 0, -own.k, own.k)
+        minor_only = own.v >= half
+        ahead = Signal(signed(f.value + 1))
+        m.d.comb += ahead.eq(own.v + register1)
+        forward = ~minor_only & (ahead >= half)
+        backward = ~minor_only & (ahead < -half)
+        line_major = ~minor_only
+        line_minor = minor_only | forward | backward
+        line_minor_negative = own.minor ^ backward
+
+        line_due = Signal()
+        m.d.comb += line_due.eq(running & ~end_now & ~own.arc)
+        line_step = Signal()
+        m.d.comb += line_step.eq(line_due & self.feed.tick)
+
+        # Arc runs on the quadrant core: one at a time, handed over in WAIT, taken in TAKE.
+        arc_state = Signal(2)                # 0 wait, 1 take, 2 run
+        run_swap = Signal()
+        run_dir = Signal(2)
+        arc_go = Signal()
+        m.d.comb += [
+            arc_go.eq(running & ~end_now & own.arc),
+            core.feed.tick.eq(self.feed.tick & arc_go),
+        ]
+        native = core.step
+        arc_bits = Mux(run_swap, Cat(native[1], native[0]), native)
+
+        home_dx = Signal()
+        home_dy = Signal()
+        m.d.comb += [
+            home_dx.eq(x != start_x),
+            home_dy.eq(y != start_y),
+        ]
+        home_due = homing & (home_dx | home_dy) & ~hold & ~self.abort
+        home_step = home_due & self.feed.tick
+
+        # Block 9: the steps of lines and arcs onto the real axes.
+        step_x = Signal()
+        step_y = Signal()
+        neg_x = Signal()
+        neg_y = Signal()
+        with m.If(line_step):
+            with m.If(own.swap):
+                m.d.comb += [step_x.eq(line_minor), neg_x.eq(line_minor_negative),
+                             step_y.eq(line_major), neg_y.eq(own.back)]
+            with m.Else():
+                m.d.comb += [step_x.eq(line_major), neg_x.eq(own.back),
+                             step_y.eq(line_minor), neg_y.eq(line_minor_negative)]
+        with m.Elif(home_step):
+            m.d.comb += [step_x.eq(home_dx), neg_x.eq(x > start_x),
+                         step_y.eq(home_dy), neg_y.eq(y > start_y)]
+        with m.Elif(arc_go):
+            m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(run_dir[0]),
+                         step_y.eq(arc_bits[1]), neg_y.eq(run_dir[1])]
+        stepped = Signal()
+        m.d.comb += stepped.eq((step_x | step_y) & ~homing)
+
+        # ---- blocks 4 and 10: every slot's function over this clock's step ----------------
+        def relative(s):
+            return x - s.cx, y - s.cy
+
+        def stepped_values(s):
+            """``(v, w)`` of slot ``s`` after this clock's step."""
+            c, d = _coefficients(s.swap, s.minor, s.k, one)
+            ec, ed = _coefficients(s.eswap, s.eminor, s.ek, one)
+            u, v = relative(s)
+            circle = (Mux(step_x, Mux(neg_x, -2 * u + 1, 2 * u + 1), 0)
+                      + Mux(step_y, Mux(neg_y, -2 * v + 1, 2 * v + 1), 0))
+            line = _term(c, step_x, neg_x) + _term(d, step_y, neg_y)
+            return (s.v + Mux(s.arc, circle, line),
+                    s.w + _term(ec, step_x, neg_x) + _term(ed, step_y, neg_y))
+
+        stepped_v = []
+        stepped_w = []
+        for n, s in enumerate(slots):
+            sv = Signal(signed(f.value), name=f"stepped_v{n}")
+            sw = Signal(signed(f.value), name=f"stepped_w{n}")
+            v_expr, w_expr = stepped_values(s)
+            m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
+            stepped_v.append(sv)
+            stepped_w.append(sw)
+
+        # ---- block 11: the comparator ----------------------------------------------------
+        # The kinds of the traced element's steps (signs qx, qy; which axis steps occur).
+        own_u, own_v = relative(own)
+        quadrant = _quadrant(own_u, own_v, own.cw)
+        x_negative = (quadrant == 1) | (quadrant == 2)
+        y_negative = (quadrant == 2) | (quadrant == 3)
+        qx_neg = Mux(own.arc, Mux(own.cw, y_negative, ~y_negative),
+                     Mux(own.swap, own.minor, own.back))
+        qy_neg = Mux(own.arc, Mux(own.cw, ~x_negative, x_negative),
+                     Mux(own.swap, own.back, own.minor))
+        x_kind = own.arc | ~own.swap
+        y_kind = own.arc | own.swap
+
+        tc, td = _coefficients(Mux(cmp.entry, cmp.eswap, cmp.swap),
+                               Mux(cmp.entry, cmp.eminor, cmp.minor),
+                               Mux(cmp.entry, cmp.ek, cmp.k), one)
+        tu, tv = relative(cmp)
+        target_circle = cmp.arc & ~cmp.entry
+        kind_a = Signal(signed(f.value))
+        kind_b = Signal(signed(f.value))
+        kind_d = Signal(signed(f.value))
+        m.d.comb += [
+            kind_a.eq(Mux(target_circle, Mux(qx_neg, -2 * tu + 1, 2 * tu + 1),
+                          Mux(qx_neg, -tc, tc))),
+            kind_b.eq(Mux(target_circle, Mux(qy_neg, -2 * tv + 1, 2 * tv + 1),
+                          Mux(qy_neg, -td, td))),
+            kind_d.eq(kind_a + kind_b),
+        ]
+        tau2 = Signal(f.value)               # 2τ: the largest change over one step
+        ka = Mux(x_kind, _abs(kind_a), 0)
+        kb = Mux(y_kind, _abs(kind_b), 0)
+        kd = _abs(kind_d)
+        kab = Mux(ka > kb, ka, kb)
+        m.d.comb += tau2.eq(Mux(kab > kd, kab, kd))
+
+        target = Mux(cmp.entry, cmp.w, cmp.v)
+        target_after = Mux(cmp.entry, stepped_w[1], stepped_v[1])
+
+        def reached(value):
+            return ((Mux(cmp.h, -value, value) << 1) + tau2) >= 0
+
+        at_centre = own.arc & (own_u == 0) & (own_v == 0)
+        end_after = Signal()
+        m.d.comb += [
+            end_now.eq(running & (reached(target) | (own.arc & (own.empty | at_centre)))),
+            end_after.eq(running & ~end_now & stepped & reached(target_after)),
+        ]
+
+        # The arc core: a run from the position, on the circle N (residue = -S).
+        core_native_x = Mux(_x_falls(quadrant, own.cw), _abs(own_u), _abs(own_v))
+        core_native_y = Mux(_x_falls(quadrant, own.cw), _abs(own_v), _abs(own_u))
+        m.d.comb += [
+            core.cmd.valid.eq(arc_go & (arc_state == 0)),
+            core.cmd.payload.x.eq(core_native_x),
+            core.cmd.payload.y.eq(core_native_y),
+            core.cmd.payload.residue.eq(-own.v),
+            core.stop.eq(own.arc & end_after),
+            core.abort.eq(self.abort | (own.arc & end_now)),
+        ]
+
+        # ---- the contour's elements: ends and the memory's shifts ------------------------
+        element_end = Signal()
+        terminal_end = Signal()
+        shift_own = Signal()
+        shift_cmp = Signal()
+        shift_prep = Signal()
+        m.d.comb += [
+            element_end.eq(end_now | end_after),
+            terminal_end.eq(own.valid & own.last & ~hold & ~self.abort),
+            shift_own.eq(element_end | terminal_end | ~own.valid),
+            shift_cmp.eq(shift_own | ~cmp.valid),
+            shift_prep.eq(shift_cmp | ~prep.valid),
+        ]
+
+        with m.If(self.abort):
+            m.d.sync += arc_state.eq(0)
+        with m.Elif(element_end):
+            m.d.sync += arc_state.eq(0)
+        with m.Elif((arc_state == 0) & core.cmd.valid):
+            x_falls = _x_falls(quadrant, own.cw)
+            m.d.sync += [
+                arc_state.eq(1),
+                run_swap.eq(~x_falls),
+                run_dir.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
+                               Mux(x_falls, y_negative, ~y_negative))),
+            ]
+        with m.Elif(arc_state == 1):
+            m.d.sync += arc_state.eq(2)
+        with m.Elif((arc_state == 2) & core.done):
+            m.d.sync += arc_state.eq(0)
+
+        # ---- block 1: frames in ----------------------------------------------------------
+        kind = frame.kind
+        is_element = (kind == Kind.LINE) | (kind == Kind.ARC)
+        bad = Signal()
+        m.d.comb += bad.eq((kind > Kind.CLOSE) | (is_element & ~contour)
+                           | ((kind == Kind.RADIUS) & (frame.x < 0)))
+        unit = Signal(3)                     # blocks 5-8: 0 idle, 1 launch, 2 round 1,
+        #                                      3 launch 2, 4 round 2, 5 radius
+        unit_entry = Signal()
+        unit_last_round = Signal()
+        pending = Signal(_frame(f))          # the frame being formed
+        engine_idle = Signal()
+        m.d.comb += engine_idle.eq(~own.valid & ~cmp.valid & ~prep.valid & (unit == 0)
+                                   & ~homing & ~contour)
+        accepting = ~self.abort & ~status.flushing
+        take_element = Signal()
+        take_control = Signal()
+        refuse = Signal()
+        m.d.comb += [
+            take_element.eq(accepting & contour & is_element & shift_prep
+                            & ((unit == 0) | unit_last_round)),
+            take_control.eq(accepting & ~is_element & ~bad & engine_idle & status.idle),
+            refuse.eq(self.cmd.valid & accepting & bad & engine_idle & status.idle),
+            self.cmd.ready.eq(Mux(bad, refuse, Mux(is_element, take_element, take_control))),
+        ]
+        accept = self.cmd.valid & self.cmd.ready
+        taken = accept & ~bad                # accepted and not refused
+        new = Signal(slot)
+        m.d.comb += [
+            new.valid.eq(1), new.computing.eq(1), new.last.eq(frame.last),
+            new.arc.eq(kind == Kind.ARC), new.h.eq(frame.h), new.entry.eq(frame.entry),
+            new.swap.eq(frame.swap), new.minor.eq(frame.minor), new.back.eq(frame.sec < 0),
+            new.k.eq(frame.k), new.cx.eq(frame.x), new.cy.eq(frame.y), new.cw.eq(frame.cw),
+            new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
+        ]
+
+        # ---- blocks 5, 6, 7, 8: a frame's functions at the position ----------------------
+        p0x = Signal(signed(w + 2))
+        p0y = Signal(signed(w + 2))
+        launching = (unit == 1) | (unit == 3)
+        base_x = Mux(unit == 1, x, p0x)
+        base_y = Mux(unit == 1, y, p0y)
+        second = (unit == 3) | (unit == 4)
+        u0 = base_x - pending.x
+        v0 = base_y - pending.y
+        circle = (pending.kind == Kind.ARC) & ~second
+        lswap = Mux(second, pending.eswap, pending.swap)
+        lk = Mux(second, pending.ek, pending.k)
+        side_g = Mux(pending.side == 0, 0, Mux(pending.side[-1], -pending.sec, pending.sec))
+        lg = Mux(second, pending.eg, side_g)
+        m.d.comb += [
+            b5x.start.eq(launching),
+            b5y.start.eq(launching),
+            b6.start.eq(launching | ((unit == 0) & taken & (kind == Kind.RADIUS))),
+            b5x.clear.eq(self.abort),
+            b5y.clear.eq(self.abort),
+            b6.clear.eq(self.abort),
+            b5x.a.eq(Mux(circle, _abs(u0), Mux(~lswap, _abs(lk), 0))),
+            b5x.b.eq(Mux(circle, _abs(u0), _abs(base_x))),
+            b5y.a.eq(Mux(circle, _abs(v0), Mux(lswap, _abs(lk), 0))),
+            b5y.b.eq(Mux(circle, _abs(v0), _abs(base_y))),
+            b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, _abs(lg)))),
+            b6.b.eq(Mux(unit == 0, frame.x, radius)),
+        ]
+        # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position.
+        kx = Mux(lk[-1] ^ base_x[-1], -b5x.product, b5x.product)
+        ky = Mux(lk[-1] ^ base_y[-1], -b5y.product, b5y.product)
+        gr = Mux(lg[-1], -b6.product, b6.product)
+        lb = Mux(second, pending.eb, pending.b)
+        lminor = Mux(second, pending.eminor, pending.minor)
+        line_xy = kx + lb - base_y * one + gr
+        line_yx = ky + lb - base_x * one - gr
+        line_value = Signal(signed(f.value))
+        line_raw = Mux(lswap, line_yx, line_xy)
+        m.d.comb += line_value.eq(Mux(lminor, -line_raw, line_raw))
+        sigma_out = (pending.side == 1) == pending.cw
+        rounded = (b6.product + half) >> fr
+        n_value = Signal(signed(f.value))
+        m.d.comb += n_value.eq(pending.e + radius2 + Mux(sigma_out, rounded, -rounded))
+        circle_value = Signal(signed(f.value))
+        m.d.comb += circle_value.eq(b5x.product + b5y.product - n_value)
+        combine1 = (unit == 2) & b6.done
+        combine2 = (unit == 4) & b6.done
+        m.d.comb += [
+            unit_entry.eq(pending.entry),
+            unit_last_round.eq((combine1 & ~pending.entry) | combine2),
+        ]
+        with m.If(self.abort):
+            m.d.sync += unit.eq(0)
+        with m.Elif(unit == 0):
+            with m.If(taken & (kind == Kind.RADIUS)):
+                m.d.sync += [unit.eq(5), radius.eq(frame.x)]
+        with m.Elif(unit == 1):
+            m.d.sync += [unit.eq(2), p0x.eq(x), p0y.eq(y)]
+        with m.Elif(combine1):
+            m.d.sync += unit.eq(Mux(pending.entry, 3, 0))
+        with m.Elif(unit == 3):
+            m.d.sync += unit.eq(4)
+        with m.Elif(combine2):
+            m.d.sync += unit.eq(0)
+        with m.Elif((unit == 5) & b6.done):
+            m.d.sync += [unit.eq(0), radius2.eq(b6.product)]
+        with m.If(take_element & self.cmd.valid & ~self.abort):
+            m.d.sync += [pending.eq(frame), unit.eq(1)]
+
+        # ---- the memory's next contents ----------------------------------------------------
+        def advanced(n):
+            """Slot ``n`` after this clock: stepped, and its functions added when formed."""
+            s = slots[n]
+            out = Signal(slot, name=f"advanced{n}")
+            m.d.comb += [out.eq(s), out.v.eq(stepped_v[n]), out.w.eq(stepped_w[n])]
+            with m.If(s.computing & combine1):
+                m.d.comb += out.v.eq(stepped_v[n] + Mux(s.arc, circle_value, line_value))
+                with m.If(s.arc):
+                    m.d.comb += out.empty.eq(n_value <= 0)
+                with m.If(~pending.entry):
+                    m.d.comb += [out.computing.eq(0), out.ready.eq(1)]
+            with m.If(s.computing & combine2):
+                m.d.comb += [out.w.eq(stepped_w[n] + line_value), out.computing.eq(0),
+                             out.ready.eq(1)]
+            return out
+
+        moved = [advanced(n) for n in range(3)]
+        with m.If(self.abort):
+            m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
+        with m.Else():
+            m.d.sync += [
+                own.eq(Mux(shift_own, moved[1], moved[0])),
+                cmp.eq(Mux(shift_cmp, moved[2], moved[1])),
+            ]
+            with m.If(shift_prep):
+                with m.If(take_element & self.cmd.valid):
+                    m.d.sync += prep.eq(new)
+                with m.Else():
+                    m.d.sync += prep.valid.eq(0)
+            with m.Else():
+                m.d.sync += prep.eq(moved[2])
+
+        # ---- control frames: the radius, the start, the return -----------------------------
+        start_now = taken & (kind == Kind.START)
+        close_now = taken & (kind == Kind.CLOSE)
+        close_end = Signal()
+        home_x_after = x + Mux(step_x, Mux(neg_x, -1, 1), 0)
+        home_y_after = y + Mux(step_y, Mux(neg_y, -1, 1), 0)
+        m.d.comb += close_end.eq((close_now & ~home_dx & ~home_dy)
+                                 | (home_step & (home_x_after == start_x)
+                                    & (home_y_after == start_y)))
+        with m.If(self.abort):
+            m.d.sync += [contour.eq(0), homing.eq(0)]
+        with m.Else():
+            with m.If(start_now):
+                m.d.sync += [contour.eq(1), start_x.eq(frame.x), start_y.eq(frame.y)]
+            with m.If(take_element & self.cmd.valid & frame.last):
+                m.d.sync += contour.eq(0)
+            with m.If(close_now & ~close_end):
+                m.d.sync += homing.eq(1)
+            with m.If(close_end):
+                m.d.sync += homing.eq(0)
+        radius_end = (unit == 5) & b6.done
+
+        m.d.comb += [
+            block12.d.eq(frame.x), block12.load.eq(start_now),
+            block12.up.eq(step_x & ~neg_x), block12.down.eq(step_x & neg_x),
+            block13.d.eq(frame.y), block13.load.eq(start_now),
+            block13.up.eq(step_y & ~neg_y), block13.down.eq(step_y & neg_y),
+        ]
+
+        # ---- blocks 14 and 15: the step permission; motion; outcomes ----------------------
+        arc_due = core.feed.due & arc_go
+        due = Signal()
+        m.d.comb += [
+            due.eq(line_due | arc_due | home_due),
+            self.feed.due.eq(due),
+            self.feed.diagonal.eq(due & Mux(line_due, line_major & line_minor,
+                                            Mux(home_due, home_dx & home_dy,
+                                                core.feed.diagonal))),
+            self.motion.step.eq(Cat(step_x, step_y)),
+            self.motion.dir.eq(Cat(step_x & neg_x, step_y & neg_y)),
+
+            status.motion.step.eq(Cat(step_x, step_y)),
+            status.motion.dir.eq(Cat(neg_x, neg_y)),
+            status.accept.eq(accept),
+            status.end.eq(element_end | terminal_end | start_now | close_end | radius_end
+                          | refuse),
+            status.outcome.eq(Mux(refuse, Outcome.REFUSED, Outcome.DONE)),
+            status.flush.eq(self.abort),
+            self.busy.eq(status.busy),
+        ]
+        wiring.connect(m, wiring.flipped(self.status), status.status)
+        return m
