@@ -23,7 +23,7 @@
 #include "verilated_vcd_c.h"
 #endif
 
-static const uint8_t SYNC = 0xA5, OUTCOME = 0x80;
+static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82;
 
 static uint16_t crc16(const std::vector<uint8_t> &data) {
     uint16_t crc = 0xFFFF;
@@ -156,7 +156,7 @@ int main(int argc, char **argv) {
                         for (size_t i = 3; i < reply.size() - 2; i++)
                             std::fprintf(out, " %02x", reply[i]);
                         std::fprintf(out, "\n");
-                        if (reply[1] == OUTCOME) { outstanding--; answered++; }
+                        if (reply[1] == OUTCOME || reply[1] == ERROR) { outstanding--; answered++; }
                     }
                     reply.clear();
                 }

@@ -15,25 +15,14 @@ import shutil
 import subprocess
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from .runners import SimulatorError, _locked, verilator_environment
+from .testbench.host import Run, parse_events, write_frames
 
 __all__ = ["FastRun", "Run"]
 
 HARNESS = Path(__file__).resolve().parent / "fastrun.cpp"
-
-
-@dataclass
-class Run:
-    """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
-    ``replies`` ``(clock, type, payload bytes)``, the clocks simulated and the seconds it took
-    (the build apart)."""
-    steps: list
-    replies: list
-    clocks: int
-    seconds: float
 
 
 class FastRun:
@@ -94,8 +83,7 @@ class FastRun:
         runs = self.build_dir / "runs"
         runs.mkdir(exist_ok=True)
         run_dir = Path(tempfile.mkdtemp(prefix="run-", dir=runs))
-        (run_dir / "frames.bin").write_bytes(b"".join(len(f).to_bytes(2, "little") + bytes(f)
-                                                      for f in frames))
+        write_frames(run_dir / "frames.bin", frames)
         command = [str(self.binary), str(run_dir / "frames.bin"), str(run_dir / "events.txt"),
                    str(divisor), str(window), str(max_clocks)]
         if vcd is not None:
@@ -111,16 +99,7 @@ class FastRun:
         seconds = time.monotonic() - started
         if code not in (0, 3):
             raise SimulatorError(f"the controller run failed (status {code}); see {run_dir}")
-        steps, replies, clocks = [], [], 0
-        for line in (run_dir / "events.txt").read_text().splitlines():
-            kind, *fields = line.split()
-            if kind == "S":
-                steps.append(tuple(int(f) for f in fields))
-            elif kind == "R":
-                replies.append((int(fields[0]), int(fields[1], 16),
-                                bytes(int(f, 16) for f in fields[2:])))
-            else:
-                clocks = int(fields[0])
+        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text())
         if code == 3:
             raise SimulatorError(f"the program did not end within {max_clocks} clocks "
                                  f"({run_dir})")

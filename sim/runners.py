@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 import uuid
 from pathlib import Path
 
@@ -288,6 +289,33 @@ class CocotbBuild:
         shutil.rmtree(run_dir, ignore_errors=True)
         check_outcomes(data["record"])
         return data["record"]
+
+    def run_controller(self, frames, *, divisor, window, max_clocks, vcd=None):
+        """Run ``frames`` through this build of a machine controller with the host of
+        :class:`sim.testbench.host.HostLink` (the cocotb test
+        :mod:`sim.testbench.controller_run`); return its :class:`sim.testbench.host.Run`."""
+        from .testbench.host import Run, parse_events, write_frames
+
+        if vcd is not None and not self.waves:
+            raise ValueError("a waveform needs a build made with waves=True")
+        run_dir = self._run_dir()
+        write_frames(run_dir / "frames.bin", frames)
+        spec = {"frames": str(run_dir / "frames.bin"), "events": str(run_dir / "events.txt"),
+                "divisor": divisor, "window": window, "max_clocks": max_clocks}
+        (run_dir / "run.json").write_text(json.dumps(spec))
+        started = time.monotonic()
+        self._run("sim.testbench.controller_run", run_dir, vcd=vcd is not None,
+                  env={"KONTUR_RUN": str(run_dir / "run.json")})
+        seconds = time.monotonic() - started
+        if not (run_dir / "events.txt").exists():
+            raise SimulatorError(f"the {self.simulator} run did not end within {max_clocks} "
+                                 f"clocks, or failed; see {run_dir / 'run.log'}")
+        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text())
+        if vcd is not None:
+            dump = "dump.vcd" if self.simulator == "verilator" else "engine.vcd"
+            shutil.copyfile(run_dir / dump, vcd)
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return Run(steps, replies, clocks, seconds)
 
     def test(self, test_module, *, env=None, testcase=None):
         """Run the cocotb tests of ``test_module`` on this build; raise :exc:`AssertionError`

@@ -2,7 +2,6 @@
 """The machine controller end to end in Amaranth's simulator: frames over the serial pin,
 steps on the step/dir pins, replies back; against the step-level models."""
 
-import random
 import unittest
 
 from hdl.motion.controller import MotionController
@@ -10,8 +9,9 @@ from hdl.motion.link import OUTCOME, STATUS
 from sim import registry
 from sim.host import protocol
 
-from .test_uart import line_levels
-from .utils import simulate
+from sim.testbench.host import run_amaranth, steps_of
+
+from .utils import waves_path
 
 CLOCK, BAUD = 1e6, 125_000                 # 8 clocks a bit: quick to simulate
 BIT = round(CLOCK / BAUD)
@@ -30,60 +30,13 @@ def run(frames, *, clocks, depth=8, inject=None, name):
     frames), and ``inject`` (clock to bytes) at those clocks; collect the pins and replies.
     Returns ``(moves, replies, trace)``: the ``(clock, dx, dy)`` of every step pulse, the
     replies, and ``(step, dir)`` per clock."""
-    inject = inject or {}
-    dut = controller(queue_frames=depth)
-    moves, trace, tx_levels = [], [], []
-    replies = []
-
-    async def testbench(ctx):
-        sending, pending_levels = list(frames), []
-        outstanding = 0
-        parser = protocol.ReplyParser()
-        rx_bits, rx_timer, rx_byte, rx_state = [], 0, 0, "idle"
-        previous = 0
-        for clock in range(clocks):
-            # ---- host to machine: a frame's levels once the window allows it ------------
-            if not pending_levels and sending:
-                data = sending[0]
-                queued = data[1] not in (0x20, 0x21)
-                if not queued or outstanding < depth:
-                    sending.pop(0)
-                    outstanding += queued
-                    pending_levels = [level for byte in data
-                                      for level in line_levels(byte, BIT)]
-            if clock in inject:
-                pending_levels += [level for byte in inject[clock]
-                                   for level in line_levels(byte, BIT)]
-            ctx.set(dut.rx, pending_levels.pop(0) if pending_levels else 1)
-            # ---- machine to host: sample the tx line in the middle of each bit ----------
-            level = ctx.get(dut.tx)
-            if rx_state == "idle" and level == 0:
-                rx_state, rx_timer, rx_bits = "bits", BIT + BIT // 2, []
-            elif rx_state == "bits":
-                rx_timer -= 1
-                if rx_timer == 0:
-                    rx_bits.append(level)
-                    rx_timer = BIT
-                    if len(rx_bits) == 9:            # 8 data bits and the stop bit
-                        byte = sum(b << i for i, b in enumerate(rx_bits[:8]))
-                        for reply in parser.feed(bytes([byte])):
-                            replies.append(reply)
-                            outstanding -= reply.kind == OUTCOME
-                        rx_state = "idle"
-            # ---- the pins ------------------------------------------------------------------
-            step, direction = ctx.get(dut.motion.step), ctx.get(dut.motion.dir)
-            trace.append((step, direction))
-            rising = step & ~previous
-            if rising:
-                dx = (-1 if direction & 1 else 1) if rising & 1 else 0
-                dy = (-1 if direction & 2 else 1) if rising & 2 else 0
-                moves.append((clock, dx, dy))
-            previous = step
-            await ctx.tick()
-        assert not sending and not pending_levels
-
-    simulate(dut, testbench, name=name)
-    return moves, replies, trace
+    trace = []
+    result = run_amaranth(controller(queue_frames=depth), frames, divisor=BIT, window=depth,
+                          max_clocks=clocks, inject=inject, levels=trace,
+                          vcd=waves_path(name))
+    moves = [(clock, dx, dy) for (clock, _, _), (dx, dy) in zip(result.steps,
+                                                                steps_of(result))]
+    return moves, [reply for _, reply in result.replies], trace
 
 
 def expected(program):

@@ -14,8 +14,6 @@ from fractions import Fraction
 
 import cocotb
 import pytest
-from cocotb.clock import Clock
-from cocotb.triggers import ReadOnly, RisingEdge, Timer
 
 from hdl.motion.controller import MotionController
 from hdl.motion.link import ERROR, OUTCOME, STATUS
@@ -25,6 +23,7 @@ from sim.host.machine import Machine
 from sim.host.planner import frames as program_frames
 from sim.host.planner import lattice, plan
 from sim.runners import CocotbBuild
+from sim.testbench.host import run_cocotb, steps_of
 
 from .conftest import cocotb_build_root, selected_simulators
 
@@ -61,65 +60,15 @@ def part():
 async def run_program(dut, frames, *, query=False):
     """Reset, send ``frames`` with the window flow control, record every clock's pins until
     all are answered (and then, with ``query``, until the reply to a QUERY); return
-    ``(levels, replies)``."""
-    from cocotbext.uart import UartSink, UartSource
-
-    Clock(dut.clk, 1, unit="us").start(start_high=False)
-    dut.rst.value = 1
-    dut.rx.value = 1
-    await Timer(3500, unit="ns")
-    dut.rst.value = 0
-    source = UartSource(dut.rx, baud=MACHINE.baud)
-    sink = UartSink(dut.tx, baud=MACHINE.baud)
-    parser = protocol.ReplyParser()
-    replies, levels = [], []
-    state = {"outstanding": 0}
-
-    async def host():
-        for frame in frames:
-            queued = frame[1] not in (0x20, 0x21)
-            while queued and state["outstanding"] >= MACHINE.queue_frames:
-                await RisingEdge(dut.clk)
-            state["outstanding"] += queued
-            await source.write(frame)
-            await source.wait()
-
-    cocotb.start_soon(host())
-    queued_total = sum(frame[1] not in (0x20, 0x21) for frame in frames)
-    answered = 0
-    asked = False                                   # the QUERY sent, its STATUS awaited
-    for _ in range(3_000_000):
-        await RisingEdge(dut.clk)
-        await ReadOnly()
-        levels.append((int(dut.motion__step.value), int(dut.motion__dir.value)))
-        if not sink.empty():
-            for reply in parser.feed(sink.read_nowait(sink.count())):
-                replies.append(reply)
-                if reply.kind in (OUTCOME, ERROR):      # a dropped frame gets an ERROR
-                    state["outstanding"] -= 1
-                    answered += 1
-        if answered == queued_total and query and not asked:
-            asked = True
-            await RisingEdge(dut.clk)
-            await source.write(protocol.query())
-        finished = answered == queued_total and (not asked or replies[-1].kind == STATUS)
-        if finished:
-            for _ in range(50):
-                await RisingEdge(dut.clk)
-            return levels, replies
-    raise AssertionError("the program did not end")
-
-
-def edges(levels):
-    """``(clock, dx, dy)`` at every rising step edge."""
-    moves, previous = [], 0
-    for clock, (step, direction) in enumerate(levels):
-        rising = step & ~previous
-        if rising:
-            moves.append((clock, (-1 if direction & 1 else 1) if rising & 1 else 0,
-                          (-1 if direction & 2 else 1) if rising & 2 else 0))
-        previous = step
-    return moves
+    ``(levels, moves, replies)``: the pins each clock, ``(clock, dx, dy)`` at each rising step
+    edge, the replies."""
+    levels = []
+    result = await run_cocotb(dut, frames, divisor=round(MACHINE.clock_hz / MACHINE.baud),
+                              window=MACHINE.queue_frames, max_clocks=3_000_000,
+                              then=protocol.query() if query else None, levels=levels)
+    moves = [(clock, dx, dy) for (clock, _, _), (dx, dy) in zip(result.steps,
+                                                                steps_of(result))]
+    return levels, moves, [reply for _, reply in result.replies]
 
 
 def check_timing(levels, moves):
@@ -152,8 +101,7 @@ def planned():
 @cocotb.test()
 async def part_program(dut):
     segments, frames = planned()
-    levels, replies = await run_program(dut, frames, query=True)
-    moves = edges(levels)
+    levels, moves, replies = await run_program(dut, frames, query=True)
     assert [(dx, dy) for _, dx, dy in moves] == [s for seg in segments for s in seg.steps]
     end = (sum(dx for _, dx, _ in moves), sum(dy for _, _, dy in moves))
     assert end == segments[-1].end == (0, 0)
@@ -172,10 +120,10 @@ async def corrupt_frame(dut):
     bad = bytearray(frames[index])
     bad[-1] ^= 0x01                                             # its CRC
     frames[index] = bytes(bad)
-    levels, replies = await run_program(dut, frames)
+    _, moves, replies = await run_program(dut, frames)
     errors = [r.fields for r in replies if r.kind == ERROR]
     assert errors == [(1,)]
-    moves = [(dx, dy) for _, dx, dy in edges(levels)]
+    moves = [(dx, dy) for _, dx, dy in moves]
     skipped = segments[3]
     assert moves == [s for seg in segments if seg is not skipped for s in seg.steps]
 

@@ -70,19 +70,25 @@ class InterpretTestCase(unittest.TestCase):
     def test_refusals_name_the_line(self):
         cases = [
             ("G1 X1\nQ3\n", r"^line 2: unknown word Q3$"),
-            ("G2 X1 R5\n", r"^line 1: arcs by radius \(R5\) are not read yet: give the centre "
-                           r"with I and J$"),
+            ("G2 X20 R5\n", r"^line 1: the radius 5 is less than half the distance to the end "
+                            r"\(10\)$"),
+            ("G2 X1 R0\n", r"^line 1: an arc of radius zero \(R0\)$"),
+            ("G2 R5\n", r"^line 1: an arc by radius \(R\) cannot end where it starts"),
+            ("G2 X2 I1 R1\n", r"^line 1: an arc by its centre \(I, J\) or by its radius \(R\), "
+                              r"not both$"),
+            ("G1 X1 R2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
             ("G1.5 X1\n", r"^line 1: G1\.5: a code must be an integer$"),
             ("G1 X1 X2\n", r"^line 1: X given twice \(X1 and X2\)$"),
             ("G5 X1\n", r"^line 1: unknown code G5$"),
-            ("G21\n", r"^line 1: units \(G20/G21\) are not read yet: write the program in "
-                      r"lattice units$"),
+            ("G21\n", r"^line 1: G21: this program is read in lattice units \(steps\), "
+                      r"without G20/G21$"),
             ("G18\n", r"^line 1: only the XY plane \(G17\) is supported$"),
             ("G1 G2 X1\n", r"^line 1: two motion codes in one block \(G1 and G2\)$"),
             ("M5\n", r"^line 1: unknown code M5$"),
             ("X1\n", r"^line 1: coordinates without a motion code \(G0, G1, G2 or G3\)$"),
-            ("G1 X1 I2\n", r"^line 1: I and J belong to arcs \(G2, G3\), not to G1$"),
-            ("G3 X1 Y1\n", r"^line 1: G3 needs the centre: I and J \(relative to the start\)$"),
+            ("G1 X1 I2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
+            ("G3 X1 Y1\n", r"^line 1: G3 needs the centre: I and J \(relative to the start\) "
+                           r"or R$"),
             ("G1 X1\nM2\nG1 X2\n", r"^line 3: a block after the end of the program "
                                    r"\(M2/M30\)$"),
             ("G1 X1 F0\n", r"^line 1: the feed must be positive, not F0$"),
@@ -90,6 +96,53 @@ class InterpretTestCase(unittest.TestCase):
         for text, message in cases:
             with self.subTest(text=text), self.assertRaisesRegex(GCodeError, message):
                 self.moves(text)
+
+    def test_units(self):
+        # Lattice units refuse G20/G21 (above); millimetres take them, inches scale by 25.4.
+        moves = interpret(parse("G1 X1 F10\nG20 G1 X1 Y2 F10\nG21 G91 G1 X1\n"), units="mm")
+        self.assertEqual([m.end for m in moves],
+                         [(1, 0), (Fraction(254, 10), Fraction(508, 10)),
+                          (Fraction(264, 10), Fraction(508, 10))])
+        self.assertEqual([m.feed for m in moves], [10, 254, 254])
+        moves = interpret(parse("G20 G0 X1\nG3 X0 Y1 I-1\n"), units="mm")
+        self.assertEqual(moves[1].centre, (0, 0))
+        with self.assertRaisesRegex(GCodeError, r"^line 1: two units codes in one block "
+                                                r"\(G20 and G21\)$"):
+            interpret(parse("G20 G21\n"), units="mm")
+        with self.assertRaisesRegex(ValueError, "Units must be one of"):
+            interpret(parse("G1 X1\n"), units="inch")
+
+    def test_arcs_by_radius(self):
+        # Each case: the arc, then the centre it must have: on both ends' circle of |R|, on
+        # the side RS274 gives (positive R: at most a half turn).
+        cases = [("G2 X1 Y1 R1", (1, 0)), ("G3 X1 Y1 R1", (0, 1)),
+                 ("G2 X1 Y1 R-1", (0, 1)), ("G3 X1 Y1 R-1", (1, 0)),
+                 ("G2 X10 R5", (5, 0)), ("G3 X6 Y8 R5", (3, 4))]
+        for text, centre in cases:
+            with self.subTest(text=text):
+                (move,) = self.moves(text + "\n")
+                self.assertTrue(all(abs(float(c) - e) < 1e-30 for c, e in zip(move.centre,
+                                                                              centre)),
+                                move.centre)
+                radius = abs(Fraction(text.split("R")[1]))
+                for point in (move.start, move.end):
+                    radius2 = sum((p - c) ** 2 for p, c in zip(point, move.centre))
+                    self.assertLess(abs(radius2 - radius * radius), Fraction(1, 10 ** 30))
+        # An arc by radius turns the way it says: the cross product of start and end about
+        # the centre is negative for G2 (clockwise), positive for G3.
+        for code, sign in (("G2", -1), ("G3", 1)):
+            for radius in ("R5", "R-5"):
+                (move,) = self.moves(f"{code} X6 Y2 {radius}\n")
+                (ax, ay), (bx, by) = [(p[0] - move.centre[0], p[1] - move.centre[1])
+                                      for p in (move.start, move.end)]
+                cross = ax * by - ay * bx
+                self.assertEqual(cross > 0, sign > 0 if radius == "R5" else sign < 0,
+                                 (code, radius))
+
+    def test_full_circle(self):
+        (move,) = self.moves("G0 X5\nG2 I-5\n")[1:]
+        self.assertEqual((move.start, move.end, move.centre, move.cw), ((5, 0), (5, 0), (0, 0),
+                                                                        True))
 
     def test_read(self):
         program = read("G17 G90\nG1 X2 Y2 D1\n", name="p.ngc")

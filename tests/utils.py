@@ -7,7 +7,7 @@ from pathlib import Path
 from amaranth import Fragment, Module, Signal
 from amaranth.sim import Simulator
 
-__all__ = ["simulate", "used", "BUILD_DIR"]
+__all__ = ["simulate", "used", "waves_path", "BUILD_DIR"]
 
 BUILD_DIR = Path(__file__).resolve().parent.parent / "build"
 
@@ -18,6 +18,15 @@ def used(*elaboratables):
     collected, which a test file's pragma does not cover."""
     for elaboratable in elaboratables:
         Fragment.get(elaboratable, None)
+
+
+def waves_path(name):
+    """``build/waves/<name>.vcd`` with ``WAVES=1`` in the environment, else ``None``."""
+    if os.environ.get("WAVES") != "1":
+        return None
+    wave_dir = BUILD_DIR / "waves"
+    wave_dir.mkdir(parents=True, exist_ok=True)
+    return wave_dir / (re.sub(r"[^A-Za-z0-9_.-]+", "_", name) + ".vcd")
 
 
 def simulate(dut, testbench, *, name, traces=()):

@@ -12,15 +12,21 @@ The reader has two layers, so that a machine controller can take over either one
   start and end in absolute coordinates and the cutter-radius compensation in effect (G41 left,
   G42 right, G40 off).
 
-Numbers are exact (:class:`fractions.Fraction`): the reader never rounds. Distances are in the
-program's units; this project's programs are in lattice units (steps), and the reader accepts
-exactly what it can interpret: G0 G1 G2 G3, G17, G40 G41 G42, G90 G91, the words X Y I J, F
-(feed, recorded), D (offset number, recorded), N, and M2 M30 (program end). Anything else is
-refused with a :exc:`GCodeError` naming the line, as is every malformed line. Units (G20/G21),
-arcs by radius (``R``) and the other planes are left to the controller that extends this
-reader.
+Numbers are exact (:class:`fractions.Fraction`): the reader never rounds, except where an arc
+given by its radius needs a square root (its centre is then exact to 40 digits). It accepts
+exactly what it can interpret: G0 G1 G2 G3 (arcs by centre, ``I`` and ``J`` relative to the
+start, or by radius ``R``, negative for more than a half turn; a full circle by ``I J`` with
+the end on the start), G17, G40 G41 G42, G90 G91, the words X Y I J R, F (feed, recorded), D
+(offset number, recorded), N, and M2 M30 (program end). Anything else is refused with a
+:exc:`GCodeError` naming the line, as is every malformed line.
+
+Units: with ``units=None`` (``kontur trace profile``) a program is in lattice units (steps) and
+G20/G21 are refused; with ``units="mm"`` (the machine controller, ``kontur run``) G21
+(millimetres) is the default and G20 switches to inches, and every coordinate and feed of the
+moves is given in millimetres (per minute).
 """
 
+import decimal
 import re
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -181,12 +187,44 @@ def parse(text, *, name=None):
 
 
 _MOTION = {0: "rapid", 1: "line", 2: "arc", 3: "arc"}
-_GROUPS = {0: "motion", 1: "motion", 2: "motion", 3: "motion", 17: "plane", 40: "compensation",
-           41: "compensation", 42: "compensation", 90: "distance", 91: "distance"}
-_LETTERS = set("GMNXYIJFD")
-_ADVICE = {20: "units (G20/G21) are not read yet: write the program in lattice units",
-           21: "units (G20/G21) are not read yet: write the program in lattice units",
-           18: "only the XY plane (G17) is supported", 19: "only the XY plane (G17) is supported"}
+_GROUPS = {0: "motion", 1: "motion", 2: "motion", 3: "motion", 17: "plane", 20: "units",
+           21: "units", 40: "compensation", 41: "compensation", 42: "compensation",
+           90: "distance", 91: "distance"}
+_LETTERS = set("GMNXYIJRFD")
+_LATTICE = "this program is read in lattice units (steps), without G20/G21"
+_ADVICE = {18: "only the XY plane (G17) is supported", 19: "only the XY plane (G17) is supported"}
+#: Millimetres per unit of each units code.
+_SCALE = {20: Fraction(254, 10), 21: Fraction(1)}
+UNITS = (None, "mm")
+
+
+def _sqrt(value):
+    """The square root of a non-negative Fraction, to 40 significant digits."""
+    with decimal.localcontext() as context:
+        context.prec = 40
+        root = (decimal.Decimal(value.numerator) / decimal.Decimal(value.denominator)).sqrt()
+    return Fraction(root)
+
+
+def _radius_centre(start, end, radius, cw, fail):
+    """The centre of the arc from ``start`` to ``end`` of signed ``radius`` (RS274: positive
+    for at most a half turn, negative for more)."""
+    (x0, y0), (x1, y1) = start, end
+    dx, dy = x1 - x0, y1 - y0
+    chord2 = dx * dx + dy * dy
+    if radius == 0:
+        fail("an arc of radius zero (R0)")
+    if chord2 == 0:
+        fail("an arc by radius (R) cannot end where it starts: give a full circle by I and J")
+    rest = radius * radius - chord2 / 4
+    if rest < 0:
+        if -rest > radius * radius * Fraction(1, 10 ** 12):
+            fail(f"the radius {float(abs(radius)):g} is less than half the distance to the end "
+                 f"({float(_sqrt(chord2)) / 2:g})")
+        rest = Fraction(0)
+    h_over_d = _sqrt(rest / chord2)                     # h / d
+    side = (1 if cw else -1) * (1 if radius > 0 else -1)  # +1: the centre right of the chord
+    return (x0 + dx / 2 + side * h_over_d * dy, y0 + dy / 2 - side * h_over_d * dx)
 
 
 @dataclass
@@ -198,22 +236,28 @@ class _State:
     feed: Fraction = None
     ended: bool = False
     offset: Fraction = None
+    scale: Fraction = Fraction(1)
     extra: dict = field(default_factory=dict)
 
 
-def interpret(blocks, *, start=(0, 0), name=None):
+def interpret(blocks, *, start=(0, 0), name=None, units=None):
     """Run the blocks through the modal state; return the moves.
 
-    The position starts at ``start`` (the origin by default); motion, distance (G90 absolute,
-    the default, or G91 incremental) and compensation are modal.
+    The position starts at ``start`` (the origin by default, in the moves' units); motion,
+    distance (G90 absolute, the default, or G91 incremental), units and compensation are
+    modal. ``units`` is ``None`` (lattice units, no G20/G21) or ``"mm"`` (G21 by default, G20
+    inches; the moves in millimetres).
 
     Raises
     ------
     :exc:`GCodeError`
         For a word the reader does not interpret, two codes of one modal group in a block,
-        a word given twice, coordinates without a motion mode, an arc without ``I``/``J``, a
-        block after the program's end, or a code without an integer value.
+        a word given twice, coordinates without a motion mode, an arc without its centre
+        (``I``/``J`` or ``R``, not both), an arc by radius that cannot reach its end, a block
+        after the program's end, or a code without an integer value.
     """
+    if units not in UNITS:
+        raise ValueError(f"Units must be one of {', '.join(map(repr, UNITS))}, not {units!r}")
     state = _State(position=(Fraction(start[0]), Fraction(start[1])))
     moves = []
     for block in blocks:
@@ -228,9 +272,6 @@ def interpret(blocks, *, start=(0, 0), name=None):
         groups = {}
         for word in block.words:
             if word.letter not in _LETTERS:
-                if word.letter == "R":
-                    fail(f"arcs by radius ({word.text}) are not read yet: give the centre with I "
-                         f"and J")
                 fail(f"unknown word {word.text}")
             if word.letter in "GM":
                 if word.code is None:
@@ -243,6 +284,8 @@ def interpret(blocks, *, start=(0, 0), name=None):
             code = word.code
             if code not in _GROUPS:
                 fail(_ADVICE.get(code, f"unknown code {word.text}"))
+            if code in _SCALE and units is None:
+                fail(f"{word.text}: {_LATTICE}")
             group = _GROUPS[code]
             if group in groups:
                 fail(f"two {group} codes in one block ({groups[group]} and {word.text})")
@@ -266,16 +309,19 @@ def interpret(blocks, *, start=(0, 0), name=None):
                 state.side = "left"
             elif code == 42:
                 state.side = "right"
+            elif code in _SCALE:
+                state.scale = _SCALE[code]
+        scale = state.scale
         if block.value("F") is not None:
             if block.value("F") <= 0:
                 fail(f"the feed must be positive, not {seen['F']}")
-            state.feed = block.value("F")
+            state.feed = block.value("F") * scale
         if block.value("D") is not None:
             state.offset = block.value("D")
 
-        x, y = block.value("X"), block.value("Y")
-        i, j = block.value("I"), block.value("J")
-        if x is None and y is None and i is None and j is None:
+        x, y, i, j, r = (None if block.value(letter) is None else block.value(letter) * scale
+                         for letter in "XYIJR")
+        if x is None and y is None and i is None and j is None and r is None:
             continue
         if state.motion is None:
             fail("coordinates without a motion code (G0, G1, G2 or G3)")
@@ -286,20 +332,26 @@ def interpret(blocks, *, start=(0, 0), name=None):
             end = (x0 + (x or 0), y0 + (y or 0))
         kind = _MOTION[state.motion]
         if kind != "arc":
-            if i is not None or j is not None:
-                fail(f"I and J belong to arcs (G2, G3), not to G{state.motion}")
+            if i is not None or j is not None or r is not None:
+                fail(f"I, J and R belong to arcs (G2, G3), not to G{state.motion}")
             moves.append(Move(line, kind, (x0, y0), end, side=state.side, feed=state.feed))
         else:
-            if i is None and j is None:
-                fail(f"G{state.motion} needs the centre: I and J (relative to the start)")
-            centre = (x0 + (i or 0), y0 + (j or 0))
+            if r is not None:
+                if i is not None or j is not None:
+                    fail("an arc by its centre (I, J) or by its radius (R), not both")
+                centre = _radius_centre((x0, y0), end, r, state.motion == 2, fail)
+            elif i is None and j is None:
+                fail(f"G{state.motion} needs the centre: I and J (relative to the start) or R")
+            else:
+                centre = (x0 + (i or 0), y0 + (j or 0))
             moves.append(Move(line, "arc", (x0, y0), end, centre=centre,
                               cw=state.motion == 2, side=state.side, feed=state.feed))
         state.position = end
     return moves
 
 
-def read(text, *, name=None, start=(0, 0)):
+def read(text, *, name=None, start=(0, 0), units=None):
     """:func:`parse` and :func:`interpret` a program; return the :class:`Program`."""
     blocks = parse(text, name=name)
-    return Program(tuple(blocks), tuple(interpret(blocks, start=start, name=name)), name)
+    return Program(tuple(blocks), tuple(interpret(blocks, start=start, name=name, units=units)),
+                   name)

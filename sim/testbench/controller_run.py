@@ -1,0 +1,24 @@
+"""The cocotb test ``kontur run`` runs a controller with on Icarus or Verilator: the frames
+in, the events out.
+
+Started by :func:`sim.runners.CocotbBuild.run_controller` with ``KONTUR_RUN`` naming a JSON
+file: the frames file (:func:`sim.testbench.host.write_frames`), the events file to write
+(the format of ``sim/fastrun.cpp``, :func:`sim.testbench.host.format_events`), the serial
+divisor, the window and the clock bound.
+"""
+
+import json
+import os
+from pathlib import Path
+
+import cocotb
+
+from sim.testbench.host import format_events, read_frames, run_cocotb
+
+
+@cocotb.test()
+async def run(dut):
+    spec = json.loads(Path(os.environ["KONTUR_RUN"]).read_text())
+    result = await run_cocotb(dut, read_frames(spec["frames"]), divisor=spec["divisor"],
+                              window=spec["window"], max_clocks=spec["max_clocks"])
+    Path(spec["events"]).write_text(format_events(result))

@@ -1,0 +1,265 @@
+"""The host's side of the serial link, clock by clock: what a PC does for the controller.
+
+:class:`HostLink` is the testbench's half of a machine-controller run, written once for every
+simulator that is driven from Python (Amaranth's simulator, cocotb on Icarus or Verilator);
+``sim/fastrun.cpp`` is the same thing in C++ for Verilator at full speed. Each clock it is
+given the controller's ``tx`` and step/dir pins and returns the level for ``rx``: it sends the
+frames 8N1 at ``divisor`` clocks a bit, keeping at most ``window`` queued frames unanswered
+(the protocol's flow control: a queued frame is answered by an ``OUTCOME``, or an ``ERROR``
+when it was dropped), parses the replies off ``tx`` and records every rising step edge. A run
+is over (:attr:`HostLink.done`) when every frame is sent and answered and the line has been
+quiet for 64 bit times.
+
+Its record is the one ``fastrun`` writes (:class:`Run`, :func:`parse_events`): ``S clock step
+dir`` at each rising step edge, ``R clock type payload`` for each reply, ``E clock`` at the end.
+"""
+
+import struct
+from dataclasses import dataclass
+
+from hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
+
+from ..host.protocol import Reply, ReplyParser
+
+__all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
+           "run_cocotb", "read_frames", "write_frames"]
+
+
+@dataclass
+class Run:
+    """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
+    ``replies`` ``(clock, Reply)`` (:class:`sim.host.protocol.Reply`), the clocks simulated
+    and the seconds it took (a build apart)."""
+    steps: list
+    replies: list
+    clocks: int
+    seconds: float = 0.0
+
+
+def parse_events(text):
+    """The ``(steps, replies, clocks)`` of an events file."""
+    steps, replies, clocks = [], [], 0
+    for line in text.splitlines():
+        kind, *fields = line.split()
+        if kind == "S":
+            steps.append(tuple(int(f) for f in fields))
+        elif kind == "R":
+            reply_kind = int(fields[1], 16)
+            payload = bytes(int(f, 16) for f in fields[2:])
+            replies.append((int(fields[0]), Reply(reply_kind, struct.unpack(
+                ReplyParser.FORMATS[reply_kind], payload))))
+        elif kind == "E":
+            clocks = int(fields[0])
+    return steps, replies, clocks
+
+
+def format_events(run):
+    """The text of an events file for ``run`` (the inverse of :func:`parse_events`)."""
+    lines = [f"S {clock} {step} {direction}" for clock, step, direction in run.steps]
+    lines += [f"R {clock} {reply.kind:02x}" + "".join(
+                  f" {b:02x}" for b in struct.pack(ReplyParser.FORMATS[reply.kind], *reply.fields))
+              for clock, reply in run.replies]
+    lines.append(f"E {run.clocks}")
+    return "\n".join(lines) + "\n"
+
+
+def steps_of(run):
+    """The ``(dx, dy)`` of every step of a run, in order (a step pin's rising edge, its
+    direction pin: 1 is negative)."""
+    moves = []
+    for _, rising, direction in run.steps:
+        moves.append(((-1 if direction & 1 else 1) if rising & 1 else 0,
+                      (-1 if direction & 2 else 1) if rising & 2 else 0))
+    return moves
+
+
+class HostLink:
+    """A host on the controller's serial line (see the module's text).
+
+    Parameters
+    ----------
+    frames : list of bytes
+        The frames, in order.
+    divisor : int
+        Clocks a bit.
+    window : int
+        Queued frames the host may have unanswered (the controller's queue length).
+    inject : dict
+        ``{clock: bytes}``: bytes put on the line at those clocks besides the frames (line
+        noise, a frame out of turn).
+    then : bytes
+        A frame sent once every frame before it is answered (a ``QUERY`` for the final
+        position).
+    """
+
+    def __init__(self, frames, *, divisor, window, inject=None, then=None):
+        self.frames = list(frames)
+        self.then = then
+        self.divisor = divisor
+        self.window = window
+        self.inject = dict(inject or {})
+        self.clock = 0
+        self.steps, self.replies = [], []
+        self.outstanding = 0
+        self.sent = self.answered = 0
+        self._levels = []
+        self._parser = ReplyParser()
+        self._rx_state, self._rx_timer, self._rx_bits = "idle", 0, []
+        self._previous_step = 0
+        self._quiet = 0
+
+    def _bits(self, data):
+        levels = []
+        for byte in data:
+            for bit in [0] + [(byte >> i) & 1 for i in range(8)] + [1]:
+                levels += [bit] * self.divisor
+        return levels
+
+    def cycle(self, *, tx, step, direction):
+        """One clock: the controller's pins now; returns the level of ``rx`` for the next
+        clock."""
+        # ---- the pins ------------------------------------------------------------------
+        rising = step & ~self._previous_step
+        if rising:
+            self.steps.append((self.clock, rising, direction))
+        self._previous_step = step
+        # ---- machine to host: the middle of each bit of tx -----------------------------
+        if self._rx_state == "idle":
+            if not tx:
+                self._rx_state, self._rx_timer, self._rx_bits = "bits", self.divisor + \
+                    self.divisor // 2, []
+        else:
+            self._rx_timer -= 1
+            if self._rx_timer == 0:
+                self._rx_bits.append(tx)
+                self._rx_timer = self.divisor
+                if len(self._rx_bits) == 9:                # 8 data bits and the stop bit
+                    byte = sum(b << i for i, b in enumerate(self._rx_bits[:8]))
+                    for reply in self._parser.feed(bytes([byte])):
+                        self.replies.append((self.clock, reply))
+                        if reply.kind in (OUTCOME, ERROR):
+                            self.outstanding -= 1
+                            self.answered += 1
+                    self._rx_state = "idle"
+        # ---- host to machine: the next frame once the window allows it -----------------
+        if not self._levels and self.frames:
+            queued = self.frames[0][1] not in (QUERY, ABORT)
+            if not queued or self.outstanding < self.window:
+                frame = self.frames.pop(0)
+                self.outstanding += queued
+                self.sent += queued
+                self._levels = self._bits(frame)
+        if (self.then is not None and not self.frames and not self._levels
+                and self.answered == self.sent):
+            self._levels, self.then = self._bits(self.then), None
+        if self.clock in self.inject:
+            self._levels += self._bits(self.inject.pop(self.clock))
+        level = self._levels.pop(0) if self._levels else 1
+        busy = self.frames or self._levels or self.inject or self.then is not None or \
+            self.answered < self.sent or self._rx_state != "idle"
+        self._quiet = 0 if busy else self._quiet + 1
+        self.clock += 1
+        return level
+
+    @property
+    def done(self):
+        """Everything sent and answered, and the line quiet for 64 bit times."""
+        return self._quiet >= 64 * self.divisor
+
+    def run(self, seconds=0.0):
+        """The :class:`Run` recorded so far."""
+        return Run(list(self.steps), list(self.replies), self.clock, seconds)
+
+
+def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, then=None,
+                 vcd=None, levels=None):
+    """Run ``frames`` through ``controller`` (a
+    :class:`~hdl.motion.controller.MotionController`) in Amaranth's simulator with a
+    :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
+    ``(step, dir)`` is appended to it.
+
+    Raises :exc:`sim.runners.SimulatorError` if the run does not end within ``max_clocks``.
+    """
+    import time
+
+    from amaranth.sim import Simulator
+
+    from ..runners import SimulatorError
+
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject, then=then)
+
+    async def testbench(ctx):
+        for _ in range(max_clocks):
+            step, direction = ctx.get(controller.motion.step), ctx.get(controller.motion.dir)
+            if levels is not None:
+                levels.append((step, direction))
+            ctx.set(controller.rx, host.cycle(tx=ctx.get(controller.tx), step=step,
+                                              direction=direction))
+            if host.done:
+                return
+            await ctx.tick()
+
+    sim = Simulator(controller)
+    sim.add_clock(1e-6)
+    sim.add_testbench(testbench)
+    started = time.monotonic()
+    if vcd:
+        with sim.write_vcd(str(vcd)):
+            sim.run()
+    else:
+        sim.run()
+    if not host.done:
+        raise SimulatorError(f"the program did not end within {max_clocks} clocks")
+    return host.run(time.monotonic() - started)
+
+
+async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, then=None,
+                     levels=None):
+    """:func:`run_amaranth` on a cocotb ``dut`` (the controller's Verilog: ports ``clk``,
+    ``rst``, ``rx``, ``tx``, ``motion__step``, ``motion__dir``): start its clock, reset it, run
+    a :class:`HostLink`; return the :class:`Run` (:exc:`AssertionError` if it does not end
+    within ``max_clocks``)."""
+    import time
+
+    from cocotb.clock import Clock
+    from cocotb.triggers import ReadOnly, RisingEdge
+
+    Clock(dut.clk, 1, unit="us").start(start_high=False)
+    dut.rst.value = 1
+    dut.rx.value = 1
+    for _ in range(4):
+        await RisingEdge(dut.clk)
+    dut.rst.value = 0
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject, then=then)
+    started = time.monotonic()
+    step_pin, dir_pin, tx_pin, rx_pin = dut.motion__step, dut.motion__dir, dut.tx, dut.rx
+    level = 1
+    for _ in range(max_clocks):
+        await RisingEdge(dut.clk)
+        rx_pin.value = level                # applied after this edge: sampled at the next
+        await ReadOnly()
+        step, direction = int(step_pin.value), int(dir_pin.value)
+        if levels is not None:
+            levels.append((step, direction))
+        level = host.cycle(tx=int(tx_pin.value), step=step, direction=direction)
+        if host.done:
+            return host.run(time.monotonic() - started)
+    raise AssertionError(f"the program did not end within {max_clocks} clocks")
+
+
+def write_frames(path, frames):
+    """Write ``frames`` to ``path`` as ``fastrun`` reads them: a 16-bit little-endian length,
+    then the bytes, for each."""
+    from pathlib import Path
+    Path(path).write_bytes(b"".join(len(f).to_bytes(2, "little") + bytes(f) for f in frames))
+
+
+def read_frames(path):
+    """The frames of a file written by :func:`write_frames`."""
+    from pathlib import Path
+    data, frames, at = Path(path).read_bytes(), [], 0
+    while at < len(data):
+        size = int.from_bytes(data[at:at + 2], "little")
+        frames.append(data[at + 2:at + 2 + size])
+        at += 2 + size
+    return frames
