@@ -3,8 +3,8 @@
 // kontur's MotionController (Verilog "top", ports clk, rst, rx, tx, motion__step,
 // motion__dir) runs clock by clock; this testbench plays what a host does on the serial line:
 // it sends the frames of a file onto rx, 8N1 at `divisor` clocks a bit, keeping at most
-// `window` queued frames unanswered (the protocol's flow control), and parses the replies on
-// tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
+// `window` queued frames unanswered (the protocol's flow control; a QUERY waits for every
+// frame before it to be answered), and parses the replies on tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
 // "R clock type payload-hex" for every reply. Python sees the run only through these files.
 //
 // usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD]
@@ -23,7 +23,7 @@
 #include "verilated_vcd_c.h"
 #endif
 
-static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82;
+static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82, QUERY = 0x20, ABORT = 0x21;
 
 static uint16_t crc16(const std::vector<uint8_t> &data) {
     uint16_t crc = 0xFFFF;
@@ -97,8 +97,11 @@ int main(int argc, char **argv) {
         // ---- host to machine -----------------------------------------------------------
         if (!reset && level_index == levels.size() && !frames.empty()) {
             const std::vector<uint8_t> &frame = frames.front();
-            bool queued = frame.size() < 2 || (frame[1] != 0x20 && frame[1] != 0x21);
-            if (!queued || outstanding < window) {
+            bool queued = frame.size() < 2 || (frame[1] != QUERY && frame[1] != ABORT);
+            // A QUERY waits for every frame before it to be answered; an ABORT goes at once.
+            bool may = queued ? outstanding < window
+                              : (frame[1] == ABORT || answered == queued_sent);
+            if (may) {
                 levels.clear();
                 level_index = 0;
                 for (uint8_t byte : frame) {

@@ -73,8 +73,10 @@ class FastRun:
         if result.returncode != 0:
             raise SimulatorError(f"the Verilator build of the controller failed; see {log}")
 
-    def run(self, frames, *, divisor, window, max_clocks, vcd=None):
+    def run(self, frames, *, divisor, window, max_clocks, vcd=None, progress=None):
         """Run ``frames`` (a list of bytes objects, in order); return a :class:`Run`.
+        ``progress``, if given, is called with the number of steps made so far about twice a
+        second while the simulation runs.
 
         Raises :exc:`SimulatorError` if the program did not end within ``max_clocks``.
         """
@@ -91,7 +93,7 @@ class FastRun:
         started = time.monotonic()
         process = subprocess.Popen(command, cwd=run_dir, start_new_session=True)
         try:
-            code = process.wait()
+            code = self._wait(process, run_dir / "events.txt", progress)
         except BaseException:
             os.killpg(process.pid, 9)
             process.wait()
@@ -105,3 +107,22 @@ class FastRun:
                                  f"({run_dir})")
         shutil.rmtree(run_dir, ignore_errors=True)
         return Run(steps, replies, clocks, seconds)
+
+    @staticmethod
+    def _wait(process, events, progress):
+        if progress is None:
+            return process.wait()
+        made, offset = 0, 0
+        while True:
+            try:
+                return process.wait(timeout=0.5)
+            except subprocess.TimeoutExpired:
+                pass
+            if events.exists():
+                with open(events, "rb") as handle:
+                    handle.seek(offset)
+                    chunk = handle.read()
+                cut = chunk.rfind(b"\n") + 1          # whole lines only
+                made += chunk[:cut].count(b"S ")
+                offset += cut
+                progress(made)

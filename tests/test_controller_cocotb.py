@@ -63,9 +63,9 @@ async def run_program(dut, frames, *, query=False):
     ``(levels, moves, replies)``: the pins each clock, ``(clock, dx, dy)`` at each rising step
     edge, the replies."""
     levels = []
-    result = await run_cocotb(dut, frames, divisor=round(MACHINE.clock_hz / MACHINE.baud),
-                              window=MACHINE.queue_frames, max_clocks=3_000_000,
-                              then=protocol.query() if query else None, levels=levels)
+    result = await run_cocotb(dut, frames + ([protocol.query()] if query else []),
+                              divisor=round(MACHINE.clock_hz / MACHINE.baud),
+                              window=MACHINE.queue_frames, max_clocks=3_000_000, levels=levels)
     moves = [(clock, dx, dy) for (clock, _, _), (dx, dy) in zip(result.steps,
                                                                 steps_of(result))]
     return levels, moves, [reply for _, reply in result.replies]

@@ -7,6 +7,11 @@ standard output (with ``--cycles``: ``cycle dx dy``). Exit status: 0 when the co
 traced; 2 for a refused command or any bad input or option (the reason is the last line on
 standard error, nothing is printed on standard output); 1 when a tool itself failed (its cause
 in one line); 130 on an interrupt.
+
+``kontur run FILE.ngc`` runs a G-code program through the whole machine controller (the model,
+or its RTL on a simulator) and writes its steps, plot and summary; ``kontur send FILE.ngc
+--port DEVICE`` streams it to a board; ``kontur build`` makes a board's bitstream. Their
+statuses are the same: 2 for a program refused (its line named), 1 for a failure.
 """
 
 import argparse
@@ -144,10 +149,134 @@ def _parser():
                                               "(Yosys, nextpnr on the iCE40UP5K); print tables")
     bench.add_argument("what", nargs="?", choices=("accuracy", "area", "speed"),
                        help="one table only (default: all three)")
-    build = commands.add_parser("build", help="build the demo bitstream (never programs)")
+    build = commands.add_parser("build", help="build a board's bitstream (never programs): "
+                                              "the machine controller, or the demo player")
     build.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
-    build.add_argument("--build-dir", default=None, help="default: build/<board>")
+    build.add_argument("--top", choices=("controller", "player"), default="controller",
+                       help="the machine controller (default), or the program played in a "
+                            "loop with no host")
+    build.add_argument("--build-dir", default=None, help="default: build/<board>-<top>")
+    _add_machining(commands)
     return parser
+
+
+def _machine_options(parser):
+    parser.add_argument("file", metavar="FILE.ngc", help="the G-code program (millimetres)")
+    parser.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker",
+                        help="the board whose controller runs it (its engines and clock; "
+                             "default icebreaker)")
+    parser.add_argument("--machine", metavar="FILE.toml", default=None,
+                        help="the machine's configuration (steps/mm, feeds, acceleration, "
+                             "timing; see docs/controller.md)")
+    parser.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
+                        help="steps per millimetre, X and Y (overrides the machine file)")
+
+
+def _add_machining(commands):
+    from .machining import ENGINES
+    run = commands.add_parser(
+        "run", help="run a G-code program through the whole machine controller",
+        description="Run a G-code program through the whole machine controller (over its "
+                    "serial pin in the RTL engines); write steps.txt, toolpath.png and "
+                    "summary.json, print the summary.",
+        epilog="The RTL engines are checked against the model: the same steps, every frame "
+               "DONE, the position read back equal to the program's end. Exit status 0 "
+               "when run and checked, 2 for a program or option refused (the reason, with "
+               "the program line, last on standard error), 1 when a tool failed or the RTL "
+               "differs from the model.")
+    _machine_options(run)
+    run.add_argument("--engine", choices=ENGINES, default="model",
+                     help="golden models (default), or the controller's RTL in Amaranth's "
+                          "simulator, Icarus, or Verilator (a C++ testbench: millions of "
+                          "clocks a second)")
+    run.add_argument("--out", metavar="DIR", default=None,
+                     help="where the outputs go (default build/run/<program>)")
+    run.add_argument("--vcd", action="store_true", help="write DIR/run.vcd (RTL engines)")
+    run.add_argument("--compress", type=int, default=None, metavar="N",
+                     help="time compression of an RTL run: rates N times the planned ones "
+                          "(default: the largest power of two the step timing and the link "
+                          "allow; the steps do not change)")
+    send = commands.add_parser(
+        "send", help="stream a G-code program to a board over its serial port",
+        epilog="Exit status 0 when the machine ran the whole program and ended on its end, 2 "
+               "for a program refused before anything moved, 1 when the machine refused or "
+               "aborted a move, reported an error, or went silent (the program line named).")
+    _machine_options(send)
+    send.add_argument("--port", required=True, metavar="DEVICE",
+                      help="the serial port (a device, or a pyserial URL)")
+
+
+def _job(args):
+    from .machine import Machine, MachineError
+    from .machining import prepare
+    from .trace import UsageError
+    board = registry.board(args.board)
+    try:
+        with open(args.file, encoding="utf-8") as handle:
+            text = handle.read()
+    except (OSError, UnicodeDecodeError) as error:
+        raise UsageError(f"{args.file}: {getattr(error, 'strerror', None) or error}") from None
+    try:
+        if args.machine:
+            machine = Machine.from_toml(args.machine, clock_hz=board.clock_hz,
+                                        steps_per_mm=args.steps_per_mm)
+        else:
+            overrides = {} if args.steps_per_mm is None else {"steps_per_mm": args.steps_per_mm}
+            machine = Machine(clock_hz=board.clock_hz, **overrides)
+    except MachineError as error:
+        raise UsageError(str(error)) from None
+    from pathlib import Path
+    return prepare(text, machine=machine, board=args.board, name=Path(args.file).name)
+
+
+def _progress(total, what):
+    """A progress bar on standard error, shown once a run has taken two seconds."""
+    from tqdm import tqdm
+    return tqdm(total=total, unit=what, delay=2, leave=False, file=sys.stderr,
+                dynamic_ncols=True)
+
+
+def _run(args, out):
+    from pathlib import Path
+
+    from .machining import execute, summary_text, write_outputs
+    from .trace import UsageError
+    if args.compress is not None and args.compress < 1:
+        raise UsageError(f"--compress must be a positive integer, not {args.compress}")
+    if args.vcd and args.engine == "model":
+        raise UsageError("--vcd needs an RTL engine (amaranth, icarus, verilator)")
+    job = _job(args)
+    out_dir = Path(args.out) if args.out else Path("build") / "run" / Path(args.file).stem
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise UsageError(f"--out {out_dir}: {error.strerror}") from None
+    with _progress(len(job.steps), "steps") as bar:
+        def progress(made):
+            bar.update(made - bar.n)
+        result = execute(job, args.engine, compress=args.compress,
+                         vcd=out_dir / "run.vcd" if args.vcd else None, progress=progress)
+    data = write_outputs(job, result, out_dir)
+    out.write(summary_text(data, out_dir))
+    return 0
+
+
+def _send(args, out):
+    from .send import open_port, send
+    job = _job(args)
+    frames, _ = job.frames()
+    try:
+        port = open_port(args.port, job.machine.baud)
+    except Exception as error:                     # pyserial: SerialException, ValueError
+        sys.stderr.write(f"kontur: cannot open {args.port}: {error}\n")
+        return 1
+    with port, _progress(len(frames), "frames") as bar:
+        end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr)
+    spm = job.machine.steps_per_mm
+    out.write(f"sent {len(frames)} frames of {job.name}; the machine ended at ({end[0]}, "
+              f"{end[1]}) steps = ({end[0] / spm:.4f}, {end[1] / spm:.4f}) mm, the "
+              f"program's end\n")
+    return 0
 
 
 def _trace(args, out):
@@ -181,7 +310,7 @@ def _bench(args, out):
 
 def _build(args, out):
     from constraints.build import main as build
-    return build(["--board", args.board]
+    return build(["--board", args.board, "--top", args.top]
                  + (["--build-dir", args.build_dir] if args.build_dir else []))
 
 
@@ -189,6 +318,7 @@ def main(argv=None):
     """Run the command line; return the exit status."""
     import logging
     logging.getLogger().setLevel(logging.ERROR)    # the simulator runners' chatter off stderr
+    args = None
     try:
         args = _parser().parse_args(argv)
         if args.command == "trace":
@@ -198,6 +328,10 @@ def main(argv=None):
             return demo(sys.stdout)
         if args.command == "bench":
             return _bench(args, sys.stdout)
+        if args.command == "run":
+            return _run(args, sys.stdout)
+        if args.command == "send":
+            return _send(args, sys.stdout)
         return _build(args, sys.stdout)
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2
@@ -206,7 +340,11 @@ def main(argv=None):
         return 128 + signal.SIGINT
     except Exception as error:
         from ..models.errors import InputError
+        from .planner import ProgramError
         from .trace import UsageError
+        if isinstance(error, ProgramError):
+            sys.stderr.write(f"kontur: {getattr(args, 'file', None) or 'program'}: {error}\n")
+            return 2
         if isinstance(error, InputError):
             sys.stderr.write(f"kontur: refused: {error}\n")
             return 2

@@ -236,13 +236,21 @@ def plan(segments, machine):
     return items
 
 
-def frames(segments, items, machine):
+def frames(segments, items, machine, *, compress=1):
     """The frames of the program: the configuration, a FEED and a move for each segment, the
     STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
-    frame comes from (``None`` for CONFIG and STOP)."""
-    out, lines = [protocol.config(machine.accel_q40)], [None]
+    frame comes from (``None`` for CONFIG and STOP).
+
+    With ``compress`` (a simulation's time compression) every rate is ``compress`` times the
+    planned one and the acceleration ``compress**2`` times: the same ramps, ``compress`` times
+    faster; the steps do not change.
+    """
+    if isinstance(compress, bool) or not isinstance(compress, int) or compress < 1:
+        raise ValueError(f"Time compression must be a positive integer, not {compress!r}")
+    out, lines = [protocol.config(min(machine.accel_q40 * compress ** 2, (1 << 32) - 1))], [None]
     for segment, item in zip(segments, items):
-        out.append(protocol.feed(machine.rate(item.cruise), machine.rate(item.exit),
+        out.append(protocol.feed(machine.rate(item.cruise * compress),
+                                 machine.rate(item.exit * compress),
                                  min(item.decelerate, (1 << 24) - 1)))
         p = segment.payload
         out.append(protocol.line(p["x"], p["y"]) if segment.kind == "line" else

@@ -1,8 +1,9 @@
-"""``kontur trace profile ... --plot FILE.png``: the profile, its equidistant and the steps."""
+"""Plots: ``kontur trace profile ... --plot`` (the profile, its equidistant and the steps) and
+``kontur run``'s ``toolpath.png``."""
 
 import math
 
-__all__ = ["plot_profile"]
+__all__ = ["plot_profile", "plot_toolpath"]
 
 
 def _arc_points(centre, radius, start, end, cw, full):
@@ -62,5 +63,55 @@ def plot_profile(prepared, moves, path, *, title=None):
     axes.grid(True, linewidth=0.3)
     axes.legend(loc="best")
     axes.set_title(title or f"radius {r}, {prepared.treatment} corners, {len(moves)} steps")
+    figure.savefig(path, dpi=120, bbox_inches="tight")
+    pyplot.close(figure)
+
+
+def plot_toolpath(job, steps, speeds, path, *, title=None):
+    """``kontur run``'s ``toolpath.png``: the programmed contour (black; rapid moves dotted),
+    and the traced steps (a line through every point visited) coloured by the feed at each
+    step (mm/min), in millimetres."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib import pyplot
+    from matplotlib.collections import LineCollection
+
+    spm = job.machine.steps_per_mm
+    figure, axes = pyplot.subplots(figsize=(9, 8))
+    for number, move in enumerate(job.moves):
+        start = tuple(float(c) for c in move.start)
+        end = tuple(float(c) for c in move.end)
+        if move.kind == "arc":
+            centre = tuple(float(c) for c in move.centre)
+            radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
+            xs, ys = zip(*_arc_points(centre, radius, start, end, move.cw, start == end))
+        else:
+            xs, ys = zip(start, end)
+        axes.plot(xs, ys, color="black", linewidth=1.2,
+                  linestyle=":" if move.kind == "rapid" else "-",
+                  label="programmed contour" if number == 0 else None)
+    x, y = job.start
+    points = [(x / spm, y / spm)]
+    for dx, dy in steps:
+        x, y = x + dx, y + dy
+        points.append((x / spm, y / spm))
+    if steps:
+        segments = [[points[i], points[i + 1]] for i in range(len(steps))]
+        finite = [v for v in speeds if v == v]
+        lines = LineCollection(segments, cmap="viridis", linewidths=2.0)
+        lines.set_array([v if v == v else 0.0 for v in speeds])
+        if finite:
+            lines.set_clim(0, max(finite))
+        axes.add_collection(lines)
+        figure.colorbar(lines, ax=axes, label="feed (mm/min)", shrink=0.8)
+    axes.plot([points[0][0]], [points[0][1]], marker="o", color="tab:red", label="start")
+    axes.plot([points[-1][0]], [points[-1][1]], marker="x", color="tab:red", label="end")
+    axes.set_aspect("equal")
+    axes.autoscale_view()
+    axes.grid(True, linewidth=0.3)
+    axes.set_xlabel("X (mm)")
+    axes.set_ylabel("Y (mm)")
+    axes.legend(loc="best")
+    axes.set_title(title or f"{len(steps)} steps")
     figure.savefig(path, dpi=120, bbox_inches="tight")
     pyplot.close(figure)

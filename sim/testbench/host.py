@@ -87,14 +87,13 @@ class HostLink:
     inject : dict
         ``{clock: bytes}``: bytes put on the line at those clocks besides the frames (line
         noise, a frame out of turn).
-    then : bytes
-        A frame sent once every frame before it is answered (a ``QUERY`` for the final
-        position).
+
+    A ``QUERY`` among the frames is sent once every frame before it is answered (it asks for
+    the position after them); an ``ABORT`` goes at once.
     """
 
-    def __init__(self, frames, *, divisor, window, inject=None, then=None):
+    def __init__(self, frames, *, divisor, window, inject=None):
         self.frames = list(frames)
-        self.then = then
         self.divisor = divisor
         self.window = window
         self.inject = dict(inject or {})
@@ -143,20 +142,19 @@ class HostLink:
                     self._rx_state = "idle"
         # ---- host to machine: the next frame once the window allows it -----------------
         if not self._levels and self.frames:
-            queued = self.frames[0][1] not in (QUERY, ABORT)
-            if not queued or self.outstanding < self.window:
+            kind = self.frames[0][1]
+            queued = kind not in (QUERY, ABORT)
+            if (self.outstanding < self.window if queued else
+                    kind == ABORT or self.answered == self.sent):
                 frame = self.frames.pop(0)
                 self.outstanding += queued
                 self.sent += queued
                 self._levels = self._bits(frame)
-        if (self.then is not None and not self.frames and not self._levels
-                and self.answered == self.sent):
-            self._levels, self.then = self._bits(self.then), None
         if self.clock in self.inject:
             self._levels += self._bits(self.inject.pop(self.clock))
         level = self._levels.pop(0) if self._levels else 1
-        busy = self.frames or self._levels or self.inject or self.then is not None or \
-            self.answered < self.sent or self._rx_state != "idle"
+        busy = self.frames or self._levels or self.inject or self.answered < self.sent or \
+            self._rx_state != "idle"
         self._quiet = 0 if busy else self._quiet + 1
         self.clock += 1
         return level
@@ -171,8 +169,8 @@ class HostLink:
         return Run(list(self.steps), list(self.replies), self.clock, seconds)
 
 
-def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, then=None,
-                 vcd=None, levels=None):
+def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, vcd=None,
+                 levels=None, progress=None):
     """Run ``frames`` through ``controller`` (a
     :class:`~hdl.motion.controller.MotionController`) in Amaranth's simulator with a
     :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
@@ -186,10 +184,12 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
 
     from ..runners import SimulatorError
 
-    host = HostLink(frames, divisor=divisor, window=window, inject=inject, then=then)
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject)
 
     async def testbench(ctx):
-        for _ in range(max_clocks):
+        for clock in range(max_clocks):
+            if progress is not None and clock % 4096 == 0:
+                progress(len(host.steps))
             step, direction = ctx.get(controller.motion.step), ctx.get(controller.motion.dir)
             if levels is not None:
                 levels.append((step, direction))
@@ -213,8 +213,7 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
     return host.run(time.monotonic() - started)
 
 
-async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, then=None,
-                     levels=None):
+async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, levels=None):
     """:func:`run_amaranth` on a cocotb ``dut`` (the controller's Verilog: ports ``clk``,
     ``rst``, ``rx``, ``tx``, ``motion__step``, ``motion__dir``): start its clock, reset it, run
     a :class:`HostLink`; return the :class:`Run` (:exc:`AssertionError` if it does not end
@@ -230,7 +229,7 @@ async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, t
     for _ in range(4):
         await RisingEdge(dut.clk)
     dut.rst.value = 0
-    host = HostLink(frames, divisor=divisor, window=window, inject=inject, then=then)
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject)
     started = time.monotonic()
     step_pin, dir_pin, tx_pin, rx_pin = dut.motion__step, dut.motion__dir, dut.tx, dut.rx
     level = 1
