@@ -60,8 +60,9 @@ class Variant:
 class Board:
     """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top (a
     program played in a loop); ``clock_hz`` is its clock, ``line`` and ``arc`` the
-    ``(variant, width)`` of the machine controller's engines on it (see
-    :func:`make_controller`)."""
+    ``(variant, width)`` of the machine controller's engines on it, ``profile`` that of its
+    equidistant engine (cutter-radius compensation, G41/G42), or ``None`` where the board has
+    no room for one (see :func:`make_controller`)."""
     name: str
     help: str
     platform: object
@@ -69,6 +70,7 @@ class Board:
     clock_hz: float
     line: tuple = ("exact", 16)
     arc: tuple = ("fast", 24)
+    profile: tuple = None
 
 
 KINDS = {}
@@ -142,7 +144,10 @@ def make_model(kind_name, variant_name=None, *, width=None, **params):
 
 
 def board(name):
-    """The :class:`Board` ``name``; :exc:`ValueError` if there is none."""
+    """The :class:`Board` ``name`` (a :class:`Board` itself is returned as it is: a board not
+    registered, for tests); :exc:`ValueError` if there is none."""
+    if isinstance(name, Board):
+        return name
     if name not in BOARDS:
         raise ValueError(f"Board must be one of {', '.join(map(repr, BOARDS))}, not {name!r}")
     return BOARDS[name]
@@ -150,16 +155,20 @@ def board(name):
 
 def make_controller(board_name, machine):
     """The machine controller of a board (:class:`hdl.motion.controller.MotionController`)
-    with its engines, its clock, and the serial rate, queue length and step/dir timing of
-    ``machine`` (a :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
+    with its engines (the equidistant engine too where the board has one), its clock, and the
+    serial rate, queue length and step/dir timing of ``machine`` (a
+    :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
     """
     from hdl.motion.controller import MotionController
     item = board(board_name)
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock is {machine.clock_hz:g} Hz, the {item.name}'s "
                          f"{item.clock_hz:g} Hz")
+    profile = None if item.profile is None else \
+        make_engine("profile", item.profile[0], width=item.profile[1])
     return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
                             arc=make_engine("arc", item.arc[0], width=item.arc[1]),
+                            profile=profile,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width)
