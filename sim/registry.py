@@ -336,7 +336,7 @@ register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
                  _fast_core, _fast_model, _arc_trajectory, params=("period",)))
 register(Kind("profile", "a contour of a G-code program: the cutter's centre on its "
                          "equidistant (T. Siimut, 1963)", _profile_engine, _profile_engine_model,
-              (), _profile_check, "fast", 16, program=True))
+              (), _profile_check, "fast", 8, program=True))
 register(Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
                  *_profile_core("fast"), _profile_trajectory, params=("period",), min_width=4))
 register(Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
