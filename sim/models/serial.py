@@ -23,7 +23,7 @@ next axis) and the comparison with the end point.
 """
 
 from .codes import mask
-from .engine import permit, probe
+from .engine import permit
 from .errors import InputError
 
 __all__ = ["word_length", "IDLE", "INIT1", "INIT2", "RUN", "SerialNodeModel",
@@ -59,13 +59,21 @@ class SerialNodeModel:
         self.phase = IDLE
         self.bit = 0
         self.circle = 0
+        self._version = 0                   # counts the changes of the registers (the cache)
+        self._cache = None
 
     def state(self):
         return {"pr1": self.pr1, "pr2": self.pr2, "pr3": self.pr3, "pr4": self.pr4,
                 "pr5": self.pr5, "pr6": self.pr6, "pr7": self.pr7, "bit": self.bit}
 
-    def _word(self, tick, stop):
-        """This clock's gates and next-bit values (registers untouched)."""
+    def _gates(self, tick):
+        """This clock's gates and next-bit values, without :py:`stop` (registers untouched).
+
+        Cached until the registers change: the core models ask more than once a clock.
+        """
+        key = (self._version, bool(tick))
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1]
         w = self.word
         phase = self.phase
         bit0 = self.bit == 0
@@ -73,8 +81,8 @@ class SerialNodeModel:
         run = int(phase == RUN)
         advance = int(phase in (INIT1, INIT2) or (run and (not bit0 or bool(tick))))
         stepping = int(bool(run) and bit0 and bool(tick))
-        o1, o2, o3, o4, o5 = (r & 1 for r in (self.pr1, self.pr2, self.pr3, self.pr4,
-                                               self.pr5))
+        o1, o2, o3, o4, o5 = (self.pr1 & 1, self.pr2 & 1, self.pr3 & 1, self.pr4 & 1,
+                              self.pr5 & 1)
         pr6, circle = self.pr6, self.circle
         # См1: the selected coordinate (Э1, Э2 joined) plus 1, or minus 1 (Э3: all ones).
         e1 = o1 & pr6
@@ -103,10 +111,23 @@ class SerialNodeModel:
         mismatch = (0 if bit0 else self.mismatch) | differs
         matched = int(bool(advance) and last_bit and not mismatch
                       and phase in (INIT2, RUN))
-        ending = int((bool(run) and bool(stop)) or bool(matched))
-        return {"advance": advance, "stepping": stepping, "last_bit": last_bit,
-                "s1": s1, "s2": s2, "carry1": carry1, "carry2": carry2, "raw": raw,
-                "new_x": new_x, "new_y": new_y, "mismatch": mismatch, "ending": ending}
+        gates = (advance, stepping, last_bit, s2, carry1, carry2, raw, new_x, new_y,
+                 mismatch, matched)
+        self._cache = (key, gates)
+        return gates
+
+    def outputs(self, *, po=0, tick=0, stop=0):
+        """This clock's outputs (see :meth:`cycle`), leaving the model untouched."""
+        gates = self._gates(tick)
+        phase = self.phase
+        ending = int((phase == RUN and bool(stop)) or bool(gates[10]))
+        ready = int(phase == IDLE or bool(ending))
+        pr6 = self.pr6
+        return {"ready": ready, "error": int(bool(po) and not ready),
+                "due": int(phase == RUN and self.bit == 0),
+                "step": (pr6 | (1 - pr6) << 1) if gates[1] else 0,
+                "start": int(phase == INIT2 and gates[2]), "done": ending,
+                "busy": int(phase != IDLE), "running": int(phase == RUN)}
 
     def cycle(self, *, po=0, circle=0, x0=0, y0=0, f0=0, xk=0, yk=0, tick=0, stop=0):
         """One clock; returns ``(outputs, state)``, then advances.
@@ -114,41 +135,32 @@ class SerialNodeModel:
         ``outputs``: ``ready``, ``error``, ``due``, ``step`` (bit 0 X, bit 1 Y), ``start``,
         ``done``, ``busy``, ``running``.
         """
-        w = self.word
-        g = self._word(tick, stop)
-        phase = self.phase
-        ready = int(phase == IDLE or bool(g["ending"]))
-        if po and not ready and self.strict:
+        outputs = self.outputs(po=po, tick=tick, stop=stop)
+        if po and not outputs["ready"] and self.strict:
             raise InputError("load (Ро) while a frame is in progress and not ending in this "
                              "clock: refused")
-        load = int(bool(po) and bool(ready))
-        start = int(phase == INIT2 and g["last_bit"])
-        pr6 = self.pr6
-        outputs = {"ready": ready, "error": int(bool(po) and not ready),
-                   "due": int(phase == RUN and self.bit == 0),
-                   "step": (pr6 | (1 - pr6) << 1) if g["stepping"] else 0,
-                   "start": start, "done": g["ending"], "busy": int(phase != IDLE),
-                   "running": int(phase == RUN)}
         state = self.state()
+        (advance, _, last_bit, s2, carry1, carry2, raw, new_x, new_y, mismatch,
+         _) = self._gates(tick)
+        phase = self.phase
+        load = bool(po) and bool(outputs["ready"])
 
         # ---- clock edge -------------------------------------------------------------------
-        if g["advance"]:
-            top = w - 1
-
-            def shift(reg, bit):
-                return (reg >> 1) | (bit << top)
-            self.pr1 = shift(self.pr1, g["new_x"])
-            self.pr2 = shift(self.pr2, g["new_y"])
-            self.pr3 = shift(self.pr3, g["s2"])
-            self.pr4 = shift(self.pr4, self.pr4 & 1)
-            self.pr5 = shift(self.pr5, self.pr5 & 1)
-            self.pr7 = g["raw"]
-            self.carry1, self.carry2 = g["carry1"], g["carry2"]
-            self.mismatch = g["mismatch"]
-            if g["last_bit"]:
-                self.pr6 = 0 if phase == INIT1 else g["s2"]
-            self.bit = 0 if g["last_bit"] else self.bit + 1
+        if advance:
+            top = self.word - 1
+            self.pr1 = (self.pr1 >> 1) | (new_x << top)
+            self.pr2 = (self.pr2 >> 1) | (new_y << top)
+            self.pr3 = (self.pr3 >> 1) | (s2 << top)
+            self.pr4 = (self.pr4 >> 1) | ((self.pr4 & 1) << top)
+            self.pr5 = (self.pr5 >> 1) | ((self.pr5 & 1) << top)
+            self.pr7 = raw
+            self.carry1, self.carry2 = carry1, carry2
+            self.mismatch = mismatch
+            if last_bit:
+                self.pr6 = 0 if phase == INIT1 else s2
+            self.bit = 0 if last_bit else self.bit + 1
         if load:
+            w = self.word
             self.pr1, self.pr2 = x0 & mask(w), y0 & mask(w)
             self.pr3 = f0 & mask(w)
             self.pr4, self.pr5 = xk & mask(w), yk & mask(w)
@@ -156,10 +168,12 @@ class SerialNodeModel:
             self.bit = 0
             self.circle = int(bool(circle))
             self.phase = INIT1 if circle else INIT2
-        elif g["ending"]:
+        elif outputs["done"]:
             self.phase = IDLE
-        elif g["advance"] and g["last_bit"]:
+        elif advance and last_bit:
             self.phase = {INIT1: INIT2, INIT2: RUN, RUN: RUN}[phase]
+        if advance or load or outputs["done"]:
+            self._version += 1
         return outputs, state
 
 
@@ -186,12 +200,12 @@ class _SerialCoreModel:
         node = self.node
         due, enable = permit(tick, armed=1, running=int(node.phase == RUN and node.bit == 0),
                              abort=abort)
-        inputs = {"tick": enable, "stop": stop, "circle": self.circle}
+        out = node.outputs(tick=enable, stop=stop)
+        inputs = {"tick": enable, "stop": stop, "circle": self.circle,
+                  # Ро is the transfer: a command offered while the node is ready, no abort.
+                  "po": int(bool(valid) and bool(out["ready"]) and not abort)}
         if payload is not None:
             inputs.update(self._load(payload))
-        out, _ = probe(node, **inputs)
-        # Ро is the transfer: a command offered while the node is ready, not in an abort.
-        inputs["po"] = int(bool(valid) and bool(out["ready"]) and not abort)
         return due, inputs, out
 
     def _outputs(self, tick, stop, abort, valid, payload):
