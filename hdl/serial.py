@@ -134,6 +134,9 @@ class SerialNode(wiring.Component):
         self.pr7 = ShiftRegister(1)
         self.sm1 = SerialAdder()
         self.sm2 = SerialAdder()
+        # The mode node's registers, reachable as attributes (tests sample them).
+        self.phase = Signal(Phase, name="phase")
+        self.bit = Signal(range(word), name="bit")
         super().__init__({
             "po":      In(1),
             "circle":  In(1),
@@ -171,8 +174,7 @@ class SerialNode(wiring.Component):
         pr6, pr7, sm1, sm2 = self.pr6, self.pr7, self.sm1, self.sm2
 
         # ---- mode node: phase, bit counter, mode trigger ---------------------------------
-        phase = Signal(Phase)
-        bit = Signal(range(word))
+        phase, bit = self.phase, self.bit
         circle = Signal()                         # mode trigger: 1 circle, 0 line
         bit0 = Signal()
         last_bit = Signal()
