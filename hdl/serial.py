@@ -68,14 +68,21 @@ class SerialNode(wiring.Component):
     .. wavedrom::
 
         { "signal": [
-          { "name": "clk",   "wave": "p.........." },
-          { "name": "tick",  "wave": "01.0.1....." },
-          { "name": "due",   "wave": "1.0..1.0..1" },
-          { "name": "step",  "wave": "0.10...10.." },
-          { "name": "bit",   "wave": "=.===.====.", "data": ["0", "1", "2", "3", "0", "1",
-                                                            "2", "3", "0"] }
+          { "name": "clk",   "wave": "p..................." },
+          { "name": "po",    "wave": "010................." },
+          { "name": "tick",  "wave": "1....0.1............" },
+          { "name": "phase", "wave": "=.=...=...........=.",
+            "data": ["Idle", "Init 2", "Run", "Idle"] },
+          { "name": "bit",   "wave": "=.=====.============",
+            "data": ["0", "0", "1", "2", "3", "0", "1", "2", "3", "0", "1", "2", "3", "0",
+                     "1", "2", "3", "0"] },
+          { "name": "start", "wave": "0....10............." },
+          { "name": "due",   "wave": "0.....1.0..10..10..." },
+          { "name": "step",  "wave": "0......=0..=0..=0...", "data": ["X", "Y", "X"] },
+          { "name": "done",  "wave": "0.................10" },
+          { "name": "ready", "wave": "1.0...............1." }
         ],
-          "head": { "text": "step words of W = 4 bits: a permission, then W - 1 free clocks" } }
+          "head": { "text": "line to (2, 1), W = 4: load, initialisation, a word a step" } }
 
     Parameters
     ----------

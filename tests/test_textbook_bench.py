@@ -86,7 +86,8 @@ class ComparisonTestCase(unittest.TestCase):
         # The tables on small cases (the patents' own tables left out).
         out = io.StringIO()
         small = {"line_comparison": {"limit": 3}, "arc_comparison": {"limit": 5},
-                 "contour_speed": {"length": 20, "width": 6}, "reference_table": {"limit": 3, "r2_limit": 20}}
+                 "contour_speed": {"length": 20, "width": 6},
+                 "reference_table": {"limit": 3, "r2_limit": 20}}
         patches = {name: (lambda f=getattr(accuracy, name), k=kwargs: f(**k))
                    for name, kwargs in small.items()}
         patches.update(linear_table=list, circular_table=list, throughput_table=list,
