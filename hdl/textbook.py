@@ -277,7 +277,7 @@ class DdaCore(wiring.Component):
     for the permission. With the permission in every clock an iteration takes one clock and the
     segment N clocks, whichever axes move: the text's constant contour speed.
 
-    A segment taken from :py:`cmd` is prepared (its capacity formed) and started as soon as the
+    A segment taken from :py:`cmd` is prepared and started (its capacity formed) as soon as the
     core is idle, or in the clock of the running segment's last iteration; a segment of length
     zero starts and ends in an idle clock. :py:`abort` clears the registers and drops the
     prepared segment.
@@ -334,13 +334,15 @@ class DdaCore(wiring.Component):
         full = Signal()
         prepared_x = Signal(w)
         prepared_y = Signal(w)
-        prepared_mask = Signal(w)                     # capacity - 1
         empty = (prepared_x == 0) & (prepared_y == 0)
         payload = self.cmd.payload
+        # The capacity of the prepared segment, formed from its registers (not from the
+        # command stream, whose magnitudes come through the front end's arithmetic).
+        prepared_mask = Signal(w)                     # capacity - 1
         if self._capacity == "register":
-            capacity_mask = Const((1 << w) - 1, w)
+            m.d.comb += prepared_mask.eq((1 << w) - 1)
         else:
-            capacity_mask = _smear(payload.x | payload.y)
+            m.d.comb += prepared_mask.eq(_smear(prepared_x | prepared_y))
 
         run = trigger.q
         over_x = Signal()
@@ -366,8 +368,7 @@ class DdaCore(wiring.Component):
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
-            m.d.sync += [full.eq(1), prepared_x.eq(payload.x), prepared_y.eq(payload.y),
-                         prepared_mask.eq(capacity_mask)]
+            m.d.sync += [full.eq(1), prepared_x.eq(payload.x), prepared_y.eq(payload.y)]
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
 
