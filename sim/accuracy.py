@@ -229,11 +229,11 @@ def main(out):
     out.write("\nContour speed of a segment 1000 steps long in each direction, relative to 0°"
               "\n(length over clocks, back to back, tick always high; the text: constant for "
               "the DDA,\n1 : sqrt(2) for the estimating function)\n\n")
-    header = "".join(f"{a:>7}°" for a in SPEED_ANGLES)
-    out.write(f"line variant                 {header}  spread  steps/clock at 0°\n")
+    header = "".join(f"{a:>6}°" for a in SPEED_ANGLES)
+    out.write(f"line variant            {header}  spread  steps/clock at 0°\n")
     for label, relative, spread, base in contour_speed():
-        cells = "".join(f"{v:8.3f}" for v in relative)
-        out.write(f"{label:<29}{cells}  {spread:6.3f}  {base:17.4f}\n")
+        cells = "".join(f"{v:7.3f}" for v in relative)
+        out.write(f"{label:<24}{cells}  {spread:6.3f}  {base:17.4f}\n")
     out.write("\nSeparate steps: the text's estimating function at the midpoint of the two "
               "candidate points\n(the cores) or at the point reached (the text taken "
               "literally, a reference)\n\n")
