@@ -45,7 +45,11 @@ class Kind:
 class Variant:
     """A core of a kind: ``core(width=, **params)`` builds the RTL core, ``model(width=,
     **params)`` its cycle model, ``steps(payload, width)`` returns the step-level trajectory;
-    ``params`` names the parameters besides ``width`` that it takes."""
+    ``params`` names the parameters besides ``width`` that it takes. ``clocks(payload, width,
+    **params)``, if given, is an upper bound on the clocks the core takes for a command at full
+    feed (its own setup included, the front end's not); without it a core makes one step per
+    clock (or per generator period) and no more steps than the longer projection of a line or
+    ``8R + 8`` for an arc."""
     kind: str
     name: str
     help: str
@@ -54,6 +58,7 @@ class Variant:
     steps: object
     params: tuple = ()
     min_width: int = 2
+    clocks: object = None
 
 
 @dataclass(frozen=True)
@@ -170,14 +175,16 @@ def check(kind_name, payload, width):
     kind(kind_name).check(payload, width)
 
 
-def steps(kind_name, payload, variant_name=None, *, width=None):
+def steps(kind_name, payload, variant_name=None, *, width=None, **params):
     """The step-level trajectory of ``payload`` (a program's frames for a program kind): a
-    list of ``(dx, dy)``."""
+    list of ``(dx, dy)``. ``params`` are those of the variant that change its trajectory (none
+    for most)."""
     item = variant(kind_name, variant_name)
-    width = _arguments(item, width, {})["width"]
+    arguments = _arguments(item, width, params)
+    width = arguments.pop("width")
     if kind(kind_name).program:
-        return [step for _, path in item.steps(payload, width) for step in path]
-    return item.steps(payload, width)
+        return [step for _, path in item.steps(payload, width, **arguments) for step in path]
+    return item.steps(payload, width, **arguments)
 
 
 def outcomes(kind_name, frames, variant_name=None, *, width=None):
@@ -311,6 +318,69 @@ def _profile_core(name):
     return core, model
 
 
+def _textbook(core_name, model_name, **fixed):
+    """Factories of a core of ``hdl.textbook`` or ``hdl.serial`` (its name starts with
+    ``Serial``) and of its cycle model, with ``fixed`` parameters."""
+    module = "serial" if core_name.startswith("Serial") else "textbook"
+
+    def core(**params):
+        from importlib import import_module
+        return getattr(import_module(f"hdl.{module}"), core_name)(**fixed, **params)
+
+    def model(**params):
+        from importlib import import_module
+        return getattr(import_module(f"sim.models.{module}"), model_name)(**fixed, **params)
+
+    return core, model
+
+
+def _separate_line_steps(payload, width):
+    from .models.textbook import separate_line_steps
+    return separate_line_steps(payload["x"], payload["y"], width=width)
+
+
+def _separate_arc_steps(payload, width):
+    from .models.textbook import separate_arc_steps
+    return separate_arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
+                              cw=payload["cw"], width=width)
+
+
+def _dda_steps(preset):
+    def trajectory(payload, width, capacity="segment"):
+        from .models.textbook import dda_steps
+        return dda_steps(payload["x"], payload["y"], width=width, preset=preset,
+                         capacity=capacity)
+    return trajectory
+
+
+def _arc_radius(payload):
+    from .models.arc import round_sqrt
+    return round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
+
+
+def _separate_line_clocks(payload, width, **params):
+    return abs(payload["x"]) + abs(payload["y"]) + 2
+
+
+def _dda_clocks(payload, width, capacity="segment", **params):
+    from .models.textbook import dda_capacity          # N iterations, a clock each
+    return (1 << dda_capacity(payload["x"], payload["y"], width=width, capacity=capacity)) + 2
+
+
+def _separate_arc_clocks(payload, width, **params):
+    return 8 * _arc_radius(payload) + 16             # 2·Rn steps a quadrant, up to 4 of them
+
+
+def _serial_line_clocks(payload, width, **params):
+    from .models.serial import word_length
+    return word_length(width) * (abs(payload["x"]) + abs(payload["y"]) + 2) + 2
+
+
+def _serial_arc_clocks(payload, width, **params):
+    from .models.serial import word_length           # up to 5 runs: 3 words more each
+    return word_length(width) * (8 * _arc_radius(payload) + 16)
+
+
 def _icebreaker_platform():
     from constraints import icebreaker
     return icebreaker.platform()
@@ -342,5 +412,23 @@ register(Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock cor
 register(Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
                  *_profile_core("faithful"), _profile_trajectory, params=("timing",),
                  min_width=4))
+register(Variant("line", "separate", "textbook: estimating function, separate steps",
+                 *_textbook("SeparateLineCore", "SeparateLineCoreModel"),
+                 _separate_line_steps, clocks=_separate_line_clocks))
+register(Variant("line", "dda", "textbook: DDA, registers preset to half their capacity",
+                 *_textbook("DdaCore", "DdaCoreModel", preset="half"),
+                 _dda_steps("half"), params=("capacity",), clocks=_dda_clocks))
+register(Variant("line", "dda-zero", "textbook: DDA, registers starting at zero",
+                 *_textbook("DdaCore", "DdaCoreModel", preset="zero"),
+                 _dda_steps("zero"), params=("capacity",), clocks=_dda_clocks))
+register(Variant("line", "serial", "textbook: the bit-serial linear-circular node",
+                 *_textbook("SerialLineCore", "SerialLineCoreModel"),
+                 _separate_line_steps, clocks=_serial_line_clocks))
+register(Variant("arc", "separate", "textbook: estimating function, separate steps",
+                 *_textbook("SeparateArcCore", "SeparateArcCoreModel"),
+                 _separate_arc_steps, clocks=_separate_arc_clocks))
+register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
+                 *_textbook("SerialArcCore", "SerialArcCoreModel"),
+                 _separate_arc_steps, clocks=_serial_arc_clocks))
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=12e6))

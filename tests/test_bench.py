@@ -4,6 +4,7 @@
 import importlib.util
 import io
 import os
+import subprocess
 import tempfile
 import unittest
 from unittest import mock
@@ -147,6 +148,28 @@ class ToolTestCase(unittest.TestCase):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
                          "usage: python -m constraints.bench area|speed, not 'fast'\n")
+
+
+class SpeedOptionsTestCase(unittest.TestCase):
+    def test_measurement_routes_a_failing_design(self):
+        # The speed bench asks nextpnr to route and report an engine slower than the board's
+        # clock (--timing-allow-fail) instead of failing; the demo build does not.
+        calls = []
+
+        class Platform:
+            def build(self, top, **options):
+                calls.append(options["nextpnr_opts"])
+                raise subprocess.CalledProcessError(1, "build_top.sh")
+
+        with tempfile.TemporaryDirectory() as build_dir:
+            for allow in (False, True):
+                with self.assertRaises(flow.ToolchainError):
+                    flow.place_and_route(Platform(), None, build_dir, timing_allow_fail=allow)
+        self.assertEqual(calls, ["--seed 1", "--seed 1 --timing-allow-fail"])
+        with mock.patch.object(flow, "place_and_route") as routed, \
+                mock.patch("hdl.top.ShiftInTop"), mock.patch("hdl.top.PinnedTop"):
+            flow.measure_speed("engine", "unused")
+        self.assertIs(routed.call_args.kwargs["timing_allow_fail"], True)
 
 
 class AreaTestCase(unittest.TestCase):

@@ -28,8 +28,9 @@ def staircase_registered():
 class LookupTestCase(unittest.TestCase):
     def test_kinds_and_variants(self):
         self.assertEqual(list(registry.KINDS), ["line", "arc", "profile"])
-        self.assertEqual(registry.variants("line"), ("device", "exact"))
-        self.assertEqual(registry.variants("arc"), ("faithful", "fast"))
+        self.assertEqual(registry.variants("line"),
+                         ("device", "exact", "separate", "dda", "dda-zero", "serial"))
+        self.assertEqual(registry.variants("arc"), ("faithful", "fast", "separate", "serial"))
         self.assertEqual(registry.variants("profile"), ("fast", "faithful"))
         self.assertEqual([kind.program for kind in registry.KINDS.values()],
                          [False, False, True])
@@ -41,7 +42,8 @@ class LookupTestCase(unittest.TestCase):
                 r"^Kind must be one of 'line', 'arc', 'profile', not 'spline'$"):
             registry.variants("spline")
         with self.assertRaisesRegex(ValueError,
-                r"^line variant must be one of 'device', 'exact', not 'fast'$"):
+                r"^line variant must be one of 'device', 'exact', 'separate', 'dda', "
+                r"'dda-zero', 'serial', not 'fast'$"):
             registry.make_engine("line", "fast")
 
     def test_parameters_that_do_not_apply(self):
