@@ -27,7 +27,7 @@ from vcd.reader import TokenKind, tokenize
 
 __all__ = ["sample_vcd", "format_trace", "check_trace", "read_trace", "trace_difference",
            "Column", "Scenario", "SCENARIOS", "scenario_engine", "scenario_trace",
-           "scenario_job"]
+           "scenario_job", "GTKW_VIEWS", "gtkw_view"]
 
 
 def _find(by_path, suffix):
@@ -316,3 +316,34 @@ def scenario_trace(scenario, simulator, vcd, *, core=None, build_root=None):
     rows = [[index, *(c.format(clock[c.name]) for c in scenario.columns)]
             for index, clock in enumerate(clocks[:len(record)])]
     return record, columns, rows
+
+
+# ---- GTKWave views -----------------------------------------------------------------------
+
+#: The saved views ``docs/<name>.gtkw``: the signals of each core, named by patent element, at
+#: the widths ``kontur trace`` uses by default (line 16, arc 24), for the dumps of
+#: ``kontur trace ... --engine icarus|verilator --vcd FILE`` (their top scope is ``engine``).
+GTKW_VIEWS = {
+    "linear": ("SU 1571551: LinearCore in LineEngine", _linear_columns(16)),
+    "circular_faithful": ("SU 1665343: CircularInterpolator (faithful) in ArcEngine",
+                          _faithful_columns(24)),
+    "circular_fast": ("SU 1665343: CircularInterpolatorFast in ArcEngine", _fast_columns(24)),
+}
+
+
+def gtkw_view(name):
+    """The text of the GTKWave save file ``docs/<name>.gtkw`` (:data:`GTKW_VIEWS`)."""
+    title, columns = GTKW_VIEWS[name]
+    lines = [f"[*] kontur: {title}", "[*] made by sim.waves.gtkw_view; open with "
+             "gtkwave FILE.vcd docs/" + name + ".gtkw", "@28", "engine.clk"]
+    groups = (("engine ports", columns[:7]), ("patent elements", columns[7:]))
+    for label, group in groups:
+        lines += ["@200", f"-{label}"]
+        for column in group:
+            flags = {"u": "@28", "b": "@28", "s": "@424", "o": "@22"}[column.fmt]
+            if column.width == 1:
+                flags, ref = "@28", column.path
+            else:
+                ref = f"{column.path}[{column.width - 1}:0]"
+            lines += [flags, ref]
+    return "\n".join(lines) + "\n"

@@ -8,6 +8,7 @@ outputs in it are the golden cycle model's. A broken core changes the trace, and
 names the first clock and signal that differ.
 """
 
+import os
 import unittest
 
 import pytest
@@ -21,7 +22,8 @@ from sim.models.codes import from_code, mask, ones_decode
 from sim.runners import run_amaranth
 from sim.stimulus import Job
 from sim.stimulus import first_difference, run_model
-from sim.waves import SCENARIOS, check_trace, sample_vcd, scenario_job, scenario_trace
+from sim.waves import (GTKW_VIEWS, SCENARIOS, check_trace, gtkw_view, sample_vcd,
+                       scenario_job, scenario_trace)
 
 from .broken import literal_transfer_core, opposite_tie_core
 from .conftest import cocotb_build_root, selected_simulators
@@ -151,6 +153,25 @@ def test_literal_transfer_changes_the_trace():
     with pytest.raises(AssertionError, match=r"differs at row \d+ \(clock \d+\), signal A: "
                                              r"golden 0, trace "):
         check_trace(GOLDEN / "arc_faithful_switch_x_eq_y.trace", columns, rows)
+
+
+@pytest.mark.parametrize("view", list(GTKW_VIEWS))
+def test_gtkw_view(view):
+    # The saved view in docs/ is the one generated from the traced columns, and every signal
+    # it names is in a dump of that core (by the same hierarchical name on every simulator).
+    path = BUILD_DIR.parent / "docs" / f"{view}.gtkw"
+    text = gtkw_view(view)
+    if os.environ.get("UPDATE_GOLDEN") == "1":
+        path.write_text(text)
+    assert path.read_text() == text, f"{path} is stale: rerun with UPDATE_GOLDEN=1"
+    scenario = {"linear": "line_exact_back_to_back", "circular_faithful":
+                "arc_faithful_switch_x_eq_y", "circular_fast": "arc_fast_switch_x_eq_y"}[view]
+    _trace(scenario, "amaranth", tag="_view")
+    vcd = BUILD_DIR / "waves" / f"{scenario}_view_amaranth.vcd"
+    names = [line.split("[")[0] for line in text.splitlines()
+             if line.startswith("engine.")]
+    clocks = sample_vcd(vcd, {name: name for name in names})
+    assert clocks and set(clocks[0]) == set(names)
 
 
 if __name__ == "__main__":
