@@ -187,3 +187,92 @@ class CircularInterpolatorFastProperties(Elaboratable):
                     f=ip.adder1.q, ct8=ip.counter8.q, running=running,
                     stopping=ip.done | stop_now)
         return m
+
+
+class CircularInterpolatorProperties(Elaboratable):
+    """The claims above on the faithful :class:`CircularInterpolator`, with its generator
+    running at its own rate (``tick`` high: the patent's free-running generator 5) and free
+    starts and stops. Between a step and the next generator pulse the step's operand, and
+    after a switch-over the correction, are on their way through the delay elements; the
+    claims on adder 1, the counters and trigger 16 are made at the *settled* clocks: a
+    generator pulse of a running quadrant that extender 25 does not hold off. The claims on
+    the steps are made in every clock.
+
+    Parameters
+    ----------
+    width, timing
+        As :class:`CircularInterpolator`.
+    interpolator
+        The design under proof (default: one made from the parameters).
+    """
+
+    def __init__(self, *, width=24, timing=None, interpolator=None):
+        self.width = width
+        self.interpolator = interpolator or CircularInterpolator(width=width, timing=timing)
+
+    def elaborate(self, platform):
+        m = Module()
+        w = self.width
+        m.submodules.interpolator = ip = self.interpolator
+        period = ip.timing.period
+        start, x, y, residue = _free_start(m, ip, w)
+        m.d.comb += Assume(ip.tick)
+        phase = Signal(range(period), name="phase")           # clocks since reset, mod period
+        m.d.sync += phase.eq(Mux(phase == period - 1, 0, phase + 1))
+        run = _Run(w)
+        running = ip.trigger4.q
+        nx, ny, nrho = _follow(m, run, start=start, x=x, y=y, residue=residue, step=ip.step,
+                               running=running, w=w)
+        X, Y, s2 = run.x, run.y, run.sector2
+        step = ip.step
+        pulse = ip.generator5.o
+        settled = running & pulse & ~ip.extender25.o
+        ended = Signal(name="ended")                          # the step to X = 0 was made
+        with m.If(start):
+            m.d.sync += ended.eq(0)
+        with m.Elif(running & step.any() & (nx == 0)):
+            m.d.sync += ended.eq(1)
+        m.d.comb += [
+            Assert(ip.generator5.armed == (phase == 0), "generator 5: a pulse every period"),
+            Assert(~ip.error | (ip.in33 & ~ip.ready), "error: a start refused"),
+            Assert(running == ip.busy, "busy is trigger 4"),
+            Assert(~step.any() | (running & pulse), "a step only at a pulse of a run"),
+        ]
+        with m.If(running):
+            m.d.comb += [
+                Assert(run.m0 < (1 << (w - 1)), "the start's coordinates were below "
+                                                "2**(width - 1)"),
+                Assert(X >= Mux(ended, 0, 1), "X >= 1 until the last step"),
+                Assert(ended == (X == 0), "ended: X = 0"),
+                Assert(s2 == (Y >= X), "the sector is Y >= X"),
+                Assert(Mux(s2, X + Y <= 2 * run.m0 + 1, (Y < X) & (X <= run.m0)),
+                       "the point stays within the start's reach"),
+                Assert(_bound(run.rho, X, Y), "the point is within half a step of the circle"),
+                Assert(~ip.done | ended | ip.in32, "the run ends only after the step to X = 0"),
+            ]
+            with m.If(settled & ~ended):
+                m.d.comb += [
+                    Assert(ip.trigger16.q == s2, "settled: trigger 16 is the sector"),
+                    Assert(ip.counter7.q == Mux(s2, X - 1, Y), "settled: counter 7"),
+                    Assert(ones_value(ip.counter8.q, w + 1) == Mux(s2, X - Y, X - Y - 1),
+                           "settled: counter 8"),
+                    Assert(ones_value(ip.adder1.q, w + 4)
+                           == run.rho + Mux(s2, 2 * X - Y, X - 2 * Y) - 2,
+                           "settled: adder 1 holds floor(F) of the point"),
+                    Assert(step.any(), "settled: a move at the pulse"),
+                    Assert(Mux(s2, step[0], step[1]), "sector 1: Y or D; sector 2: D or X"),
+                ]
+            with m.If(step.any() & ~s2 & (nx <= ny)):
+                m.d.comb += Assert((nx - ny == 0) | (nx - ny == -1),
+                                   "the switch-over comes at X - Y = 0 or -1")
+            with m.If(step.any() & (nx == 0)):
+                m.d.comb += Assert(_bound(nrho, nx, ny),
+                                   "it ends within half a step of the circle")
+        with m.If(~running):
+            m.d.comb += [
+                Assert(ip.adder1.q == 0, "idle: adder 1 clear"),
+                Assert(ip.counter7.q == 0, "idle: counter 7 clear"),
+                Assert(ip.counter8.q == 0, "idle: counter 8 clear"),
+                Assert(~ip.trigger16.q, "idle: trigger 16 clear"),
+            ]
+        return m
