@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The arc engine's Verilog on Icarus and Verilator, every variant: cocotb testbenches.
 
 As in ``test_line_cocotb.py``: each ``@cocotb.test`` plays a :class:`~sim.stimulus.Job` with a

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The ``kontur`` command line, run as a program: output format, engines, refusals, waveforms."""
 
 import subprocess

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The formal proofs (``sim/formal.py``, ``hdl/formal/``), run by SymbiYosys: each must pass;
 a deliberately broken core must fail its proof from reset (a base-case counterexample)."""
 

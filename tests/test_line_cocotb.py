@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The line engine's Verilog on Icarus and Verilator, every variant: cocotb testbenches.
 
 Each ``@cocotb.test`` drives the engine's command stream (with random stalls), its feed and its

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """``kontur run``: programs through the whole controller. The model's runs against geometry
 (every program ends on its end to the step, the path near the contour), the RTL against the
 model on every simulator (the same steps, outcomes and position read back), the command line's
@@ -30,6 +31,12 @@ G91 G1 X-0.5 Y-0.25
 G90 G2 X1 Y1.75 R0.3
 G0 X0 Y0
 M30
+"""
+
+TINY = """G21 G90
+G1 X1 Y0.5 F3000
+G3 X0.5 Y1 I-0.5 J0
+G0 X0 Y0
 """
 
 
@@ -127,18 +134,26 @@ class ModelTestCase(unittest.TestCase):
 class RTLTestCase(unittest.TestCase):
     """The whole controller's RTL against the model (execute raises RunError otherwise)."""
 
-    def test_short_on_every_engine(self):
+    def check(self, job, engine):
+        result = execute(job, engine)
+        self.assertEqual(result.steps, job.steps)
+        self.assertEqual(result.end, tuple(job.end))
+        # The traced machining time is the plan's, within a few percent (the ramps'
+        # quantisation, the joints).
+        self.assertAlmostEqual(result.times[-1], job.seconds, delta=0.05 * job.seconds + 0.002)
+
+    def test_short_on_the_cocotb_simulators(self):
         job = prepare(SHORT, name="short.ngc")
-        engines = ["amaranth"] + selected_simulators()
-        for engine in engines:
+        for engine in selected_simulators():
             with self.subTest(engine=engine):
-                result = execute(job, engine)
-                self.assertEqual(result.steps, job.steps)
-                self.assertEqual(result.end, tuple(job.end))
-                # The traced machining time is the plan's, within a few percent (the ramps'
-                # quantisation, the joints).
-                self.assertAlmostEqual(result.times[-1], job.seconds, delta=0.05 * job.seconds
-                                       + 0.002)
+                self.check(job, engine)
+
+    def test_tiny_on_amaranth(self):
+        # Amaranth's simulator runs the whole controller at a few thousand clocks a second: a
+        # program of a line, an arc and the way back on a coarse, quick machine with a fast link.
+        job = prepare(TINY, machine=Machine(clock_hz=12e6, steps_per_mm=10, baud=1_000_000,
+                                           accel=5000), name="tiny.ngc")
+        self.check(job, "amaranth")
 
     def test_part_on_verilator_at_two_compressions(self):
         if "verilator" not in selected_simulators():

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """``kontur send``: streaming under the flow control, and the machine's answers in program
 lines, against a stand-in machine on a fake serial port (the protocol's reference decoder,
 answering as the gateware does)."""

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The comparison rows of ``kontur bench accuracy``: every variant on the same commands."""
 
 import io

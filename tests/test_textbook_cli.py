@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """``kontur trace`` with the textbook's variants, on every engine: the same steps and clocks."""
 
 import pytest

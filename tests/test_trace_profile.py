@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """``kontur trace profile FILE --radius R``, run as a program: output, engines, refusals."""
 
 import re

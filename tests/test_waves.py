@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """Waveform regression: the RTL's dump, reduced to a per-clock trace, against golden traces.
 
 The patents' worked tables are read back from the RTL's VCD and compared with goldens

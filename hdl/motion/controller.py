@@ -110,14 +110,8 @@ class MotionController(wiring.Component):
         self._queue_frames = queue_frames
         self._clock_hz = clock_hz
         self._min_interval = dir_setup + step_width + 1
-        longest = 1 + PAYLOAD_BYTES
-        self.uart_rx = UARTReceiver(divisor)
-        self.uart_tx = UARTTransmitter(divisor)
-        self.decoder = FrameDecoder()
-        self.queue = FrameQueue(1 << (queue_frames * longest - 1).bit_length())
-        self.encoder = FrameEncoder()
-        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
-        self.stepdir = StepDirStage(dir_setup=dir_setup, step_width=step_width)
+        self._divisor = divisor
+        self._dir_setup, self._step_width = dir_setup, step_width
         super().__init__({
             "rx":       In(1, init=1),
             "tx":       Out(1, init=1),
@@ -140,6 +134,16 @@ class MotionController(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         line, arc = self._line, self._arc
+        # The parts are made here, not in __init__: a controller only asked for its figures
+        # (or refused) leaves no unused elaboratable behind.
+        longest = 1 + PAYLOAD_BYTES
+        self.uart_rx = UARTReceiver(self._divisor)
+        self.uart_tx = UARTTransmitter(self._divisor)
+        self.decoder = FrameDecoder()
+        self.queue = FrameQueue(1 << (self._queue_frames * longest - 1).bit_length())
+        self.encoder = FrameEncoder()
+        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
+        self.stepdir = StepDirStage(dir_setup=self._dir_setup, step_width=self._step_width)
         for name in ("uart_rx", "uart_tx", "decoder", "queue", "encoder", "feed", "stepdir"):
             m.submodules[name] = getattr(self, name)
         m.submodules.line = line
