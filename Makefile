@@ -1,6 +1,7 @@
 # kontur: `make demo` and `make test` set up what is missing on a fresh machine, then run.
 #   SIM=icarus | SIM=verilator   run the cocotb tests on one simulator (default: both)
 #   WAVES=1                       dump waveforms of the tests into build/waves
+#   make bitstream BOARD=icebreaker|ulx3s   the machine controller's bitstream
 SHELL   := /bin/bash
 PYTHON  ?= python3
 VENV    ?= .venv
@@ -8,6 +9,7 @@ BIN     := $(VENV)/bin
 SIM     ?=
 WAVES   ?= 0
 JOBS    ?= auto
+BOARD   ?= icebreaker
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 STAMP   := $(VENV)/.installed
 
@@ -42,8 +44,8 @@ test-fast: setup         # Amaranth simulator and models only, no cocotb, no pro
 bench: setup
 	$(BIN)/kontur bench
 
-bitstream: setup
-	$(BIN)/kontur build --board icebreaker
+bitstream: setup         # the machine controller for BOARD (icebreaker or ulx3s); never programs
+	$(BIN)/kontur build --board $(BOARD) --top controller
 
 clean:
 	rm -rf build sim_build .pytest_cache

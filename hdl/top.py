@@ -205,36 +205,60 @@ class ControllerTop(Elaboratable):
     (``led_r``) once a frame has been dropped. The receiver synchronises ``rx`` itself; ``tx``
     comes straight from the transmitter's flip-flop.
 
+    With ``divide`` 2 the controller runs on half the board's clock (a flip-flop toggled by
+    the board's clock, constrained as such for nextpnr; the I/O registers on it too), for a
+    controller whose longest path does not close at the board's own clock.
+
     Parameters
     ----------
     controller : :class:`~hdl.motion.controller.MotionController`
-        Built for the board's clock.
+        Built for its clock: the board's, divided by ``divide``.
+    divide : :class:`int`
+        1 or 2. Default 1.
     """
 
-    def __init__(self, controller):
+    def __init__(self, controller, *, divide=1):
         from .motion.controller import MotionController
         if not isinstance(controller, MotionController):
             raise TypeError(f"Controller must be a MotionController, not {controller!r}")
+        if divide not in (1, 2):
+            raise ValueError(f"Clock division must be 1 or 2, not {divide!r}")
         self._controller = controller
+        self._divide = divide
 
     @property
     def controller(self):
         return self._controller
 
+    @property
+    def divide(self):
+        return self._divide
+
     def elaborate(self, platform):
         if platform is None:
             raise TypeError("ControllerTop needs a platform; simulate MotionController instead")
         m = Module()
-        m.submodules.controller = controller = self._controller
+        domain = "sync"
+        controller = self._controller
+        if self._divide == 2:
+            domain = "motion"
+            m.domains.motion = ClockDomain("motion")
+            half = Signal()                         # the motion clock: the board's, halved
+            m.d.sync += half.eq(~half)
+            m.d.comb += [ClockSignal("motion").eq(half), ResetSignal("motion").eq(ResetSignal())]
+            platform.add_clock_constraint(half, platform.default_clk_frequency / 2)
+            controller = DomainRenamer("motion")(controller)
+        m.submodules.controller = controller
+        controller = self._controller
         uart = platform.request("uart", 0, dir="-")
         stepper = platform.request("stepper", 0, dir="-")
         m.submodules.rx_buffer = rx = io.Buffer("i", uart.rx)
         # tx straight from the transmitter's flip-flop: an I/O-cell register would start at 0,
         # a false start bit on the host's line at configuration.
         m.submodules.tx_buffer = tx = io.Buffer("o", uart.tx)
-        m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step)
-        m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir)
-        m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable)
+        m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step, o_domain=domain)
+        m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir, o_domain=domain)
+        m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable, o_domain=domain)
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
         m.d.comb += [

