@@ -160,10 +160,18 @@ def kontur_env(**env):
     return dict(os.environ, **env)
 
 
+def _interruptible():
+    # As from a terminal: SIGINT at its default, whatever the test worker inherited (a
+    # process started with SIGINT ignored keeps ignoring it, and Python then never raises
+    # KeyboardInterrupt).
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args, env=None):
     return subprocess.Popen([sys.executable, "-m", "sim.host.cli", *map(str, args)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
+                            env=env, preexec_fn=_interruptible)
 
 
 @pytest.mark.cocotb
