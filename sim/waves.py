@@ -10,11 +10,13 @@ purpose (``UPDATE_GOLDEN=1``).
 
 :data:`SCENARIOS` names the regression's scenarios: an engine (kind, variant, width), a
 :class:`~sim.stimulus.Job` and the signals to trace (:class:`Column`: the engine's ports and
-the cores' patent-named elements). :func:`scenario_trace` runs one on Amaranth's simulator,
-Icarus or Verilator, reads the simulator's own dump back and returns its canonical trace, one
-row per clock; :func:`trace_difference` names the first clock and signal where two traces
-differ. A later scenario (a textbook core, a compensated corner, a part program) is one more
-:class:`Scenario` in :data:`SCENARIOS` and one reviewed golden file.
+the cores' elements, named as the patents and the textbook name them). :func:`scenario_trace`
+runs one on Amaranth's simulator, Icarus or Verilator, reads the simulator's own dump back and
+returns its canonical trace, one row per clock; :func:`trace_difference` names the first clock
+and signal where two traces differ. The scenarios cover the patents' cores, the textbook's
+(separate steps, the DDA, the bit-serial node) and a compensated corner of the equidistant
+engine (a ``profile`` program); another (a part program) is one more :class:`Scenario` in
+:data:`SCENARIOS` and one reviewed golden file.
 """
 
 import io
@@ -57,7 +59,9 @@ def sample_vcd(path, signals, *, clock="clk", tail=False):
     """Return one dict per clock of the dump at ``path``: ``{name: value}`` for ``signals``.
 
     ``signals`` maps result names to hierarchical name suffixes (``"step"``,
-    ``"core.adder3.q"``). Values are unsigned integers; an undefined (``x``) value is ``None``.
+    ``"core.adder3.q"``). Values are unsigned integers; an undefined (``x``) value is ``None``;
+    a string variable (Amaranth dumps an enumeration's value as its member's name) gives the
+    string.
     With ``tail`` the values at the end of the dump are one more row: the clock in which the
     simulation stopped, before its rising edge.
     """
@@ -97,6 +101,8 @@ def sample_vcd(path, signals, *, clock="clk", tail=False):
         elif token.kind is TokenKind.CHANGE_VECTOR:
             value = token.data.value
             pending[token.data.id_code] = value if isinstance(value, int) else None
+        elif token.kind is TokenKind.CHANGE_STRING:
+            pending[token.data.id_code] = token.data.value
     close_timestamp()
     if tail:
         rows.append({name: values.get(code) for name, code in ids.items()})
@@ -168,15 +174,28 @@ def check_trace(path, columns, rows):
 class Column:
     """A traced signal: its ``name`` in the trace, the suffix of its hierarchical ``path`` in
     the dump, and how to print it: ``"u"`` unsigned, ``"s"`` two's complement, ``"o"`` ones'
-    complement (``-0`` for every bit set), ``"b"`` binary; ``width`` for ``s``, ``o``, ``b``."""
+    complement (``-0`` for every bit set), ``"b"`` binary, ``"e"`` an enumeration (the member
+    of ``names`` the value numbers, or the name Amaranth's dump gives); ``width``, the
+    signal's bits, for ``s``, ``o``, ``b`` and the GTKWave views. With ``offset`` the column is
+    the field of ``width`` bits from that bit of the signal (a field of a
+    :class:`~amaranth.lib.data.StructLayout` signal, which the Verilog dumps hold as one
+    vector)."""
     name: str
     path: str
     fmt: str = "u"
     width: int = 1
+    names: tuple = ()
+    offset: int = None
 
     def format(self, value):
         if value is None:
             return "x"
+        if self.fmt == "e":
+            if isinstance(value, str):
+                return value
+            return self.names[value] if value < len(self.names) else str(value)
+        if self.offset is not None:
+            value = (value >> self.offset) & ((1 << self.width) - 1)
         if self.fmt == "s":
             return str(value - (1 << self.width) if value >> (self.width - 1) else value)
         if self.fmt == "o":
@@ -227,6 +246,87 @@ def _fast_columns(width):
         Column("F", f"{ip}.adder1.q", "s", width + 4))
 
 
+def _separate_line_columns(width):
+    core = "engine.core"
+    return _engine_columns() + (
+        Column("run", f"{core}.trigger.q"),
+        Column("ctrX", f"{core}.counter_x.q", "s", width + 1),
+        Column("ctrY", f"{core}.counter_y.q", "s", width + 1),
+        Column("comm", f"{core}.commutator.o", "u", width + 2),
+        Column("D", f"{core}.adder.q", "s", width + 2))
+
+
+def _separate_arc_columns(width):
+    core = "engine.core"
+    return _engine_columns() + (
+        Column("run", f"{core}.trigger.q"),
+        Column("ctrX", f"{core}.counter_x.q", "s", width + 1),
+        Column("ctrY", f"{core}.counter_y.q", "s", width + 2),
+        Column("comm", f"{core}.commutator.o", "u", width + 2),
+        Column("G", f"{core}.adder.q", "s", width + 2))
+
+
+def _dda_columns(width):
+    core = "engine.core"
+    return _engine_columns() + (
+        Column("diag", "engine.feed__diagonal"),
+        Column("run", f"{core}.trigger.q"),
+        Column("mask", f"{core}.register_x.mask", "u", width),
+        Column("ctr", f"{core}.counter.q", "s", width + 1),
+        Column("regX", f"{core}.register_x.q", "u", width),
+        Column("ovX", f"{core}.register_x.overflow"),
+        Column("regY", f"{core}.register_y.q", "u", width),
+        Column("ovY", f"{core}.register_y.overflow"))
+
+
+def _serial_columns(width):
+    from hdl.serial import Phase, word_length
+    node = "engine.core.node"
+    word = word_length(width)
+    return _engine_columns() + (
+        Column("phase", f"{node}.phase", "e", 2, names=tuple(p.name for p in Phase)),
+        Column("bit", f"{node}.bit", "u", (word - 1).bit_length()),
+        *(Column(f"pr{n}", f"{node}.pr{n}.q", "b", word) for n in range(1, 6)),
+        Column("pr6", f"{node}.pr6.q"), Column("pr7", f"{node}.pr7.q"),
+        Column("sm1", f"{node}.sm1.s"), Column("c1", f"{node}.sm1.carry"),
+        Column("sm2", f"{node}.sm2.s"), Column("c2", f"{node}.sm2.carry"),
+        *(Column(f"e{n}", f"{node}.e{n}") for n in range(1, 8)),
+        Column("mism", f"{node}.mismatch"))
+
+
+def _profile_columns(width):
+    from amaranth import Shape
+    from hdl.equidistant import EquidistantEngine, Formats
+    formats = Formats(width)
+    slot = EquidistantEngine.Slot(formats)
+
+    def field(name, slot_name, member, fmt="u"):
+        item = slot[member]
+        return Column(name, f"engine.{slot_name}", fmt, Shape.cast(item.shape).width,
+                      offset=item.offset)
+
+    return _engine_columns() + (
+        Column("x", "engine.block12.q", "s", formats.position),
+        Column("y", "engine.block13.q", "s", formats.position),
+        Column("r", "engine.radius", "u", width),
+        Column("r2", "engine.radius2", "u", 2 * width),
+        Column("unit", "engine.unit", "u", 3),
+        field("own", "own", "valid"), field("cmp", "cmp", "valid"),
+        field("prep", "prep", "valid"),
+        field("ownV", "own", "v", "s"), field("cmpV", "cmp", "v", "s"),
+        field("cmpW", "cmp", "w", "s"),
+        Column("tau2", "engine.tau2", "u", formats.value), Column("end", "engine.element_end"))
+
+
+def _profile_frames(text, radius, width):
+    """The frames of a G-code program prepared at the cutter ``radius`` (the host's
+    :func:`~sim.models.equidistant.prepare`)."""
+    from .host.gcode import read
+    from .models.equidistant import Formats, prepare, profile_from_moves
+    shape = profile_from_moves(read(text).moves)
+    return prepare(shape, radius, formats=Formats(width)).frames
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A named waveform scenario: the engine of ``kind`` around the core of ``variant`` at
@@ -272,7 +372,50 @@ def _scenarios():
     add("arc_fast_refused", "SU 1665343 fast: an end point off the circle, (4, 0) to (2, 4), "
         "is refused and moves nothing; the next arc runs", "arc", "fast", 8,
         [arc(4, 0, 2, 4), arc(4, 0, 0, 4)], _fast_columns(8))
+
+    # The textbook's cores (docs/textbook.md).
+    add("line_separate_back_to_back", "textbook, separate steps: (3, 3), whose every other "
+        "step is a tie at D = 0 (an X step), (-4, 1), (0, 0) and (2, -5) back to back, one "
+        "axis a step", "line", "separate", 8,
+        [{"x": 3, "y": 3}, {"x": -4, "y": 1}, {"x": 0, "y": 0}, {"x": 2, "y": -5}],
+        _separate_line_columns(8))
+    for variant, preset in (("dda", "half"), ("dda-zero", "zero")):
+        add(f"line_{variant.replace('-', '_')}_back_to_back",
+            f"textbook, DDA, registers preset to {preset}: (5, 2), (-3, 6), (0, 0), (4, -4) "
+            "back to back, N = 8 iterations each, the overflow pulses the steps, the "
+            "iterations without one free-running", "line", variant, 8,
+            [{"x": 5, "y": 2}, {"x": -3, "y": 6}, {"x": 0, "y": 0}, {"x": 4, "y": -4}],
+            _dda_columns(8))
+    add("line_serial_back_to_back", "textbook, the bit-serial node as a line core: (2, -1), "
+        "(0, 0) and (-3, 3) (ties at D = 0) back to back, a word of 10 clocks a step",
+        "line", "serial", 8, [{"x": 2, "y": -1}, {"x": 0, "y": 0}, {"x": -3, "y": 3}],
+        _serial_columns(8))
+    add("arc_separate_quadrant_crossing", "textbook, separate steps: the arcs of "
+        "arc_fast_quadrant_crossing, R = 5 from (3, 4) through quadrants II and III to "
+        "(3, -4) and clockwise back, one axis a step", "arc", "separate", 8,
+        [arc(3, 4, 3, -4), arc(3, -4, 3, 4, 1)], _separate_arc_columns(8))
+    add("arc_serial_quadrant_crossing", "textbook, the bit-serial node as a quadrant core: "
+        "R = 5 from (3, 4) across the Y axis to (-4, 3), two quadrant runs of two "
+        "initialisation words and a word a step", "arc", "serial", 8,
+        [arc(3, 4, -4, 3)], _serial_columns(8))
+
+    # The equidistant engine (docs/equidistant.md): a program with one compensated corner.
+    add("profile_fast_corner", "equidistant engine, fast core: the open profile (0, 0) - "
+        "(12, 4) - (6, 10) with the cutter of radius 2 on its right (G42): the convex corner "
+        "extended to the intersection of the equidistants, ended on the second line's normal",
+        "profile", "fast", 8, _profile_frames(_CORNER_PROGRAM, 2, 8), _profile_columns(8))
     return {item.name: item for item in items}
+
+
+#: The G-code of ``profile_fast_corner``.
+_CORNER_PROGRAM = """( Two lines, a left turn: the cutter on the right, G42, round the outside )
+G90
+G0 X0 Y0
+G42 G1 X12 Y4
+G1 X6 Y10
+G40
+M30
+"""
 
 
 SCENARIOS = _scenarios()
@@ -320,27 +463,43 @@ def scenario_trace(scenario, simulator, vcd, *, core=None, build_root=None):
 
 # ---- GTKWave views -----------------------------------------------------------------------
 
-#: The saved views ``docs/<name>.gtkw``: the signals of each core, named by patent element, at
-#: the widths ``kontur trace`` uses by default (line 16, arc 24), for the dumps of
-#: ``kontur trace ... --engine icarus|verilator --vcd FILE`` (their top scope is ``engine``).
+#: The saved views ``docs/<name>.gtkw``: the signals of each core, named by element as the
+#: patents and the textbook name them, at the widths ``kontur trace`` uses by default (line 16,
+#: arc 24), for the dumps of ``kontur trace ... --engine icarus|verilator --vcd FILE`` (their
+#: top scope is ``engine``): ``(title, columns, the label of the core's group)``.
 GTKW_VIEWS = {
-    "linear": ("SU 1571551: LinearCore in LineEngine", _linear_columns(16)),
+    "linear": ("SU 1571551: LinearCore in LineEngine", _linear_columns(16), "patent elements"),
     "circular_faithful": ("SU 1665343: CircularInterpolator (faithful) in ArcEngine",
-                          _faithful_columns(24)),
-    "circular_fast": ("SU 1665343: CircularInterpolatorFast in ArcEngine", _fast_columns(24)),
+                          _faithful_columns(24), "patent elements"),
+    "circular_fast": ("SU 1665343: CircularInterpolatorFast in ArcEngine", _fast_columns(24),
+                      "patent elements"),
+    "separate_line": ("Textbook: SeparateLineCore (separate steps) in LineEngine",
+                      _separate_line_columns(16), "textbook elements"),
+    "separate_arc": ("Textbook: SeparateArcCore (separate steps) in ArcEngine",
+                     _separate_arc_columns(24), "textbook elements"),
+    "dda": ("Textbook: DdaCore (dda, dda-zero) in LineEngine", _dda_columns(16),
+            "textbook elements"),
+    "serial_line": ("Textbook: SerialNode as SerialLineCore in LineEngine",
+                    _serial_columns(16), "textbook elements (Fig. 12)"),
+    "serial_arc": ("Textbook: SerialNode as SerialArcCore in ArcEngine", _serial_columns(24),
+                   "textbook elements (Fig. 12)"),
 }
 
 
 def gtkw_view(name):
-    """The text of the GTKWave save file ``docs/<name>.gtkw`` (:data:`GTKW_VIEWS`)."""
-    title, columns = GTKW_VIEWS[name]
+    """The text of the GTKWave save file ``docs/<name>.gtkw`` (:data:`GTKW_VIEWS`): the
+    engine's ports (the signals of its own scope), then the core's elements."""
+    title, columns, label = GTKW_VIEWS[name]
     lines = [f"[*] kontur: {title}", "[*] made by sim.waves.gtkw_view; open with "
              "gtkwave FILE.vcd docs/" + name + ".gtkw", "@28", "engine.clk"]
-    groups = (("engine ports", columns[:7]), ("patent elements", columns[7:]))
+    ports = [c for c in columns if c.path.count(".") == 1]
+    groups = (("engine ports", ports), (label, [c for c in columns if c not in ports]))
     for label, group in groups:
         lines += ["@200", f"-{label}"]
         for column in group:
-            flags = {"u": "@28", "b": "@28", "s": "@424", "o": "@22"}[column.fmt]
+            if column.offset is not None:
+                raise ValueError(f"{column.name}: a field of a vector has no view")
+            flags = {"u": "@24", "b": "@28", "s": "@424", "o": "@22", "e": "@24"}[column.fmt]
             if column.width == 1:
                 flags, ref = "@28", column.path
             else:

@@ -166,7 +166,11 @@ def test_gtkw_view(view):
         path.write_text(text)
     assert path.read_text() == text, f"{path} is stale: rerun with UPDATE_GOLDEN=1"
     scenario = {"linear": "line_exact_back_to_back", "circular_faithful":
-                "arc_faithful_switch_x_eq_y", "circular_fast": "arc_fast_switch_x_eq_y"}[view]
+                "arc_faithful_switch_x_eq_y", "circular_fast": "arc_fast_switch_x_eq_y",
+                "separate_line": "line_separate_back_to_back",
+                "separate_arc": "arc_separate_quadrant_crossing",
+                "dda": "line_dda_back_to_back", "serial_line": "line_serial_back_to_back",
+                "serial_arc": "arc_serial_quadrant_crossing"}[view]
     _trace(scenario, "amaranth", tag="_view")
     vcd = BUILD_DIR / "waves" / f"{scenario}_view_amaranth.vcd"
     names = [line.split("[")[0] for line in text.splitlines()
