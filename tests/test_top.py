@@ -152,7 +152,7 @@ class ShiftInTopTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(TypeError,
-                r"^Engine must be a component with an EngineSignature, not 42$"):
+                r"^Design must be a component with a command stream 'cmd', not 42$"):
             ShiftInTop(42)
         with self.assertRaisesRegex(TypeError,
                 r"^Frame layout must be a data layout, not unsigned\(8\)$"):
