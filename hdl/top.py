@@ -108,7 +108,10 @@ class ShiftInTop(wiring.Component):
     engine's status stream (:py:`status_ready` high) is loaded into a register that shifts out
     on :py:`sdo`, least significant bit first, one bit a clock. Every other port of the design
     is a member of the same name (``feed.tick`` is :py:`tick`, ``motion.step`` :py:`step`,
-    ``status.valid`` :py:`status_valid`), so the wrapper adds no clock to it.
+    ``status.valid`` :py:`status_valid`), registered once in the fabric (one clock each way,
+    the same for all), so that a measured path runs from register to register inside the
+    design, never from a pin across the device: a design's inputs come from registers beside
+    it in any system.
 
     Parameters
     ----------
@@ -190,7 +193,7 @@ class ShiftInTop(wiring.Component):
                 m.d.sync += outcome.eq(engine.status.payload)
             with m.Else():
                 m.d.sync += outcome.eq(outcome >> 1)
-            m.d.comb += self.sdo.eq(outcome[0])
+            m.d.sync += self.sdo.eq(outcome[0])     # registered as the ports below are
 
         m.d.comb += [
             engine.cmd.payload.eq(frame),
@@ -202,11 +205,15 @@ class ShiftInTop(wiring.Component):
             port = engine
             for part in path:
                 port = getattr(port, part)
+            # Registered in the fabric too: the design's own paths, not the pins', are measured.
             mine = getattr(self, name)
+            staged = Signal.like(mine, name=f"{name}_q")
             if self.signature.members[name].flow == In:
-                m.d.comb += port.eq(mine)
+                m.d.sync += staged.eq(mine)
+                m.d.comb += port.eq(staged)
             else:
-                m.d.comb += mine.eq(port)
+                m.d.sync += staged.eq(port)
+                m.d.comb += mine.eq(staged)
         return m
 
 

@@ -106,7 +106,8 @@ def shift_in(top, frames, *, tick=(1,), name):
             ctx.set(top.valid, 1)                # rising edge: offer the frame
             await clock()
             ctx.set(top.valid, 0)
-        await clock()
+        for _ in range(3):                       # the engine's busy, registered, is seen
+            await clock()
         while ctx.get(top.full) or ctx.get(top.busy):
             await clock()
         for _ in range(status.size + 4):
