@@ -58,6 +58,10 @@ class LinearInterpolator(wiring.Component):
         See above.
     period : :class:`int`
         Period of generator 4, in :py:`tick` clocks (1: a step every clock).
+    zero_frames : :class:`bool`
+        Whether a start may come with inputs 22 and 23 both zero (a zero-length segment, as
+        above). ``False`` promises it never does (:class:`LinearCore` ends those itself), which
+        takes the decode of inputs 22 and 23 off the path of a start.
 
     Members
     -------
@@ -87,19 +91,23 @@ class LinearInterpolator(wiring.Component):
     Raises
     ------
     :exc:`TypeError`
-        If ``width`` is not an integer of at least 2, or ``period`` not a positive integer.
+        If ``width`` is not an integer of at least 2, ``period`` not a positive integer, or
+        ``zero_frames`` not a bool.
     :exc:`ValueError`
         If ``variant`` is not one of the two above.
     """
 
-    def __init__(self, *, width=16, variant="exact", period=1):
+    def __init__(self, *, width=16, variant="exact", period=1, zero_frames=True):
         _check(width, variant, period)
+        if not isinstance(zero_frames, bool):
+            raise TypeError(f"Zero frames must be a bool, not {zero_frames!r}")
         self._width = width
         self._variant = variant
         self._period = period
+        self._zero_frames = zero_frames
         # The numbered elements, reachable as attributes (tests sample their contents).
-        self.counter1 = ReversibleCounter(width + 1)
-        self.counter2 = ReversibleCounter(width + 1)
+        self.counter1 = ReversibleCounter(width + 1, parallel=True)
+        self.counter2 = ReversibleCounter(width + 1, parallel=True)
         self.adder3 = AccumulatingAdder(width + 1)
         self.generator4 = PulseGenerator(period)
         self.mux12 = Commutator(width + 1, width + 1, channels=2, shift=0)
@@ -107,7 +115,7 @@ class LinearInterpolator(wiring.Component):
         self.trigger15 = Trigger(priority="set")
         if variant == "exact":
             self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
-            self.reg23 = Signal(width, name="reg23")    # constant increment min(|X|, |Y|)
+            self.reg23 = Signal(signed(width + 1), name="reg23")   # min(|X|, |Y|) - 1
         super().__init__({
             "in22":  In(width),
             "in23":  In(width),
@@ -134,6 +142,10 @@ class LinearInterpolator(wiring.Component):
     def period(self):
         return self._period
 
+    @property
+    def zero_frames(self):
+        return self._zero_frames
+
     def elaborate(self, platform):
         m = Module()
         m.submodules.counter1 = counter1 = self.counter1
@@ -158,9 +170,11 @@ class LinearInterpolator(wiring.Component):
         # counter 1, all direct outputs of counter 2). In the patent it resets trigger 14 as soon
         # as the counters settle after the last step, before the generator's next pulse; with a
         # generator pulse in every clock the same timing needs AND 9 to see the counters' next
-        # contents, so it fires in the clock of the last step. It decodes them from the present
-        # contents and the pulse now passing (a long step ends the frame from 1 and -1, a
-        # combined step from 0 and 0), which keeps the counters' carry chains off this path.
+        # contents, so it fires in the clock of the last step: from 1 and -1 with a long step,
+        # from 0 and 0 with a combined step. Those two decodes of the counters are kept in two
+        # flip-flops, updated with the counters (each count moves one counter by one, so the
+        # next decode is a decode of the present contents), which keeps the counters' carry
+        # chains and the wide comparisons off the path from the sign to the next frame's load.
         and9_run = Signal()   # the running frame makes its last step now
         and9_load = Signal()  # a zero-length frame: its counters are exhausted when loaded
         and9 = Signal()
@@ -168,11 +182,11 @@ class LinearInterpolator(wiring.Component):
         empty = Signal()
         start = Signal()      # input 26, accepted
         go = Signal()         # a frame with steps starts running
+        last_long = Signal()             # counter 1 holds 1 and counter 2 holds -1
+        last_diagonal = Signal(init=1)   # counter 1 and counter 2 hold 0 (as after reset)
         m.d.comb += [
-            and9_run.eq(trigger14.q & (
-                (and5 & (counter1.q == 1) & counter2.q.all()) |
-                (and6 & ~counter1.q.any() & ~counter2.q.any()))),
-            empty.eq(~self.in22.any() & ~self.in23.any()),
+            and9_run.eq(trigger14.q & ((and5 & last_long) | (and6 & last_diagonal))),
+            empty.eq(~self.in22.any() & ~self.in23.any() if self._zero_frames else 0),
             # At most one frame ends per clock: a zero-length frame waits for an idle clock.
             self.ready.eq(trigger14.q_n | (and9_run & ~empty)),
             start.eq(self.in26 & self.ready),
@@ -186,6 +200,26 @@ class LinearInterpolator(wiring.Component):
             self.busy.eq(trigger14.q),
             self.done.eq(and9),
         ]
+        c1, c2 = counter1.q, counter2.q
+        c1_high_zero = ~c1[2:].any()
+        c2_high_zero = ~c2[1:].any()
+        with m.If(go):
+            m.d.sync += [
+                last_long.eq((self.in22 == 1) & ~self.in23.any()),
+                last_diagonal.eq(~self.in22.any() & (self.in23 == 1)),
+            ]
+        with m.Elif(and9):
+            m.d.sync += [last_long.eq(0), last_diagonal.eq(1)]
+        with m.Elif(and5):       # counter 1 counts down
+            m.d.sync += [
+                last_long.eq(c1_high_zero & (c1[:2] == 2) & c2.all()),
+                last_diagonal.eq(c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]),
+            ]
+        with m.Elif(and6):       # counter 2 counts down
+            m.d.sync += [
+                last_long.eq(c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]),
+                last_diagonal.eq(c1_high_zero & (c1[:2] == 0) & c2_high_zero & c2[0]),
+            ]
 
         # ---- counters 1 and 2 ------------------------------------------------------------------
         # The patent loads counter 2 with min and then lets the start pulse subtract one through
@@ -203,6 +237,11 @@ class LinearInterpolator(wiring.Component):
         ]
 
         # ---- node 19: adder-subtractor (adder 3, multiplexer 12) -------------------------------
+        # Multiplexer 12 passes the inverse code of counter 2 (channel 1, AND 5: F -= C2) or
+        # counter 1 (channel 2, AND 6: F += C1) to adder 3. Here adder 3 forms both sums in
+        # parallel, each channel's code on an operand input of its own, and the channel's strobe
+        # picks the sum: the sign of F then chooses at the end of the carry chain, not at its
+        # start (the loop is that of a bare accumulator).
         m.d.comb += [
             adder3.d.eq(self.in24),
             adder3.load.eq(go),
@@ -211,24 +250,26 @@ class LinearInterpolator(wiring.Component):
             mux12.a[1].eq(and6),
         ]
         if self._variant == "device":
-            # AND 5: add the inverse code of counter 2 (= -C2); AND 6: add counter 1 (+C1).
             m.d.comb += [
                 mux12.b[0].eq(counter2.q_n),
                 mux12.b[1].eq(counter1.q),
-                adder3.add.eq(mux12.strobe),
             ]
         else:
-            # Constant increments of eq. (1): registers 22' and 23' keep inputs 22 and 23.
+            # Constant increments of eq. (1): registers 22' and 23' keep input 22 and, as
+            # counter 2 is loaded, input 23 minus one, whose inverse code is -min.
             reg22, reg23 = self.reg22, self.reg23
             with m.If(go):
-                m.d.sync += [reg22.eq(self.in22), reg23.eq(self.in23)]
+                m.d.sync += [reg22.eq(self.in22), reg23.eq(self.in23 - 1)]
             m.d.comb += [
-                mux12.b[0].eq(reg23),
-                mux12.b[1].eq(reg22),
-                adder3.sub.eq(and5),         # F -= min
-                adder3.add.eq(and6),         # F += |X| - |Y|
+                mux12.b[0].eq(~reg23),       # F -= min
+                mux12.b[1].eq(reg22),        # F += |X| - |Y|
             ]
-        m.d.comb += adder3.b.eq(mux12.o)
+        m.d.comb += [
+            adder3.b2.eq(mux12.b[0]),
+            adder3.add2.eq(mux12.a[0]),
+            adder3.b.eq(mux12.b[1]),
+            adder3.add.eq(mux12.a[1]),
+        ]
 
         # ---- node 20: coordinate increments (trigger 15, AND 7, AND 8, OR 10, OR 11) -----------
         and7 = Signal()     # long step to X
@@ -273,7 +314,8 @@ class LinearCore(wiring.Component):
 
     def __init__(self, *, width=16, variant="exact", period=1):
         _check(width, variant, period)          # before the interpolator is made
-        self.interpolator = LinearInterpolator(width=width, variant=variant, period=period)
+        self.interpolator = LinearInterpolator(width=width, variant=variant, period=period,
+                                               zero_frames=False)
         super().__init__(LineCoreSignature(width))
 
     @property
@@ -309,18 +351,22 @@ class LinearCore(wiring.Component):
         x_ge_y = ~x_minus_y[-1]
 
         full = Signal()
+        empty = Signal()                          # the prepared segment has length zero
         in22 = Signal(w)
         in23 = Signal(w)
         in24 = Signal(signed(w + 1))
         in25 = Signal()
         take = Signal()
+        # A segment of length zero never reaches the interpolator: it starts and ends here, in
+        # an idle clock (as the interpolator would end it).
         m.d.comb += [
-            take.eq(full & ip.ready & ~self.abort),
+            take.eq(full & ~self.abort & Mux(empty, ip.trigger14.q_n, ip.ready)),
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
             m.d.sync += [
                 full.eq(1),
+                empty.eq(~mx.any() & ~my.any()),
                 in22.eq(Mux(x_ge_y, x_minus_y, y_minus_x)[:w]),
                 in23.eq(Mux(x_ge_y, my, mx)),
                 in24.eq(Mux(x_ge_y, f0_x_long, f0_y_long) >> 1),
@@ -336,12 +382,12 @@ class LinearCore(wiring.Component):
             ip.in23.eq(in23),
             ip.in24.eq(in24),
             ip.in25.eq(in25),
-            ip.in26.eq(take),
+            ip.in26.eq(take & ~empty),
             ip.tick.eq(enable),
             self.feed.diagonal.eq(ip.adder3.sign),
             self.step.eq(ip.step),
             self.start.eq(take),
-            self.done.eq(ip.done | (self.abort & ip.busy)),
+            self.done.eq(ip.done | (take & empty) | (self.abort & ip.busy)),
             self.busy.eq(full | ip.busy),
         ]
         return m

@@ -175,12 +175,12 @@ class LinearInterpolatorModel:
             self.counter1 = in22
             self.counter2 = in23 - 1               # OR 13: the start pulse subtracts one
             self.adder3 = in24
-            self.reg22, self.reg23 = in22, in23
+            self.reg22, self.reg23 = in22, in23 - 1     # register 23' holds min - 1
         elif and9:
             self.counter1 = self.counter2 = self.adder3 = 0
         else:
             if and5:   # multiplexer 12, channel 1: F -= C2 (device) or F -= min (exact)
-                self.adder3 += ~self.counter2 if self.variant == "device" else -self.reg23
+                self.adder3 += ~(self.counter2 if self.variant == "device" else self.reg23)
             if and6:   # multiplexer 12, channel 2: F += C1 (device) or F += |X|-|Y| (exact)
                 self.adder3 += self.counter1 if self.variant == "device" else self.reg22
             self.counter1 -= and5
