@@ -289,7 +289,9 @@ def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     env_saved = os.environ.get("OPENFPGALOADER")
     os.environ.setdefault("OPENFPGALOADER", "true")   # never called: nothing is programmed
     try:
-        plan = board.build(PinnedTop(wrapper, "shift_in"), name="top", do_build=False)
+        plan = board.build(PinnedTop(wrapper, "shift_in"), name="top", do_build=False,
+                           **({"synth_opts": os.environ["KONTUR_SYNTH_OPTS"]}
+                              if os.environ.get("KONTUR_SYNTH_OPTS") else {}))
     finally:
         if env_saved is None:
             os.environ.pop("OPENFPGALOADER", None)

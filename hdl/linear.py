@@ -113,6 +113,10 @@ class LinearInterpolator(wiring.Component):
         self.mux12 = Commutator(width + 1, width + 1, channels=2, shift=0)
         self.trigger14 = Trigger(priority="set")
         self.trigger15 = Trigger(priority="set")
+        # AND 9's two decodes: counter 1 holds 1 and counter 2 holds -1 (a long step ends the
+        # frame); both hold 0 (a combined step ends it), as after reset.
+        self.last_long = Signal(name="last_long")
+        self.last_diagonal = Signal(init=1, name="last_diagonal")
         if variant == "exact":
             self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
             self.reg23 = Signal(signed(width + 1), name="reg23")   # min(|X|, |Y|) - 1
@@ -182,13 +186,14 @@ class LinearInterpolator(wiring.Component):
         empty = Signal()
         start = Signal()      # input 26, accepted
         go = Signal()         # a frame with steps starts running
-        last_long = Signal()             # counter 1 holds 1 and counter 2 holds -1
-        last_diagonal = Signal(init=1)   # counter 1 and counter 2 hold 0 (as after reset)
+        last_long, last_diagonal = self.last_long, self.last_diagonal
+        ending = Signal()     # the pulse now passing would end a running frame
         m.d.comb += [
-            and9_run.eq(trigger14.q & ((and5 & last_long) | (and6 & last_diagonal))),
+            ending.eq(generator4.o & Mux(adder3.sign, last_diagonal, last_long)),
+            and9_run.eq(trigger14.q & ending),
             empty.eq(~self.in22.any() & ~self.in23.any() if self._zero_frames else 0),
             # At most one frame ends per clock: a zero-length frame waits for an idle clock.
-            self.ready.eq(trigger14.q_n | (and9_run & ~empty)),
+            self.ready.eq(trigger14.q_n | (ending & ~empty)),
             start.eq(self.in26 & self.ready),
             self.error.eq(self.in26 & ~self.ready),
             and9_load.eq(start & empty),
@@ -350,30 +355,40 @@ class LinearCore(wiring.Component):
         ]
         x_ge_y = ~x_minus_y[-1]
 
+        # The prepared segment's registers need no reset (only ``full`` says they count), which
+        # keeps the reset off their load enable.
         full = Signal()
-        empty = Signal()                          # the prepared segment has length zero
-        in22 = Signal(w)
-        in23 = Signal(w)
-        in24 = Signal(signed(w + 1))
-        in25 = Signal()
+        queued = Signal()                         # full, and the segment has steps
+        empty = Signal(reset_less=True)           # the prepared segment has length zero
+        in22 = Signal(w, reset_less=True)
+        in23 = Signal(w, reset_less=True)
+        in24 = Signal(signed(w + 1), reset_less=True)
+        in25 = Signal(reset_less=True)
         take = Signal()
+        ending = Signal()       # the running segment makes its last step in this clock
         # A segment of length zero never reaches the interpolator: it starts and ends here, in
         # an idle clock (as the interpolator would end it).
         m.d.comb += [
-            take.eq(full & ~self.abort & Mux(empty, ip.trigger14.q_n, ip.ready)),
+            # full & ~abort & (ip.ready, or idle for a zero-length segment), written out from
+            # the interpolator's registers so that it is two gates deep.
+            ending.eq(ip.generator4.o & Mux(ip.adder3.sign, ip.last_diagonal, ip.last_long)),
+            take.eq(~self.abort & ((full & ip.trigger14.q_n) | (queued & ending))),
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
+            m.d.sync += [full.eq(1), queued.eq(mx.any() | my.any())]
+        with m.Elif(take | self.abort):
+            m.d.sync += [full.eq(0), queued.eq(0)]
+        # The registers follow cmd whenever it may be taken (what they hold counts only with
+        # full set), so that their load enable does not wait for cmd.valid.
+        with m.If(self.cmd.ready):
             m.d.sync += [
-                full.eq(1),
                 empty.eq(~mx.any() & ~my.any()),
                 in22.eq(Mux(x_ge_y, x_minus_y, y_minus_x)[:w]),
                 in23.eq(Mux(x_ge_y, my, mx)),
                 in24.eq(Mux(x_ge_y, f0_x_long, f0_y_long) >> 1),
                 in25.eq(x_ge_y),
             ]
-        with m.Elif(take | self.abort):
-            m.d.sync += full.eq(0)
 
         enable = permit(m, self.feed, armed=ip.generator4.armed, running=ip.busy,
                         abort=self.abort)
@@ -382,7 +397,7 @@ class LinearCore(wiring.Component):
             ip.in23.eq(in23),
             ip.in24.eq(in24),
             ip.in25.eq(in25),
-            ip.in26.eq(take & ~empty),
+            ip.in26.eq(~self.abort & queued & (ip.trigger14.q_n | ending)),
             ip.tick.eq(enable),
             self.feed.diagonal.eq(ip.adder3.sign),
             self.step.eq(ip.step),
