@@ -113,10 +113,8 @@ class LinearInterpolator(wiring.Component):
         self.mux12 = Commutator(width + 1, width + 1, channels=2, shift=0)
         self.trigger14 = Trigger(priority="set")
         self.trigger15 = Trigger(priority="set")
-        # AND 9's two decodes: counter 1 holds 1 and counter 2 holds -1 (a long step ends the
-        # frame); both hold 0 (a combined step ends it), as after reset.
-        self.last_long = Signal(name="last_long")
-        self.last_diagonal = Signal(init=1, name="last_diagonal")
+        # AND 9's decode, with trigger 14: a frame runs and one step is left (see elaborate).
+        self.last_step = Signal(name="last_step")
         if variant == "exact":
             self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
             self.reg23 = Signal(signed(width + 1), name="reg23")   # min(|X|, |Y|) - 1
@@ -173,12 +171,14 @@ class LinearInterpolator(wiring.Component):
         # AND 9 fires when counter 1 holds 0 and counter 2 holds -1 (all inverse outputs of
         # counter 1, all direct outputs of counter 2). In the patent it resets trigger 14 as soon
         # as the counters settle after the last step, before the generator's next pulse; with a
-        # generator pulse in every clock the same timing needs AND 9 to see the counters' next
-        # contents, so it fires in the clock of the last step: from 1 and -1 with a long step,
-        # from 0 and 0 with a combined step. Those two decodes of the counters are kept in two
-        # flip-flops, updated with the counters (each count moves one counter by one, so the
-        # next decode is a decode of the present contents), which keeps the counters' carry
-        # chains and the wide comparisons off the path from the sign to the next frame's load.
+        # generator pulse in every clock the same timing needs AND 9 to fire in the clock of the
+        # last step, from the counters' contents before it: 1 and -1 (one long step left) or 0
+        # and 0 (one combined step left). Each pulse counts down one of the two counters, the
+        # one of its kind, and a frame exhausts both exactly at its last step (the step models
+        # assert it), so with one step left the passing pulse is that step. The decode is kept in
+        # a flip-flop with trigger 14, updated with the counters (a count moves one counter by
+        # one, so the next decode is a decode of the present contents): AND 9 is then the pulse
+        # and that flip-flop, and the wide comparisons stay off the path to the next frame.
         and9_run = Signal()   # the running frame makes its last step now
         and9_load = Signal()  # a zero-length frame: its counters are exhausted when loaded
         and9 = Signal()
@@ -186,14 +186,12 @@ class LinearInterpolator(wiring.Component):
         empty = Signal()
         start = Signal()      # input 26, accepted
         go = Signal()         # a frame with steps starts running
-        last_long, last_diagonal = self.last_long, self.last_diagonal
-        ending = Signal()     # the pulse now passing would end a running frame
+        last_step = self.last_step
         m.d.comb += [
-            ending.eq(generator4.o & Mux(adder3.sign, last_diagonal, last_long)),
-            and9_run.eq(trigger14.q & ending),
+            and9_run.eq(generator4.o & last_step),
             empty.eq(~self.in22.any() & ~self.in23.any() if self._zero_frames else 0),
             # At most one frame ends per clock: a zero-length frame waits for an idle clock.
-            self.ready.eq(trigger14.q_n | (ending & ~empty)),
+            self.ready.eq(trigger14.q_n | (and9_run & ~empty)),
             start.eq(self.in26 & self.ready),
             self.error.eq(self.in26 & ~self.ready),
             and9_load.eq(start & empty),
@@ -208,23 +206,18 @@ class LinearInterpolator(wiring.Component):
         c1, c2 = counter1.q, counter2.q
         c1_high_zero = ~c1[2:].any()
         c2_high_zero = ~c2[1:].any()
+        two_left_1 = c1_high_zero & (c1[:2] == 2) & c2.all()                     # 2 and -1
+        two_left_2 = c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]        # 1 and 0
+        two_left_3 = c1_high_zero & (c1[:2] == 0) & c2_high_zero & c2[0]         # 0 and 1
         with m.If(go):
-            m.d.sync += [
-                last_long.eq((self.in22 == 1) & ~self.in23.any()),
-                last_diagonal.eq(~self.in22.any() & (self.in23 == 1)),
-            ]
+            m.d.sync += last_step.eq(((self.in22 == 1) & ~self.in23.any())
+                                     | (~self.in22.any() & (self.in23 == 1)))
         with m.Elif(and9):
-            m.d.sync += [last_long.eq(0), last_diagonal.eq(1)]
+            m.d.sync += last_step.eq(0)
         with m.Elif(and5):       # counter 1 counts down
-            m.d.sync += [
-                last_long.eq(c1_high_zero & (c1[:2] == 2) & c2.all()),
-                last_diagonal.eq(c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]),
-            ]
+            m.d.sync += last_step.eq(two_left_1 | two_left_2)
         with m.Elif(and6):       # counter 2 counts down
-            m.d.sync += [
-                last_long.eq(c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]),
-                last_diagonal.eq(c1_high_zero & (c1[:2] == 0) & c2_high_zero & c2[0]),
-            ]
+            m.d.sync += last_step.eq(two_left_2 | two_left_3)
 
         # ---- counters 1 and 2 ------------------------------------------------------------------
         # The patent loads counter 2 with min and then lets the start pulse subtract one through
@@ -371,7 +364,7 @@ class LinearCore(wiring.Component):
         m.d.comb += [
             # full & ~abort & (ip.ready, or idle for a zero-length segment), written out from
             # the interpolator's registers so that it is two gates deep.
-            ending.eq(ip.generator4.o & Mux(ip.adder3.sign, ip.last_diagonal, ip.last_long)),
+            ending.eq(ip.generator4.o & ip.last_step),
             take.eq(~self.abort & ((full & ip.trigger14.q_n) | (queued & ending))),
             self.cmd.ready.eq(~full | take),
         ]
