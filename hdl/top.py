@@ -198,9 +198,9 @@ class ShiftInTop(wiring.Component):
         m.d.comb += [
             engine.cmd.payload.eq(frame),
             engine.cmd.valid.eq(full),
-            self.ready.eq(engine.cmd.ready),
             self.full.eq(full),
         ]
+        m.d.sync += self.ready.eq(engine.cmd.ready)      # registered as the ports below are
         for name, path in self._ports:
             port = engine
             for part in path:

@@ -146,7 +146,8 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m constraints.bench area|speed, not 'fast'\n")
+                         "usage: python -m constraints.bench area|speed|report [--out FILE], "
+                         "not 'fast'\n")
 
 
 class AreaTestCase(unittest.TestCase):
