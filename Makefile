@@ -35,8 +35,8 @@ test: setup
 test-fast: setup         # Amaranth simulator and models only, no cocotb
 	PYTHONWARNINGS=error $(BIN)/python -m pytest -n $(JOBS) tests -m "not cocotb"
 
-bench: setup
-	$(BIN)/kontur bench
+bench: setup            # writes BENCHMARKS.md from one run (about an hour on 2 shared cores)
+	PYTHONWARNINGS=error $(BIN)/python -m constraints.bench report --out BENCHMARKS.md
 
 bitstream: setup
 	$(BIN)/kontur build --board icebreaker

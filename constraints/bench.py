@@ -317,11 +317,34 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
                                                  seeds=seeds if default else seeds[:1])
             log.write(f"{row['label']} {row['width']} {row['variant']} {device}: "
                       f"{row['speed'][device]['mhz']}, {time.monotonic() - started:.0f} s\n")
+    parts = []
+    if "ice40" in devices and designs is None:
+        for label, factory in _parts():
+            name = label.replace(" ", "_").replace("(", "").replace(")", "").replace("=", "")
+            parts.append((label, measure_area(factory(), name,
+                                              build_root / "area" / "parts" / name)))
     throughput = simulation_throughput(build_root / "sim", simulators=simulators)
     seconds = time.monotonic() - started
-    text = _report_text(rows, devices, seeds, versions, throughput, seconds)
+    text = _report_text(rows, devices, seeds, versions, throughput, seconds, parts)
     Path(path).write_text(text)
     return {"designs": rows, "throughput": throughput, "seconds": seconds}
+
+
+def _parts():
+    """The parts of the engines at their default widths, each alone: where the area goes."""
+    from hdl.arc import ArcPlanner
+    from hdl.engine import StatusUnit
+    from hdl.linear import LinearInterpolator
+    from hdl.circular import CircularInterpolator, CircularInterpolatorFast
+    return [
+        ("LinearInterpolator 16 device", lambda: LinearInterpolator(width=16, variant="device")),
+        ("LinearInterpolator 16 exact", lambda: LinearInterpolator(width=16, variant="exact")),
+        ("StatusUnit (17-bit positions, LineEngine 16)", lambda: StatusUnit(position_width=17)),
+        ("CircularInterpolator 24 (faithful)", lambda: CircularInterpolator(width=24)),
+        ("CircularInterpolatorFast 24", lambda: CircularInterpolatorFast(width=24)),
+        ("ArcPlanner 24", lambda: ArcPlanner(width=24)),
+        ("StatusUnit (26-bit positions, ArcEngine 24)", lambda: StatusUnit(position_width=26)),
+    ]
 
 
 def _find(rows, **keys):
@@ -331,7 +354,7 @@ def _find(rows, **keys):
     return None
 
 
-def _report_text(rows, devices, seeds, versions, throughput, seconds):
+def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
     from constraints.flow import DEVICES
     from sim import registry
     first = seeds[0]
@@ -447,6 +470,12 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds):
         header += (["UP5K LC", "SB_LUT4", "SB_CARRY", "SB_DFF*"] if device == "ice40"
                    else ["ECP5 LUT4", "CCU2C", "TRELLIS_FF"])
     out.append(_markdown(header, table))
+
+    if parts:
+        out.append("\n### Parts of the engines, each alone (iCE40UP5K)\n\n")
+        out.append(_markdown(["part", "UP5K LC", "SB_LUT4", "SB_CARRY", "SB_DFF*"],
+                             [[label, a["lc"], a["lut4"], a["carry"], a["dff"]]
+                              for label, a in parts]))
 
     # ---- simulation
     out.append("\n## Simulation throughput: a full circle of radius 1000 on `ArcEngine` "

@@ -26,7 +26,7 @@ class LineCoreSignature(wiring.Signature):
     -------
     cmd : :py:`In(stream.Signature(LineCoreSignature.Frame(width)))`
         Segments, ``x`` and ``y`` magnitudes. A segment transferred in clock ``k`` may start in
-        clock ``k + 1``.
+        clock ``k + 1`` at the earliest.
     feed : :py:`Out(FeedSignature())`
         Permission for each step (:class:`~hdl.engine.FeedSignature`).
     abort : :py:`In(1)`
@@ -89,17 +89,19 @@ class LineEngine(wiring.Component):
     """Signed line segments in, step/dir out: the front end of any line core.
 
     Each transfer on :py:`cmd` is one segment, relative to the current position: the end point
-    ``(x, y)``. The front end splits it into signs and magnitudes and hands the magnitudes to
-    the core in the clock it takes the segment; the signs become the directions from the
-    segment's first step. Segments follow one another with no idle clock between the last step
-    of one and the first step of the next (the core holds one while another runs). A segment
-    offered at clock ``k`` to an idle engine makes its first step at ``k + 2`` at the earliest.
+    ``(x, y)``. The front end takes it into a stage register as signs, magnitudes and checks,
+    and hands the magnitudes to the core from there, in the next clock at the earliest; the
+    signs become the directions from the segment's first step. Segments follow one another
+    with no idle clock between the last step of one and the first step of the next (the stage
+    and the core each hold one while another runs). A segment offered at clock ``k`` to an
+    idle engine makes its first step at ``k + 3`` at the earliest.
 
     A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~hdl.engine.Outcome.
-    REFUSED`, nothing moves) in the clock it is taken; it is taken, as is a segment of length
-    zero, only when no other command is in flight and no outcome waits, so outcomes stay in
-    order. Everything else is the common interface (:class:`~hdl.engine.EngineSignature`):
-    one outcome per segment on :py:`status`, with the steps made; :py:`abort`.
+    REFUSED`, nothing moves) from the stage, one clock after it is taken at the earliest; it
+    leaves the stage, as does a segment of length zero, only when it is the one command in
+    flight and no outcome waits, so outcomes stay in order. Everything else is the common
+    interface (:class:`~hdl.engine.EngineSignature`): one outcome per segment on
+    :py:`status`, with the steps made; :py:`abort`.
 
     Parameters
     ----------

@@ -124,11 +124,15 @@ class ReversibleCounter(wiring.Component):
                 m.d.comb += self.q_next.eq(decremented)
         elif self._parallel:
             # up - down - 2·down2 for each combination of the count inputs, bit 0 up.
-            with m.Switch(Cat(self.up, self.down, self.down2)):
-                for code in range(8):
-                    delta = (code & 1) - (code >> 1 & 1) - 2 * (code >> 2 & 1)
-                    with m.Case(code):
-                        m.d.comb += self.q_next.eq(self.q + delta if delta else self.q)
+            def count(up, down, down2):
+                delta = up - down - 2 * down2
+                return self.q + delta if delta else self.q
+            m.d.comb += self.q_next.eq(
+                Mux(self.down2,
+                    Mux(self.down, Mux(self.up, count(1, 1, 1), count(0, 1, 1)),
+                        Mux(self.up, count(1, 0, 1), count(0, 0, 1))),
+                    Mux(self.down, Mux(self.up, count(1, 1, 0), count(0, 1, 0)),
+                        Mux(self.up, count(1, 0, 0), count(0, 0, 0)))))
         else:
             m.d.comb += self.q_next.eq(self.q + self.up - dec)
 
