@@ -175,9 +175,6 @@ def main(argv=None, out=None):
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
-
 
 # ---- BENCHMARKS.md -------------------------------------------------------------------------
 
@@ -512,3 +509,7 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
   (with the simulator's start), the build timed apart.
 """)
     return "".join(out)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -45,7 +45,7 @@ class LinearInterpolator(wiring.Component):
       patent's description, claims and worked table do (eq. 5);
     * ``"exact"``: multiplexer 12 feeds two registers holding inputs 22 and 23 for the whole
       frame, which realises the patent's eq. (1) and its ``0.5 cos α`` error bound. Cost: the
-      two registers and the adder's subtract path.
+      two registers.
 
     Adder 3 holds the integer part ``⌊F⌋`` of the estimating function: ``F0 = max/2 - min`` may
     end in one half, every increment is an integer, so the half never changes the sign test.
@@ -293,11 +293,12 @@ class LinearCore(wiring.Component):
     formed from the magnitudes in the clock it is taken (every candidate in parallel, the
     comparison ``|X| >= |Y|`` only selecting), and started by input 26 as soon as the
     interpolator is ready: in the next clock when it is idle, in the clock of the running
-    segment's last step otherwise. The step permission drives generator 4
-    (:func:`~hdl.engine.permit`): with the default period of 1 the step is made in the clock of
-    the permission; the next step is diagonal when adder 3 is negative. :py:`abort` clears the
-    interpolator (a synchronous reset of its registers: the patent has no stop input) and drops
-    the prepared segment.
+    segment's last step otherwise. A segment of length zero does not reach the interpolator: it
+    starts and ends in an idle clock of the interpolator, as the interpolator would end it. The
+    step permission drives generator 4 (:func:`~hdl.engine.permit`): with the default period of
+    1 the step is made in the clock of the permission; the next step is diagonal when adder 3
+    is negative. :py:`abort` clears the interpolator (a synchronous reset of its registers: the
+    patent has no stop input) and drops the prepared segment.
 
     Parameters
     ----------
