@@ -243,12 +243,15 @@ def _proofs():
             f"{w} bits, {code} complement",
             "load over clear over counting; the count; underflow; ones': the count on the "
             "numbers, never -0 counting down")
+    add("counter_17_parallel", lambda: e.CounterProperties(17, parallel=True), 1,
+        "17 bits, two's complement, parallel form (counters 1 and 2)",
+        "load over clear over counting; the count; underflow")
     for w, ones in ((17, False), (28, False), (28, True)):
         code = "ones'" if ones else "two's"
         add(f"adder_{w}{'_ones' if ones else ''}",
             lambda w=w, ones=ones: e.AdderProperties(w, ones_complement=ones), 1,
             f"{w} bits, {code} complement",
-            "load over clear over add over subtract; the sums; ones': never -0")
+            "load over clear over add over add2 over subtract; the sums; ones': never -0")
     add("commutator_6", lambda: e.CommutatorProperties(25, 28, channels=3, shift=1), 1,
         "25 -> 28 bits, 3 channels, shift 1 (commutator 6)",
         "one-hot selection; the shifted code and its ones' complement reading")

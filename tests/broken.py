@@ -30,14 +30,14 @@ class _TieAdder(wiring.Component):
         self._width = width
         super().__init__({
             "d": In(signed(width)), "load": In(1), "clr": In(1), "b": In(signed(width)),
-            "add": In(1), "sub": In(1), "even": In(1),
+            "add": In(1), "b2": In(signed(width)), "add2": In(1), "sub": In(1), "even": In(1),
             "q": Out(signed(width)), "sign": Out(1), "sign_n": Out(1),
         })
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.adder = adder = AccumulatingAdder(self._width)
-        for name in ("d", "load", "clr", "b", "add", "sub"):
+        for name in ("d", "load", "clr", "b", "add", "b2", "add2", "sub"):
             m.d.comb += getattr(adder, name).eq(getattr(self, name))
         negative = adder.sign | (self.even & (adder.q == 0))
         m.d.comb += [self.q.eq(adder.q), self.sign.eq(negative), self.sign_n.eq(~negative)]
@@ -47,14 +47,14 @@ class _TieAdder(wiring.Component):
 class OppositeTieInterpolator(LinearInterpolator):
     """:class:`~hdl.linear.LinearInterpolator` (``exact``) with the opposite tie at F = 0."""
 
-    def __init__(self, *, width=16, period=1):
-        super().__init__(width=width, variant="exact", period=period)
+    def __init__(self, *, width=16, period=1, zero_frames=True):
+        super().__init__(width=width, variant="exact", period=period, zero_frames=zero_frames)
         used(self.adder3)                                 # the one it replaces
         self.adder3 = _TieAdder(width + 1)
 
     def elaborate(self, platform):
         m = super().elaborate(platform)
-        a = self.reg22 + self.reg23                       # max(|X|, |Y|) of the frame
+        a = self.reg22 + self.reg23 + 1                   # max(|X|, |Y|) of the frame
         m.d.comb += self.adder3.even.eq(~a[0])
         return m
 
@@ -63,7 +63,7 @@ def opposite_tie_core(width):
     """A :class:`~hdl.linear.LinearCore` around :class:`OppositeTieInterpolator`."""
     core = LinearCore(width=width, variant="exact")
     used(core.interpolator)                               # the one it replaces
-    core.interpolator = OppositeTieInterpolator(width=width)
+    core.interpolator = OppositeTieInterpolator(width=width, zero_frames=False)
     return core
 
 

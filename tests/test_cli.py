@@ -40,7 +40,7 @@ def test_trace_line_cycles():
     assert run.returncode == 0
     lines = run.stdout.splitlines()
     assert [tuple(map(int, line.split()[1:])) for line in lines] == steps(3, 2)
-    assert [int(line.split()[0]) for line in lines] == [2, 3, 4]   # one step per clock
+    assert [int(line.split()[0]) for line in lines] == [3, 4, 5]   # one step per clock
 
 
 def test_trace_line_zero_length():

@@ -99,7 +99,7 @@ class NewVariantTestCase(unittest.TestCase):
         with staircase_registered():
             self.assertEqual(trace("line", {"x": 2, "y": -1}, variant="staircase",
                                    engine="amaranth", cycles=True),
-                             [(2, 1, 0), (3, 1, 0), (4, 0, -1)])
+                             [(3, 1, 0), (4, 1, 0), (5, 0, -1)])   # first step at k + 3
             out = io.StringIO()
             with mock.patch("sys.stdout", out):
                 self.assertEqual(cli.main(["trace", "line", "2", "-1", "--variant",

@@ -105,7 +105,8 @@ def shift_in(top, frames, *, tick=(1,), name):
             ctx.set(top.valid, 1)                # rising edge: offer the frame
             await clock()
             ctx.set(top.valid, 0)
-        await clock()
+        for _ in range(3):                       # the engine's busy, registered, is seen
+            await clock()
         while ctx.get(top.full) or ctx.get(top.busy):
             await clock()
         for _ in range(status.size + 4):
@@ -151,7 +152,7 @@ class ShiftInTopTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(TypeError,
-                r"^Engine must be a component with an EngineSignature, not 42$"):
+                r"^Design must be a component with a command stream 'cmd', not 42$"):
             ShiftInTop(42)
         with self.assertRaisesRegex(TypeError,
                 r"^Frame layout must be a data layout, not unsigned\(8\)$"):

@@ -141,7 +141,7 @@ def test_opposite_tie_changes_the_trace():
     # (4, 2) starts with F = 0: eq. (1) steps along X alone, the broken core diagonally.
     _, columns, rows = _trace("line_exact_back_to_back", "amaranth",
                               core=opposite_tie_core(8), tag="_opposite_tie")
-    with pytest.raises(AssertionError, match=r"differs at row 2 \(clock 2\), signal step: "
+    with pytest.raises(AssertionError, match=r"differs at row 3 \(clock 3\), signal step: "
                                              r"golden 01, trace 11"):
         check_trace(GOLDEN / "line_exact_back_to_back.trace", columns, rows)
 

@@ -3,7 +3,7 @@
 from amaranth import *
 from amaranth.asserts import AnySeq
 
-__all__ = ["free", "ones_value", "minus_zero", "past", "state_register"]
+__all__ = ["free", "ones_value", "minus_zero", "past", "state_register", "state_registers"]
 
 
 def free(m, *signals):
@@ -36,9 +36,18 @@ def state_register(elaboratable, name):
     added as the submodule in its place, so the register found is the one built) and the
     signal named ``name`` that its ``sync`` statements drive.
 
-    Only the element proofs use this, for an element's one state register (a generator's
-    phase, an extender's count, a delay line): it makes the contract 1-inductive where no
-    port shows that state. The core proofs see the elements through their ports only."""
+    The element proofs use this for an element's one state register (a generator's phase, an
+    extender's count, a delay line): it makes the contract 1-inductive where no port shows
+    that state. Of the cores, only :class:`~hdl.linear.LinearCore`'s proof uses it
+    (:func:`state_registers`), for its prepared segment's flags; the cores' elements are seen
+    through their ports only."""
+    fragment, (register,) = state_registers(elaboratable, name)
+    return fragment, register
+
+
+def state_registers(elaboratable, *names):
+    """As :func:`state_register`, for several registers of one elaboratable: ``(fragment,
+    registers)``, the registers in the order of ``names``."""
     from amaranth.hdl import Fragment
     from amaranth.hdl._ast import Assign, Switch
 
@@ -52,7 +61,11 @@ def state_register(elaboratable, name):
                 for _patterns, body, _src_loc in statement.cases:
                     yield from driven(body)
 
+    found = {}
     for signal in driven(fragment.statements.get("sync", ())):
-        if signal.name == name:
-            return fragment, signal
-    raise KeyError(f"{elaboratable!r} drives no register {name!r}")
+        if signal.name in names:
+            found.setdefault(signal.name, signal)
+    missing = [name for name in names if name not in found]
+    if missing:
+        raise KeyError(f"{elaboratable!r} drives no register {', '.join(map(repr, missing))}")
+    return fragment, [found[name] for name in names]

@@ -32,16 +32,20 @@ def _in_range(value, width):
 class CounterProperties(Elaboratable):
     """:class:`~hdl.elements.ReversibleCounter`: load over clear over counting, the count
     ``up - down - 2·down2``, ``q_n``, ``q_next``, ``underflow``; in ones' complement the
-    count on the numbers the codes stand for, and counting down never yields −0."""
+    count on the numbers the codes stand for, and counting down never yields −0. ``parallel``:
+    the counter's parallel form (every count formed, the count inputs picking one), the same
+    claims."""
 
-    def __init__(self, width, *, ones_complement=False):
+    def __init__(self, width, *, ones_complement=False, parallel=False):
         self.width = width
         self.ones_complement = ones_complement
+        self.parallel = parallel
 
     def elaborate(self, platform):
         m = Module()
         w = self.width
-        m.submodules.counter = c = ReversibleCounter(w, ones_complement=self.ones_complement)
+        m.submodules.counter = c = ReversibleCounter(w, ones_complement=self.ones_complement,
+                                                     parallel=self.parallel)
         free(m, c.d, c.load, c.clr, c.up, c.down, c.down2)
         started = _started(m)
         count = c.up - c.down - 2 * c.down2
@@ -73,9 +77,9 @@ class CounterProperties(Elaboratable):
 
 
 class AdderProperties(Elaboratable):
-    """:class:`~hdl.elements.AccumulatingAdder`: load over clear over add over subtract, the
-    sums, the sign outputs; in ones' complement the sum of the numbers the codes stand for,
-    and no sum or difference is −0 unless the contents were −0 already."""
+    """:class:`~hdl.elements.AccumulatingAdder`: load over clear over add over add2 over
+    subtract, the sums, the sign outputs; in ones' complement the sum of the numbers the codes
+    stand for, and no sum or difference is −0 unless the contents were −0 already."""
 
     def __init__(self, width, *, ones_complement=False):
         self.width = width
@@ -85,11 +89,11 @@ class AdderProperties(Elaboratable):
         m = Module()
         w = self.width
         m.submodules.adder = a = AccumulatingAdder(w, ones_complement=self.ones_complement)
-        free(m, a.d, a.load, a.clr, a.b, a.add, a.sub)
+        free(m, a.d, a.load, a.clr, a.b, a.add, a.b2, a.add2, a.sub)
         started = _started(m)
         was = {name: past(m, value, name=f"past_{name}") for name, value in (
-            ("load", a.load), ("clr", a.clr), ("add", a.add), ("sub", a.sub), ("d", a.d),
-            ("b", a.b), ("q", a.q))}
+            ("load", a.load), ("clr", a.clr), ("add", a.add), ("add2", a.add2),
+            ("sub", a.sub), ("d", a.d), ("b", a.b), ("b2", a.b2), ("q", a.q))}
         m.d.comb += [
             Assert(a.sign == (a.q < 0), "sign: the contents are negative"),
             Assert(a.sign_n == ~a.sign, "sign_n inverts sign"),
@@ -99,26 +103,35 @@ class AdderProperties(Elaboratable):
             m.d.comb += Assert(a.q == was["d"], "load wins")
         with m.If(started & ~was["load"] & was["clr"]):
             m.d.comb += Assert(a.q == 0, "clear wins over add and subtract")
-        with m.If(counting & ~was["add"] & ~was["sub"]):
+        second = ~was["add"] & was["add2"]              # add2, add not asserted
+        subtract = ~was["add"] & ~was["add2"] & was["sub"]
+        with m.If(counting & ~was["add"] & ~was["add2"] & ~was["sub"]):
             m.d.comb += Assert(a.q == was["q"], "no strobe: the contents hold")
         if not self.ones_complement:
             with m.If(counting & was["add"]):
                 m.d.comb += Assert(a.q == (was["q"] + was["b"])[:w].as_signed(), "q += b")
-            with m.If(counting & ~was["add"] & was["sub"]):
+            with m.If(counting & second):
+                m.d.comb += Assert(a.q == (was["q"] + was["b2"])[:w].as_signed(), "q += b2")
+            with m.If(counting & subtract):
                 m.d.comb += Assert(a.q == (was["q"] - was["b"])[:w].as_signed(), "q -= b")
         else:
             total = Signal(signed(w + 2))
+            total2 = Signal(signed(w + 2))
             difference = Signal(signed(w + 2))
             m.d.comb += [
                 total.eq(ones_value(was["q"], w) + ones_value(was["b"], w)),
+                total2.eq(ones_value(was["q"], w) + ones_value(was["b2"], w)),
                 difference.eq(ones_value(was["q"], w) - ones_value(was["b"], w)),
             ]
             with m.If(counting & was["add"] & _in_range(total, w)):
                 m.d.comb += Assert(ones_value(a.q, w) == total, "ones' complement: q += b")
-            with m.If(counting & ~was["add"] & was["sub"] & _in_range(difference, w)):
+            with m.If(counting & second & _in_range(total2, w)):
+                m.d.comb += Assert(ones_value(a.q, w) == total2, "ones' complement: q += b2")
+            with m.If(counting & subtract & _in_range(difference, w)):
                 m.d.comb += Assert(ones_value(a.q, w) == difference,
                                    "ones' complement: q -= b")
-            with m.If(counting & (was["add"] | was["sub"]) & ~minus_zero(was["q"])):
+            with m.If(counting & (was["add"] | was["add2"] | was["sub"])
+                      & ~minus_zero(was["q"])):
                 m.d.comb += Assert(~minus_zero(a.q), "a sum is never -0")
         return m
 
