@@ -9,5 +9,6 @@ and runs them with SymbiYosys; ``docs/formal.md`` states each property, the widt
 proven at, its proof time, and the argument where a small width stands for every width.
 
 Modules: :mod:`.elements` (the element library), :mod:`.linear` (SU 1571551),
-:mod:`.circular` (SU 1665343), :mod:`.engine` (the engine contracts).
+:mod:`.circular` (SU 1665343). The engines' contracts are not proven here (see
+``docs/formal.md``, "Not proven").
 """
