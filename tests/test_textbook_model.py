@@ -256,7 +256,8 @@ class CycleModelTestCase(unittest.TestCase):
         for x, y in ((100, 0), (71, 71), (0, -100), (-87, 50)):
             record = self.line_record("dda", [{"x": x, "y": y}])
             busy = [e["cycle"] for e in record if not e["rst"] and e["busy"]]
-            self.assertEqual(len(busy), 128 + 1, (x, y))     # the clock it is taken, then N
+            # the clock it is taken, the clock in the engine's stage register, then N
+            self.assertEqual(len(busy), 128 + 2, (x, y))
         for variant in ("separate", "dda", "dda-zero", "serial"):
             for frame in ({"x": 9, "y": -4}, {"x": 0, "y": 200}, {"x": 255, "y": 255}):
                 record = self.line_record(variant, [frame])
