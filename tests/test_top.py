@@ -359,9 +359,12 @@ class DemoTopTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError, r"^Resource name must be a string, not 0$"):
             PinnedTop(ShiftInTop(RecordingEngine()), 0)
         with self.assertRaisesRegex(ValueError,
-                r"^Board must be one of 'icebreaker', not 'ulx3s'$"):
+                r"^Board must be one of 'icebreaker', 'ulx3s', not 'nexys'$"):
             from constraints.build import build
-            build("ulx3s", "build/none")
+            build("nexys", "build/none")
+        with self.assertRaisesRegex(ValueError, r"^The ulx3s has no demo player; build the "
+                                                r"controller$"):
+            build("ulx3s", "build/none", top="player")
 
 
 def _fpga_tools(*names):
