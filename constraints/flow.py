@@ -71,10 +71,15 @@ def tool_path(tool):
 
 @contextlib.contextmanager
 def toolchain_env():
-    """Point ``YOSYS``, ``NEXTPNR_ICE40`` and ``ICEPACK`` at the tools of :func:`tool_path` for
-    the duration, as Amaranth's build scripts read them; restore the environment after."""
-    saved = {env_var: os.environ.get(env_var) for env_var, _ in _TOOLS.values()}
+    """Point ``YOSYS``, ``NEXTPNR_ICE40`` and ``ICEPACK`` (and the ECP5's tools where they are
+    installed) at the tools of :func:`tool_path` for the duration, as Amaranth's build scripts
+    read them; restore the environment after. ``OPENFPGALOADER``, which Amaranth's ULX3S
+    platforms ask for even when they only build, is set to ``true`` unless it is set: nothing
+    here ever programs."""
+    saved = {env_var: os.environ.get(env_var)
+             for env_var in [env_var for env_var, _ in _TOOLS.values()] + ["OPENFPGALOADER"]}
     try:
+        os.environ.setdefault("OPENFPGALOADER", "true")
         for tool, (env_var, _) in _TOOLS.items():
             try:
                 os.environ[env_var] = tool_path(tool)
@@ -218,6 +223,15 @@ def _synth_rest(name, opts=""):
     return f"splitnets\nsynth_ice40 -top {name} {opts} -run map_luts:"
 
 
+def _synth_options(name, *, ecp5, opts=""):
+    """``platform.build``'s synthesis options: ``opts``, and on the iCE40 the yosys#4349
+    workaround (``synth_ice40`` in two parts, ``splitnets`` between)."""
+    if ecp5:
+        return {"synth_opts": opts}
+    return {"synth_opts": f"{opts} {_SYNTH_FIRST}".strip(),
+            "script_after_synth": _synth_rest(name, opts)}
+
+
 def _synth(name):
     return f"synth_ice40 -top {name} {_SYNTH_FIRST}; {_synth_rest(name).replace(chr(10), '; ')}"
 
@@ -301,20 +315,14 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
     ecp5 = str(getattr(platform, "device", "")).startswith("LFE5")
     options = {"nextpnr_opts": f"--seed {seed}"
                                + (" --timing-allow-fail" if timing_allow_fail else "")}
-    if not ecp5:                                # the yosys#4349 workaround is synth_ice40's
-        options.update(synth_opts=_SYNTH_FIRST, script_after_synth=_synth_rest(name))
+    options.update(_synth_options(name, ecp5=ecp5))
     with toolchain_env():
-        saved = os.environ.get("OPENFPGALOADER")
-        os.environ.setdefault("OPENFPGALOADER", "true")     # asked for, never called
         try:
             platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
                            **options)
         except subprocess.CalledProcessError as error:
             raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
                                  f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
-        finally:
-            if saved is None:
-                os.environ.pop("OPENFPGALOADER", None)
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {
@@ -353,18 +361,10 @@ def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     wrapper = ShiftInTop(design)
     board = {"ice40": icebreaker, "ecp5": ulx3s}[device].bench_platform(wrapper)
     started = time.monotonic()
-    env_saved = os.environ.get("OPENFPGALOADER")
-    os.environ.setdefault("OPENFPGALOADER", "true")   # never called: nothing is programmed
-    try:
-        opts = DEVICES[device]["synth_opts"]
-        workaround = ({"synth_opts": f"{opts} {_SYNTH_FIRST}",
-                       "script_after_synth": _synth_rest("top", opts)}
-                      if device == "ice40" else {"synth_opts": opts})
+    with toolchain_env():
         plan = board.build(PinnedTop(wrapper, "shift_in"), name="top", do_build=False,
-                           **workaround)
-    finally:
-        if env_saved is None:
-            os.environ.pop("OPENFPGALOADER", None)
+                           **_synth_options("top", ecp5=device == "ecp5",
+                                            opts=DEVICES[device]["synth_opts"]))
     plan.extract(str(build_dir))
     _run([tool_path("yosys"), "-q", "-l", "top.rpt", "top.ys"], cwd=build_dir,
          what=f"yosys of {build_dir.name}")
