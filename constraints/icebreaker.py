@@ -19,7 +19,7 @@ two of its pins, which the benchmark builds never share with the LEDs or buttons
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.icebreaker import ICEBreakerPlatform
 
-__all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "platform"]
+__all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
 
 _PMOD1A = ("pmod", 0)
 _PMOD1B = ("pmod", 1)
@@ -59,4 +59,19 @@ def platform():
     """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER` and :data:`SHIFT_IN`."""
     board = ICEBreakerPlatform()
     board.add_resources(STEPPER + SHIFT_IN)
+    return board
+
+
+#: The pins a generated ``shift_in`` resource takes, in order: PMOD1B, PMOD1A, PMOD2 (top row,
+#: then bottom row of each).
+FREE_PINS = [ICEBreakerPlatform().connectors[conn].mapping[pin]
+             for conn in (_PMOD1B, _PMOD1A, _PMOD2) for pin in "1 2 3 4 7 8 9 10".split()]
+
+
+def bench_platform(top):
+    """Return a new :class:`ICEBreakerPlatform` with a ``shift_in`` resource for ``top`` (any
+    :class:`~hdl.top.ShiftInTop`, see :func:`constraints.shift_in.resource`)."""
+    from .shift_in import resource
+    board = ICEBreakerPlatform()
+    board.add_resources(resource(top, FREE_PINS, _LVCMOS))
     return board

@@ -293,6 +293,8 @@ class StatusUnit(wiring.Component):
         An outcome waits to be transferred: no step, no end.
     idle : :py:`Out(1)`
         No command in flight and no outcome waiting.
+    alone : :py:`Out(1)`
+        Exactly one command in flight and no outcome waiting.
     flushing : :py:`Out(1)`
         Aborted commands are still being reported.
     busy : :py:`Out(1)`
@@ -317,6 +319,7 @@ class StatusUnit(wiring.Component):
             "flush":    In(1),
             "hold":     Out(1),
             "idle":     Out(1),
+            "alone":    Out(1),
             "flushing": Out(1),
             "busy":     Out(1),
             "status":   Out(stream.Signature(self._layout)),
@@ -332,18 +335,24 @@ class StatusUnit(wiring.Component):
         axes, width = layout.axes, layout.position_width
 
         # Steps of the running command per axis; what an outcome reports includes this
-        # clock's step (there is none while an outcome waits).
+        # clock's step (there is none while an outcome waits). A transfer clears the counters
+        # and counts the number up through a flip-flop (``taken``: the counters read zero in
+        # the next clock, the number one more), so that the late decision to transfer reaches
+        # one flip-flop, not the enables of every counter.
+        taken = Signal()
         moved = Signal(data.ArrayLayout(signed(width), axes))
         position = Signal(data.ArrayLayout(signed(width), axes))
         for axis in range(axes):
             delta = Mux(self.motion.step[axis], Mux(self.motion.dir[axis], -1, 1), 0)
-            m.d.comb += position[axis].eq(moved[axis] + delta)
+            m.d.comb += position[axis].eq(Mux(taken, 0, moved[axis]) + delta)
 
         waiting = Signal()                  # an outcome waits for the consumer
         waiting_outcome = Signal(Outcome)
         inflight = Signal(range(4))
         flushing = Signal()
+        counted = Signal(layout.number_width)   # the number, less one after a transfer
         number = Signal(layout.number_width)
+        m.d.comb += number.eq(counted + taken)
         flushed = Signal()                  # an aborted command reported by the flush
         event = Signal()
         event_outcome = Signal(Outcome)
@@ -356,12 +365,12 @@ class StatusUnit(wiring.Component):
             self.status.p.outcome.eq(Mux(waiting, waiting_outcome, event_outcome)),
             self.status.p.position.eq(position),
         ]
-        with m.If(self.status.valid & self.status.ready):
-            m.d.sync += [number.eq(number + 1), waiting.eq(0), moved.eq(0)]
-        with m.Else():
-            m.d.sync += moved.eq(position)
-            with m.If(event):
-                m.d.sync += [waiting.eq(1), waiting_outcome.eq(event_outcome)]
+        transfer = self.status.valid & self.status.ready
+        m.d.sync += [taken.eq(transfer), counted.eq(number), moved.eq(position)]
+        with m.If(transfer):
+            m.d.sync += waiting.eq(0)
+        with m.Elif(event):
+            m.d.sync += [waiting.eq(1), waiting_outcome.eq(event_outcome)]
 
         m.d.sync += inflight.eq(inflight + self.accept - event)
         with m.If(self.flush):
@@ -372,6 +381,7 @@ class StatusUnit(wiring.Component):
         m.d.comb += [
             self.hold.eq(waiting),
             self.idle.eq((inflight == 0) & ~waiting),
+            self.alone.eq((inflight == 1) & ~waiting),
             self.flushing.eq(flushing),
             self.busy.eq((inflight != 0) | waiting),
         ]

@@ -26,7 +26,7 @@ class LineCoreSignature(wiring.Signature):
     -------
     cmd : :py:`In(stream.Signature(LineCoreSignature.Frame(width)))`
         Segments, ``x`` and ``y`` magnitudes. A segment transferred in clock ``k`` may start in
-        clock ``k + 1``.
+        clock ``k + 1`` at the earliest.
     feed : :py:`Out(FeedSignature())`
         Permission for each step (:class:`~hdl.engine.FeedSignature`).
     abort : :py:`In(1)`
@@ -89,17 +89,19 @@ class LineEngine(wiring.Component):
     """Signed line segments in, step/dir out: the front end of any line core.
 
     Each transfer on :py:`cmd` is one segment, relative to the current position: the end point
-    ``(x, y)``. The front end splits it into signs and magnitudes and hands the magnitudes to
-    the core in the clock it takes the segment; the signs become the directions from the
-    segment's first step. Segments follow one another with no idle clock between the last step
-    of one and the first step of the next (the core holds one while another runs). A segment
-    offered at clock ``k`` to an idle engine makes its first step at ``k + 2`` at the earliest.
+    ``(x, y)``. The front end takes it into a stage register as signs, magnitudes and checks,
+    and hands the magnitudes to the core from there, in the next clock at the earliest; the
+    signs become the directions from the segment's first step. Segments follow one another
+    with no idle clock between the last step of one and the first step of the next (the stage
+    and the core each hold one while another runs). A segment offered at clock ``k`` to an
+    idle engine makes its first step at ``k + 3`` at the earliest.
 
     A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~hdl.engine.Outcome.
-    REFUSED`, nothing moves) in the clock it is taken; it is taken, as is a segment of length
-    zero, only when no other command is in flight and no outcome waits, so outcomes stay in
-    order. Everything else is the common interface (:class:`~hdl.engine.EngineSignature`):
-    one outcome per segment on :py:`status`, with the steps made; :py:`abort`.
+    REFUSED`, nothing moves) from the stage, one clock after it is taken at the earliest; it
+    leaves the stage, as does a segment of length zero, only when it is the one command in
+    flight and no outcome waits, so outcomes stay in order. Everything else is the common
+    interface (:class:`~hdl.engine.EngineSignature`): one outcome per segment on
+    :py:`status`, with the steps made; :py:`abort`.
 
     Parameters
     ----------
@@ -159,43 +161,56 @@ class LineEngine(wiring.Component):
                                                   number_width=self.signature.number_width)
 
         x, y = self.cmd.payload.x, self.cmd.payload.y
-        ax = Signal(w + 1)
-        ay = Signal(w + 1)
-        too_wide = Signal()
-        zero = Signal()
-        m.d.comb += [
-            # |x| fits when every bit above the magnitude's is the sign, -2**width aside; the
-            # magnitude itself needs only the low bits negated.
-            too_wide.eq(_beyond(x, w) | _beyond(y, w)),
-            ax.eq(Mux(x[-1], -x[:w + 1], x[:w + 1])),
-            ay.eq(Mux(y[-1], -y[:w + 1], y[:w + 1])),
-            zero.eq(~ax[:w].any() & ~ay[:w].any()),
-            core.cmd.payload.x.eq(ax[:w]),
-            core.cmd.payload.y.eq(ay[:w]),
-        ]
 
-        # A segment goes to the core in the clock it is taken. A refused one, or one of length
-        # zero (which ends without a step), is taken only when no other command is in flight
-        # and no outcome waits, so that its outcome follows the others'.
-        accepting = Signal()
+        # Every segment goes first into a stage register holding its magnitudes, its signs
+        # and whether it is too wide or of length zero; from there a segment goes to the core,
+        # a refused one to its outcome. So the magnitudes' carry chains and the checks are
+        # never in one clock with the core's own preparation or with the decision to take the
+        # next segment. A refused segment, or one of length zero (which ends without a step),
+        # leaves the stage only when it is the one command in flight and no outcome waits, so
+        # that its outcome follows the others'.
+        staged = Signal()                     # the stage holds a segment
+        stage_x = Signal(w, reset_less=True)
+        stage_y = Signal(w, reset_less=True)
+        stage_dir = Signal(2, reset_less=True)
+        stage_zero = Signal(reset_less=True)
+        stage_wide = Signal(reset_less=True)
+        handover = Signal()
         refuse = Signal()
         m.d.comb += [
-            accepting.eq(~self.abort & ~status.flushing & (~zero | status.idle)),
-            core.cmd.valid.eq(self.cmd.valid & accepting & ~too_wide),
-            refuse.eq(self.cmd.valid & too_wide & status.idle & ~status.flushing
-                      & ~self.abort),
-            self.cmd.ready.eq(Mux(too_wide, refuse, core.cmd.ready & accepting)),
+            core.cmd.valid.eq(staged & ~stage_wide & (~stage_zero | status.alone) & ~self.abort),
+            core.cmd.payload.x.eq(stage_x),
+            core.cmd.payload.y.eq(stage_y),
+            handover.eq(core.cmd.valid & core.cmd.ready),
+            refuse.eq(staged & stage_wide & status.alone & ~self.abort),
+            self.cmd.ready.eq(~self.abort & ~status.flushing & (~staged | handover | refuse)),
         ]
+        with m.If(self.cmd.valid & self.cmd.ready):
+            m.d.sync += staged.eq(1)
+        with m.Elif(handover | refuse | self.abort):
+            m.d.sync += staged.eq(0)
+        # The stage's registers follow cmd whenever it may be taken (``staged`` says whether
+        # they count), so that their load enable does not wait for cmd.valid.
+        with m.If(self.cmd.ready):
+            m.d.sync += [
+                stage_x.eq(Mux(x[-1], -x[:w + 1], x[:w + 1])[:w]),
+                stage_y.eq(Mux(y[-1], -y[:w + 1], y[:w + 1])[:w]),
+                stage_dir.eq(Cat(x[-1], y[-1])),
+                # |x| fits when every bit above the magnitude's is the sign, -2**width aside;
+                # the magnitudes' low bits are zero exactly when the coordinates' are.
+                stage_wide.eq(_beyond(x, w) | _beyond(y, w)),
+                stage_zero.eq(~x[:w].any() & ~y[:w].any()),
+            ]
 
         # Directions: those of the prepared segment, from its start those of the running one.
         # A segment of length zero leaves them as they are.
         prepared_dir = Signal(2)
         prepared_moves = Signal()
         direction = Signal(2)
-        with m.If(core.cmd.valid & core.cmd.ready):
+        with m.If(handover):
             m.d.sync += [
-                prepared_dir.eq(Cat(x < 0, y < 0)),
-                prepared_moves.eq(~zero),
+                prepared_dir.eq(stage_dir),
+                prepared_moves.eq(~stage_zero),
             ]
         with m.If(core.start & prepared_moves):
             m.d.sync += direction.eq(prepared_dir)

@@ -45,7 +45,7 @@ class LinearInterpolator(wiring.Component):
       patent's description, claims and worked table do (eq. 5);
     * ``"exact"``: multiplexer 12 feeds two registers holding inputs 22 and 23 for the whole
       frame, which realises the patent's eq. (1) and its ``0.5 cos α`` error bound. Cost: the
-      two registers and the adder's subtract path.
+      two registers.
 
     Adder 3 holds the integer part ``⌊F⌋`` of the estimating function: ``F0 = max/2 - min`` may
     end in one half, every increment is an integer, so the half never changes the sign test.
@@ -58,6 +58,10 @@ class LinearInterpolator(wiring.Component):
         See above.
     period : :class:`int`
         Period of generator 4, in :py:`tick` clocks (1: a step every clock).
+    zero_frames : :class:`bool`
+        Whether a start may come with inputs 22 and 23 both zero (a zero-length segment, as
+        above). ``False`` promises it never does (:class:`LinearCore` ends those itself), which
+        takes the decode of inputs 22 and 23 off the path of a start.
 
     Members
     -------
@@ -87,27 +91,33 @@ class LinearInterpolator(wiring.Component):
     Raises
     ------
     :exc:`TypeError`
-        If ``width`` is not an integer of at least 2, or ``period`` not a positive integer.
+        If ``width`` is not an integer of at least 2, ``period`` not a positive integer, or
+        ``zero_frames`` not a bool.
     :exc:`ValueError`
         If ``variant`` is not one of the two above.
     """
 
-    def __init__(self, *, width=16, variant="exact", period=1):
+    def __init__(self, *, width=16, variant="exact", period=1, zero_frames=True):
         _check(width, variant, period)
+        if not isinstance(zero_frames, bool):
+            raise TypeError(f"Zero frames must be a bool, not {zero_frames!r}")
         self._width = width
         self._variant = variant
         self._period = period
+        self._zero_frames = zero_frames
         # The numbered elements, reachable as attributes (tests sample their contents).
-        self.counter1 = ReversibleCounter(width + 1)
-        self.counter2 = ReversibleCounter(width + 1)
+        self.counter1 = ReversibleCounter(width + 1, parallel=True)
+        self.counter2 = ReversibleCounter(width + 1, parallel=True)
         self.adder3 = AccumulatingAdder(width + 1)
         self.generator4 = PulseGenerator(period)
         self.mux12 = Commutator(width + 1, width + 1, channels=2, shift=0)
         self.trigger14 = Trigger(priority="set")
         self.trigger15 = Trigger(priority="set")
+        # AND 9's decode, with trigger 14: a frame runs and one step is left (see elaborate).
+        self.last_step = Signal(name="last_step")
         if variant == "exact":
             self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
-            self.reg23 = Signal(width, name="reg23")    # constant increment min(|X|, |Y|)
+            self.reg23 = Signal(signed(width + 1), name="reg23")   # min(|X|, |Y|) - 1
         super().__init__({
             "in22":  In(width),
             "in23":  In(width),
@@ -134,6 +144,10 @@ class LinearInterpolator(wiring.Component):
     def period(self):
         return self._period
 
+    @property
+    def zero_frames(self):
+        return self._zero_frames
+
     def elaborate(self, platform):
         m = Module()
         m.submodules.counter1 = counter1 = self.counter1
@@ -157,10 +171,14 @@ class LinearInterpolator(wiring.Component):
         # AND 9 fires when counter 1 holds 0 and counter 2 holds -1 (all inverse outputs of
         # counter 1, all direct outputs of counter 2). In the patent it resets trigger 14 as soon
         # as the counters settle after the last step, before the generator's next pulse; with a
-        # generator pulse in every clock the same timing needs AND 9 to see the counters' next
-        # contents, so it fires in the clock of the last step. It decodes them from the present
-        # contents and the pulse now passing (a long step ends the frame from 1 and -1, a
-        # combined step from 0 and 0), which keeps the counters' carry chains off this path.
+        # generator pulse in every clock the same timing needs AND 9 to fire in the clock of the
+        # last step, from the counters' contents before it: 1 and -1 (one long step left) or 0
+        # and 0 (one combined step left). Each pulse counts down one of the two counters, the
+        # one of its kind, and a frame exhausts both exactly at its last step (the step models
+        # assert it), so with one step left the passing pulse is that step. The decode is kept in
+        # a flip-flop with trigger 14, updated with the counters (a count moves one counter by
+        # one, so the next decode is a decode of the present contents): AND 9 is then the pulse
+        # and that flip-flop, and the wide comparisons stay off the path to the next frame.
         and9_run = Signal()   # the running frame makes its last step now
         and9_load = Signal()  # a zero-length frame: its counters are exhausted when loaded
         and9 = Signal()
@@ -168,11 +186,10 @@ class LinearInterpolator(wiring.Component):
         empty = Signal()
         start = Signal()      # input 26, accepted
         go = Signal()         # a frame with steps starts running
+        last_step = self.last_step
         m.d.comb += [
-            and9_run.eq(trigger14.q & (
-                (and5 & (counter1.q == 1) & counter2.q.all()) |
-                (and6 & ~counter1.q.any() & ~counter2.q.any()))),
-            empty.eq(~self.in22.any() & ~self.in23.any()),
+            and9_run.eq(generator4.o & last_step),
+            empty.eq(~self.in22.any() & ~self.in23.any() if self._zero_frames else 0),
             # At most one frame ends per clock: a zero-length frame waits for an idle clock.
             self.ready.eq(trigger14.q_n | (and9_run & ~empty)),
             start.eq(self.in26 & self.ready),
@@ -186,6 +203,21 @@ class LinearInterpolator(wiring.Component):
             self.busy.eq(trigger14.q),
             self.done.eq(and9),
         ]
+        c1, c2 = counter1.q, counter2.q
+        c1_high_zero = ~c1[2:].any()
+        c2_high_zero = ~c2[1:].any()
+        two_left_1 = c1_high_zero & (c1[:2] == 2) & c2.all()                     # 2 and -1
+        two_left_2 = c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]        # 1 and 0
+        two_left_3 = c1_high_zero & (c1[:2] == 0) & c2_high_zero & c2[0]         # 0 and 1
+        with m.If(go):
+            m.d.sync += last_step.eq(((self.in22 == 1) & ~self.in23.any())
+                                     | (~self.in22.any() & (self.in23 == 1)))
+        with m.Elif(and9):
+            m.d.sync += last_step.eq(0)
+        with m.Elif(and5):       # counter 1 counts down
+            m.d.sync += last_step.eq(two_left_1 | two_left_2)
+        with m.Elif(and6):       # counter 2 counts down
+            m.d.sync += last_step.eq(two_left_2 | two_left_3)
 
         # ---- counters 1 and 2 ------------------------------------------------------------------
         # The patent loads counter 2 with min and then lets the start pulse subtract one through
@@ -203,6 +235,11 @@ class LinearInterpolator(wiring.Component):
         ]
 
         # ---- node 19: adder-subtractor (adder 3, multiplexer 12) -------------------------------
+        # Multiplexer 12 passes the inverse code of counter 2 (channel 1, AND 5: F -= C2) or
+        # counter 1 (channel 2, AND 6: F += C1) to adder 3. Here adder 3 forms both sums in
+        # parallel, each channel's code on an operand input of its own, and the channel's strobe
+        # picks the sum: the sign of F then chooses at the end of the carry chain, not at its
+        # start (the loop is that of a bare accumulator).
         m.d.comb += [
             adder3.d.eq(self.in24),
             adder3.load.eq(go),
@@ -211,24 +248,26 @@ class LinearInterpolator(wiring.Component):
             mux12.a[1].eq(and6),
         ]
         if self._variant == "device":
-            # AND 5: add the inverse code of counter 2 (= -C2); AND 6: add counter 1 (+C1).
             m.d.comb += [
                 mux12.b[0].eq(counter2.q_n),
                 mux12.b[1].eq(counter1.q),
-                adder3.add.eq(mux12.strobe),
             ]
         else:
-            # Constant increments of eq. (1): registers 22' and 23' keep inputs 22 and 23.
+            # Constant increments of eq. (1): registers 22' and 23' keep input 22 and, as
+            # counter 2 is loaded, input 23 minus one, whose inverse code is -min.
             reg22, reg23 = self.reg22, self.reg23
             with m.If(go):
-                m.d.sync += [reg22.eq(self.in22), reg23.eq(self.in23)]
+                m.d.sync += [reg22.eq(self.in22), reg23.eq(self.in23 - 1)]
             m.d.comb += [
-                mux12.b[0].eq(reg23),
-                mux12.b[1].eq(reg22),
-                adder3.sub.eq(and5),         # F -= min
-                adder3.add.eq(and6),         # F += |X| - |Y|
+                mux12.b[0].eq(~reg23),       # F -= min
+                mux12.b[1].eq(reg22),        # F += |X| - |Y|
             ]
-        m.d.comb += adder3.b.eq(mux12.o)
+        m.d.comb += [
+            adder3.b2.eq(mux12.b[0]),
+            adder3.add2.eq(mux12.a[0]),
+            adder3.b.eq(mux12.b[1]),
+            adder3.add.eq(mux12.a[1]),
+        ]
 
         # ---- node 20: coordinate increments (trigger 15, AND 7, AND 8, OR 10, OR 11) -----------
         and7 = Signal()     # long step to X
@@ -254,11 +293,12 @@ class LinearCore(wiring.Component):
     formed from the magnitudes in the clock it is taken (every candidate in parallel, the
     comparison ``|X| >= |Y|`` only selecting), and started by input 26 as soon as the
     interpolator is ready: in the next clock when it is idle, in the clock of the running
-    segment's last step otherwise. The step permission drives generator 4
-    (:func:`~hdl.engine.permit`): with the default period of 1 the step is made in the clock of
-    the permission; the next step is diagonal when adder 3 is negative. :py:`abort` clears the
-    interpolator (a synchronous reset of its registers: the patent has no stop input) and drops
-    the prepared segment.
+    segment's last step otherwise. A segment of length zero does not reach the interpolator: it
+    starts and ends in an idle clock of the interpolator, as the interpolator would end it. The
+    step permission drives generator 4 (:func:`~hdl.engine.permit`): with the default period of
+    1 the step is made in the clock of the permission; the next step is diagonal when adder 3
+    is negative. :py:`abort` clears the interpolator (a synchronous reset of its registers: the
+    patent has no stop input) and drops the prepared segment.
 
     Parameters
     ----------
@@ -273,7 +313,8 @@ class LinearCore(wiring.Component):
 
     def __init__(self, *, width=16, variant="exact", period=1):
         _check(width, variant, period)          # before the interpolator is made
-        self.interpolator = LinearInterpolator(width=width, variant=variant, period=period)
+        self.interpolator = LinearInterpolator(width=width, variant=variant, period=period,
+                                               zero_frames=False)
         super().__init__(LineCoreSignature(width))
 
     @property
@@ -308,26 +349,40 @@ class LinearCore(wiring.Component):
         ]
         x_ge_y = ~x_minus_y[-1]
 
+        # The prepared segment's registers need no reset (only ``full`` says they count), which
+        # keeps the reset off their load enable.
         full = Signal()
-        in22 = Signal(w)
-        in23 = Signal(w)
-        in24 = Signal(signed(w + 1))
-        in25 = Signal()
+        queued = Signal()                         # full, and the segment has steps
+        empty = Signal(reset_less=True)           # the prepared segment has length zero
+        in22 = Signal(w, reset_less=True)
+        in23 = Signal(w, reset_less=True)
+        in24 = Signal(signed(w + 1), reset_less=True)
+        in25 = Signal(reset_less=True)
         take = Signal()
+        ending = Signal()       # the running segment makes its last step in this clock
+        # A segment of length zero never reaches the interpolator: it starts and ends here, in
+        # an idle clock (as the interpolator would end it).
         m.d.comb += [
-            take.eq(full & ip.ready & ~self.abort),
+            # full & ~abort & (ip.ready, or idle for a zero-length segment), written out from
+            # the interpolator's registers so that it is two gates deep.
+            ending.eq(ip.generator4.o & ip.last_step),
+            take.eq(~self.abort & ((full & ip.trigger14.q_n) | (queued & ending))),
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
+            m.d.sync += [full.eq(1), queued.eq(mx.any() | my.any())]
+        with m.Elif(take | self.abort):
+            m.d.sync += [full.eq(0), queued.eq(0)]
+        # The registers follow cmd whenever it may be taken (what they hold counts only with
+        # full set), so that their load enable does not wait for cmd.valid.
+        with m.If(self.cmd.ready):
             m.d.sync += [
-                full.eq(1),
+                empty.eq(~mx.any() & ~my.any()),
                 in22.eq(Mux(x_ge_y, x_minus_y, y_minus_x)[:w]),
                 in23.eq(Mux(x_ge_y, my, mx)),
                 in24.eq(Mux(x_ge_y, f0_x_long, f0_y_long) >> 1),
                 in25.eq(x_ge_y),
             ]
-        with m.Elif(take | self.abort):
-            m.d.sync += full.eq(0)
 
         enable = permit(m, self.feed, armed=ip.generator4.armed, running=ip.busy,
                         abort=self.abort)
@@ -336,12 +391,12 @@ class LinearCore(wiring.Component):
             ip.in23.eq(in23),
             ip.in24.eq(in24),
             ip.in25.eq(in25),
-            ip.in26.eq(take),
+            ip.in26.eq(~self.abort & queued & (ip.trigger14.q_n | ending)),
             ip.tick.eq(enable),
             self.feed.diagonal.eq(ip.adder3.sign),
             self.step.eq(ip.step),
             self.start.eq(take),
-            self.done.eq(ip.done | (self.abort & ip.busy)),
+            self.done.eq(ip.done | (take & empty) | (self.abort & ip.busy)),
             self.busy.eq(full | ip.busy),
         ]
         return m

@@ -1,21 +1,23 @@
-"""Board tops: a few-pin measurement wrapper for any engine, pins for any component, the
-machine controller on a board, and the iCEBreaker demo.
+"""Board tops: a few-pin measurement wrapper for any engine or core, the bare accumulator the
+benchmarks hold every design against, pins for any component, the machine controller on a
+board, and the iCEBreaker demo.
 
 Only this module calls ``platform.request()``; the resources it asks for (``shift_in``,
 ``stepper``, ``uart``, ``led_r``, ``led_g``, ``button``) are defined in ``constraints/``.
 """
 
 from amaranth import *
-from amaranth.lib import io, wiring
+from amaranth.lib import data, io, stream, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from .elements._checks import check_width
 from .line import LineEngine
 from .linear import LinearCore
 from .motion import ProgramPlayer
-from .motion.player import check_engine, check_timing
+from .motion.player import check_timing
 
-__all__ = ["ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
+__all__ = ["BareAccumulator", "ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
 #: The demo program: a closed octagon, one segment in each octant, relative moves. The same
 #: frames as ``OCTAGON`` in ``sim/host/demo.py`` (copied: ``hdl/`` never imports ``sim/``; a
@@ -26,71 +28,140 @@ OCTAGON = [
 ]
 
 
-class ShiftInTop(wiring.Component):
-    """Few-pin wrapper that keeps every gate of an engine: frames shifted in, outcomes out.
+class BareAccumulator(wiring.Component):
+    """The decision loop alone: a register that adds one of two operands chosen by its sign.
 
-    It exists to place and route any engine on a small package (a UP5K in a 48-pin package has
-    39 I/O) with all of its logic intact: every payload bit comes from a register loaded through
-    one pin, and every outcome goes out through another, so nothing can be constant-folded.
+    An interpolator making one decision per clock can go no faster than this: the
+    accumulator's sign bit selects the operand (:py:`a` while negative, :py:`b` otherwise),
+    which is added in the same clock. The operands are registers loaded from :py:`cmd`, so
+    that nothing is constant; the sign is the output. It is the benchmarks' reference
+    (``kontur bench speed``), not a part of any engine.
+
+    Parameters
+    ----------
+    width : :class:`int`
+        Width of the accumulator and of the operands.
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(BareAccumulator.Operands(width)))`
+        New operands, always taken (:py:`cmd.ready` is high).
+    sign : :py:`Out(1)`
+        The accumulator is negative.
+
+    Raises
+    ------
+    :exc:`TypeError`
+        If ``width`` is not an integer of at least 2.
+    """
+
+    @staticmethod
+    def Operands(width):
+        return data.StructLayout({"a": signed(width), "b": signed(width)})
+
+    def __init__(self, width=16):
+        check_width("Accumulator width", width, minimum=2)
+        self._width = width
+        super().__init__({
+            "cmd":  In(stream.Signature(self.Operands(width))),
+            "sign": Out(1),
+        })
+
+    @property
+    def width(self):
+        return self._width
+
+    def elaborate(self, platform):
+        m = Module()
+        a = Signal(signed(self._width))
+        b = Signal(signed(self._width))
+        acc = Signal(signed(self._width))
+        m.d.comb += self.cmd.ready.eq(1)
+        with m.If(self.cmd.valid):
+            m.d.sync += [a.eq(self.cmd.payload.a), b.eq(self.cmd.payload.b)]
+        m.d.sync += acc.eq(acc + Mux(acc[-1], a, b))
+        m.d.comb += self.sign.eq(acc[-1])
+        return m
+
+
+def _pin_name(path):
+    """The wrapper's member for a design's port: ``feed.tick`` is ``tick``, ``motion.step``
+    ``step``, ``status.valid`` ``status_valid``; any other path is joined with ``_``."""
+    if path[0] in ("feed", "motion"):
+        path = path[1:]
+    return "_".join(path)
+
+
+class ShiftInTop(wiring.Component):
+    """Few-pin wrapper that keeps every gate of a design: frames shifted in, outcomes out.
+
+    It exists to place and route any engine, core or the :class:`BareAccumulator` on a small
+    package (a UP5K in a 48-pin package has 39 I/O) with all of its logic intact: every
+    payload bit of the design's :py:`cmd` stream comes from a register loaded through one
+    pin, and an engine's outcomes go out through another, so nothing can be constant-folded.
 
     A frame is sent least significant bit first: in each clock in which :py:`shift` is high,
     :py:`sdi` enters the top of the frame register and the register moves one place down, so
     after ``payload_width`` such clocks it holds the frame. A rising edge of :py:`valid` (high
-    in this clock, low in the previous one) then offers the frame on the engine's ``cmd``
-    stream, which is held offered (:py:`full` high) until the engine takes it. Do not shift
-    while :py:`full` is high: the offered payload must not change. An outcome taken from the
+    in this clock, low in the previous one) then offers the frame on the design's ``cmd``
+    stream, which is held offered (:py:`full` high) until the design takes it. Do not shift
+    while :py:`full` is high: the offered payload must not change. An outcome taken from an
     engine's status stream (:py:`status_ready` high) is loaded into a register that shifts out
-    on :py:`sdo`, least significant bit first, one bit a clock. Everything else is the engine's
-    own port, so the wrapper adds no clock to it.
+    on :py:`sdo`, least significant bit first, one bit a clock. Every other port of the design
+    is a member of the same name (``feed.tick`` is :py:`tick`, ``motion.step`` :py:`step`,
+    ``status.valid`` :py:`status_valid`), registered once in the fabric (one clock each way,
+    the same for all), so that a measured path runs from register to register inside the
+    design, never from a pin across the device: a design's inputs come from registers beside
+    it in any system.
 
     Parameters
     ----------
     engine : :class:`~amaranth.lib.wiring.Component`
-        Any engine (:class:`~hdl.engine.EngineSignature`). It becomes the submodule ``engine``.
+        The design: any component with a command stream ``cmd`` (every engine, every core,
+        :class:`BareAccumulator`). It becomes the submodule ``engine``.
 
     Members
     -------
     sdi, shift, valid : :py:`In(1)`
         Serial frame data, its shift enable, and the offer (see above).
-    tick, abort, status_ready : :py:`In(1)`
-        The engine's ``feed.tick``, ``abort`` and ``status.ready``.
-    step, dir : :py:`Out(2)`
-        The engine's motion.
-    due, diagonal, busy, ready : :py:`Out(1)`
-        The engine's ``feed.due``, ``feed.diagonal``, ``busy`` and ``cmd.ready``.
+    ready : :py:`Out(1)`
+        The design's ``cmd.ready``.
     full : :py:`Out(1)`
         A frame is offered and not yet taken.
-    status_valid : :py:`Out(1)`
-        The engine's ``status.valid``.
     sdo : :py:`Out(1)`
-        Serial outcome data.
+        Serial outcome data (an engine's status payload; only if the design has ``status``).
+    the design's other ports
+        For an engine: :py:`tick`, :py:`abort`, :py:`status_ready` in; :py:`step`,
+        :py:`dir`, :py:`due`, :py:`diagonal`, :py:`busy`, :py:`status_valid` out.
 
     Raises
     ------
     :exc:`TypeError`
-        If ``engine`` lacks the engine signature.
+        If ``engine`` is not a component with a command stream ``cmd``.
     """
 
     def __init__(self, engine):
-        check_engine(engine)
+        members = getattr(getattr(engine, "signature", None), "members", {})
+        cmd = members.get("cmd") if isinstance(engine, wiring.Component) else None
+        if (cmd is None or cmd.flow != In or not cmd.is_signature
+                or not isinstance(cmd.signature, stream.Signature)):
+            raise TypeError(f"Design must be a component with a command stream 'cmd', "
+                            f"not {engine!r}")
         self._engine = engine
-        super().__init__({
-            "sdi":          In(1),
-            "shift":        In(1),
-            "valid":        In(1),
-            "tick":         In(1),
-            "abort":        In(1),
-            "status_ready": In(1),
-            "step":         Out(2),
-            "dir":          Out(2),
-            "due":          Out(1),
-            "diagonal":     Out(1),
-            "busy":         Out(1),
-            "ready":        Out(1),
-            "full":         Out(1),
-            "status_valid": Out(1),
-            "sdo":          Out(1),
-        })
+        self._ports = []                         # (member name, path) of the design's ports
+        inputs, outputs = {"sdi": In(1), "shift": In(1), "valid": In(1)}, {}
+        status = "status" in members
+        for path, member, _ in engine.signature.flatten(engine):
+            if path[0] == "cmd" or path == ("status", "payload"):
+                continue
+            name = _pin_name(path)
+            self._ports.append((name, path))
+            (inputs if member.flow == In else outputs)[name] = (
+                In(member.shape) if member.flow == In else Out(member.shape))
+        outputs.update({"ready": Out(1), "full": Out(1)})
+        if status:
+            outputs["sdo"] = Out(1)
+        super().__init__({**inputs, **outputs})
 
     @property
     def engine(self):
@@ -99,7 +170,7 @@ class ShiftInTop(wiring.Component):
     @property
     def payload_width(self):
         """Number of bits in a frame (clocks of :py:`shift` per frame)."""
-        return self._engine.signature.frame.size
+        return Shape.cast(self._engine.cmd.payload.shape()).width
 
     def elaborate(self, platform):
         m = Module()
@@ -117,28 +188,33 @@ class ShiftInTop(wiring.Component):
         with m.Elif(engine.cmd.ready):
             m.d.sync += full.eq(0)
 
-        outcome = Signal(len(engine.status.payload.as_value()))
-        with m.If(engine.status.valid & engine.status.ready):
-            m.d.sync += outcome.eq(engine.status.payload)
-        with m.Else():
-            m.d.sync += outcome.eq(outcome >> 1)
+        if "status" in engine.signature.members:
+            outcome = Signal(len(engine.status.payload.as_value()))
+            with m.If(engine.status.valid & engine.status.ready):
+                m.d.sync += outcome.eq(engine.status.payload)
+            with m.Else():
+                m.d.sync += outcome.eq(outcome >> 1)
+            m.d.sync += self.sdo.eq(outcome[0])     # registered as the ports below are
 
         m.d.comb += [
             engine.cmd.payload.eq(frame),
             engine.cmd.valid.eq(full),
-            engine.feed.tick.eq(self.tick),
-            engine.abort.eq(self.abort),
-            engine.status.ready.eq(self.status_ready),
-            self.step.eq(engine.motion.step),
-            self.dir.eq(engine.motion.dir),
-            self.due.eq(engine.feed.due),
-            self.diagonal.eq(engine.feed.diagonal),
-            self.busy.eq(engine.busy),
-            self.ready.eq(engine.cmd.ready),
             self.full.eq(full),
-            self.status_valid.eq(engine.status.valid),
-            self.sdo.eq(outcome[0]),
         ]
+        m.d.sync += self.ready.eq(engine.cmd.ready)      # registered as the ports below are
+        for name, path in self._ports:
+            port = engine
+            for part in path:
+                port = getattr(port, part)
+            # Registered in the fabric too: the design's own paths, not the pins', are measured.
+            mine = getattr(self, name)
+            staged = Signal.like(mine, name=f"{name}_q")
+            if self.signature.members[name].flow == In:
+                m.d.sync += staged.eq(mine)
+                m.d.comb += port.eq(staged)
+            else:
+                m.d.sync += staged.eq(port)
+                m.d.comb += mine.eq(staged)
         return m
 
 
@@ -205,36 +281,60 @@ class ControllerTop(Elaboratable):
     (``led_r``) once a frame has been dropped. The receiver synchronises ``rx`` itself; ``tx``
     comes straight from the transmitter's flip-flop.
 
+    With ``divide`` 2 the controller runs on half the board's clock (a flip-flop toggled by
+    the board's clock, constrained as such for nextpnr; the I/O registers on it too), for a
+    controller whose longest path does not close at the board's own clock.
+
     Parameters
     ----------
     controller : :class:`~hdl.motion.controller.MotionController`
-        Built for the board's clock.
+        Built for its clock: the board's, divided by ``divide``.
+    divide : :class:`int`
+        1 or 2. Default 1.
     """
 
-    def __init__(self, controller):
+    def __init__(self, controller, *, divide=1):
         from .motion.controller import MotionController
         if not isinstance(controller, MotionController):
             raise TypeError(f"Controller must be a MotionController, not {controller!r}")
+        if divide not in (1, 2):
+            raise ValueError(f"Clock division must be 1 or 2, not {divide!r}")
         self._controller = controller
+        self._divide = divide
 
     @property
     def controller(self):
         return self._controller
 
+    @property
+    def divide(self):
+        return self._divide
+
     def elaborate(self, platform):
         if platform is None:
             raise TypeError("ControllerTop needs a platform; simulate MotionController instead")
         m = Module()
-        m.submodules.controller = controller = self._controller
+        domain = "sync"
+        controller = self._controller
+        if self._divide == 2:
+            domain = "motion"
+            m.domains.motion = ClockDomain("motion")
+            half = Signal()                         # the motion clock: the board's, halved
+            m.d.sync += half.eq(~half)
+            m.d.comb += [ClockSignal("motion").eq(half), ResetSignal("motion").eq(ResetSignal())]
+            platform.add_clock_constraint(half, platform.default_clk_frequency / 2)
+            controller = DomainRenamer("motion")(controller)
+        m.submodules.controller = controller
+        controller = self._controller
         uart = platform.request("uart", 0, dir="-")
         stepper = platform.request("stepper", 0, dir="-")
         m.submodules.rx_buffer = rx = io.Buffer("i", uart.rx)
         # tx straight from the transmitter's flip-flop: an I/O-cell register would start at 0,
         # a false start bit on the host's line at configuration.
         m.submodules.tx_buffer = tx = io.Buffer("o", uart.tx)
-        m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step)
-        m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir)
-        m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable)
+        m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step, o_domain=domain)
+        m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir, o_domain=domain)
+        m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable, o_domain=domain)
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
         m.d.comb += [

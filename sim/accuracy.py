@@ -8,13 +8,17 @@ import math
 import time
 
 from . import registry
-from .geometry import radial_error, walk
+from .geometry import radial_error, segment_deviation, walk
 from .models.arc import round_sqrt
 from .models.circular import native_path
 from .models.linear import steps
+from .models.textbook import (lattice_line_steps, lattice_native_path, separate_line_steps,
+                              separate_native_path)
 from .stimulus import Job, record_moves, run_model
 
-__all__ = ["main", "linear_table", "circular_table", "throughput_table"]
+__all__ = ["main", "linear_table", "circular_table", "throughput_table", "line_comparison",
+           "arc_comparison", "contour_speed", "reference_table", "SPEED_ANGLES",
+           "COMPARISON_LINES", "COMPARISON_CIRCLES"]
 
 
 def linear_table(limit=64):
@@ -79,6 +83,114 @@ def throughput_table():
     return rows
 
 
+# ---- every variant on the same segments and arcs (the textbook's methods beside the patents) --
+
+#: Segments of about 1000 steps in seven directions, 0° to 90°, and a few short ones: the
+#: commands every line variant is timed on.
+COMPARISON_LINES = [(1000, 0), (966, 259), (866, 500), (707, 707), (500, 866), (259, 966),
+                    (0, 1000), (-3, 2), (17, -5), (-40, -41)]
+
+#: Full circles every arc variant is timed on.
+COMPARISON_CIRCLES = (10, 100, 500)
+
+#: Directions of the contour-speed table, in degrees from the X axis.
+SPEED_ANGLES = (0, 15, 30, 45, 60, 75, 90)
+
+
+def _period(kind, name, frames, **params):
+    """Clocks from the first outcome to the last of ``frames`` played back to back with a
+    permission in every clock, and the steps made in between."""
+    model = registry.make_model(kind, name, **params)
+    record = run_model(model, Job(frames=frames, max_cycles=50_000_000))
+    ends = [e["cycle"] for e in record if not e["rst"] and e["status"] is not None]
+    steps = sum(1 for e in record if not e["rst"] and e["step"]
+                and ends[0] < e["cycle"] <= ends[-1])
+    return ends[-1] - ends[0], steps
+
+
+def line_comparison(limit=64):
+    """Rows per line variant: max deviation over every end point with ``|X|, |Y| <= limit``
+    (step model), then steps and clocks per segment on :data:`COMPARISON_LINES` (cycle model,
+    back to back, a permission in every clock)."""
+    rows = []
+    ends = [(x, y) for x in range(-limit, limit + 1) for y in range(-limit, limit + 1)
+            if (x, y) != (0, 0)]
+    for name in registry.variants("line"):
+        worst = 0.0
+        for x, y in ends:
+            path = registry.steps("line", {"x": x, "y": y}, name)
+            worst = max(worst, segment_deviation((0, 0), (x, y), walk((0, 0), path)))
+        frames = [{"x": x, "y": y} for x, y in COMPARISON_LINES]
+        clocks, moved = _period("line", name, frames[-1:] + frames)
+        rows.append((name, len(ends), worst, moved / len(frames), clocks / len(frames),
+                     clocks / moved))
+    return rows
+
+
+def arc_comparison(limit=500):
+    """Rows per arc variant: max radial error over the full circles of every integer radius up
+    to ``limit`` (step model), then steps and clocks per circle on :data:`COMPARISON_CIRCLES`
+    (cycle model, back to back, a permission in every clock)."""
+    rows = []
+    for name in registry.variants("arc"):
+        worst = 0.0
+        for r in range(1, limit + 1):
+            frame = {"x0": r, "y0": 0, "x1": r, "y1": 0, "cw": 0}
+            worst = max(worst, radial_error(walk((r, 0), registry.steps("arc", frame, name)),
+                                            r * r))
+        frames = [{"x0": r, "y0": 0, "x1": r, "y1": 0, "cw": r % 2}
+                  for r in COMPARISON_CIRCLES]
+        clocks, moved = _period("arc", name, frames[-1:] + frames)
+        rows.append((name, limit, worst, moved / len(frames), clocks / len(frames),
+                     clocks / moved))
+    return rows
+
+
+def contour_speed(length=1000, angles=SPEED_ANGLES, width=None):
+    """Rows per line variant (and the DDA of fixed capacity ``2**width``): the contour speed
+    of a segment ``length`` steps long in each direction of ``angles``, relative to the
+    first, the spread (largest over smallest) and the speed in the first direction, in steps
+    a clock. The speed is the segment's length over its clocks, back to back with a
+    permission in every clock; ``width`` is the register width (the kind's default)."""
+    rows = []
+    segments = [(round(length * math.cos(math.radians(a))),
+                 round(length * math.sin(math.radians(a)))) for a in angles]
+    cases = []
+    for name in registry.variants("line"):
+        cases.append((name, {}))
+        if name == "dda":                          # the text's DDA: one capacity for all
+            cases.append((name, {"capacity": "register"}))
+    for name, params in cases:
+        speeds = []
+        for x, y in segments:
+            clocks, _ = _period("line", name, [{"x": x, "y": y}] * 2, width=width, **params)
+            speeds.append(math.hypot(x, y) / clocks)
+        label = name + (", capacity register" if params else "")
+        rows.append((label, [v / speeds[0] for v in speeds], max(speeds) / min(speeds),
+                     speeds[0]))
+    return rows
+
+
+def reference_table(limit=64, r2_limit=20000):
+    """The text's rule taken literally (F at the point reached, not at the midpoint): the
+    largest deviation of its lines with ``|X|, |Y| <= limit``, and how many quadrants from
+    ``(Rn, 0)`` with ``r2 <= r2_limit`` end off the arc engine's axis point ``(0, Rn)``
+    (against the same figures for the midpoint rule)."""
+    ends = [(x, y) for x in range(-limit, limit + 1) for y in range(-limit, limit + 1)
+            if (x, y) != (0, 0)]
+    rows = []
+    for label, line, quadrant in (
+            ("F at the midpoint (cores)", separate_line_steps, separate_native_path),
+            ("F at the point (reference)", lambda x, y, width=16: lattice_line_steps(x, y),
+             lattice_native_path)):
+        worst = max(segment_deviation((0, 0), (x, y), walk((0, 0), line(x, y)))
+                    for x, y in ends)
+        off = sum(quadrant(round_sqrt(r2), 0, r2)[-1] != (0, round_sqrt(r2))
+                  for r2 in range(1, r2_limit + 1))
+        rows.append((label, worst, off, r2_limit))
+    return rows
+
+
 def main(out):
     started = time.monotonic()
     out.write("Linear interpolator (SU 1571551), every end point with |X|, |Y| <= 64\n")
@@ -96,5 +208,37 @@ def main(out):
     out.write("engine         command                       steps   clocks  clocks/step\n")
     for engine, label, n, clocks in throughput_table():
         out.write(f"{engine:<14} {label:<28} {n:6} {clocks:8}  {clocks / n:11.3f}\n")
+    out.write("\nEvery variant on the same commands: the textbook's methods beside the patents\n"
+              "deviation: max distance of a visited point from the segment, every end point "
+              "with |X|, |Y| <= 64;\nsteps and clocks per segment: the segments of about 1000 "
+              "steps at 0°, 15°, ... 90° and\n3 short ones, back to back, tick always high "
+              "(cycle model)\n\n")
+    out.write("line variant  end points  max deviation  steps/segment  clocks/segment  "
+              "clocks/step\n")
+    for name, count, worst, steps_per, clocks_per, per_step in line_comparison():
+        out.write(f"{name:<12}  {count:10}  {worst:13.4f}  {steps_per:13.1f}  "
+                  f"{clocks_per:14.1f}  {per_step:11.3f}\n")
+    out.write("\nradial error: every full circle of integer radius R = 1..500; steps and clocks "
+              "per circle:\nfull circles R = 10, 100, 500 back to back, tick always high "
+              "(cycle model)\n\n")
+    out.write("arc variant   circles  max radial error  steps/circle  clocks/circle  "
+              "clocks/step\n")
+    for name, count, worst, steps_per, clocks_per, per_step in arc_comparison():
+        out.write(f"{name:<12}  {count:7}  {worst:16.4f}  {steps_per:12.1f}  "
+                  f"{clocks_per:13.1f}  {per_step:11.3f}\n")
+    out.write("\nContour speed of a segment 1000 steps long in each direction, relative to 0°"
+              "\n(length over clocks, back to back, tick always high; the text: constant for "
+              "the DDA,\n1 : sqrt(2) for the estimating function)\n\n")
+    header = "".join(f"{a:>6}°" for a in SPEED_ANGLES)
+    out.write(f"line variant            {header}  spread  steps/clock at 0°\n")
+    for label, relative, spread, base in contour_speed():
+        cells = "".join(f"{v:7.3f}" for v in relative)
+        out.write(f"{label:<24}{cells}  {spread:6.3f}  {base:17.4f}\n")
+    out.write("\nSeparate steps: the text's estimating function at the midpoint of the two "
+              "candidate points\n(the cores) or at the point reached (the text taken "
+              "literally, a reference)\n\n")
+    out.write("rule                         line max deviation  quadrants off (0, Rn)\n")
+    for label, worst, off, r2_limit in reference_table():
+        out.write(f"{label:<29}{worst:18.4f}  {off:6} of r2 <= {r2_limit}\n")
     out.write(f"\n(measured in {time.monotonic() - started:.1f} s)\n")
     return 0

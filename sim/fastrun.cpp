@@ -7,7 +7,8 @@
 // frame before it to be answered), and parses the replies on tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
 // "R clock type payload-hex" for every reply. Python sees the run only through these files.
 //
-// usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD]
+// usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD [VCD_CLOCKS]]
+//   VCD_CLOCKS: dump only the first VCD_CLOCKS clocks (default: all)
 //   FRAMES: for each frame a 16-bit little-endian length, then its bytes.
 
 #include <cstdint>
@@ -38,7 +39,8 @@ static uint16_t crc16(const std::vector<uint8_t> &data) {
 
 int main(int argc, char **argv) {
     if (argc < 6) {
-        std::fprintf(stderr, "usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD]\n");
+        std::fprintf(stderr, "usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS "
+                             "[VCD [VCD_CLOCKS]]\n");
         return 2;
     }
     FILE *in = std::fopen(argv[1], "rb");
@@ -47,6 +49,8 @@ int main(int argc, char **argv) {
     const long divisor = std::atol(argv[3]);
     const long window = std::atol(argv[4]);
     const unsigned long long max_clocks = std::strtoull(argv[5], nullptr, 10);
+    const unsigned long long vcd_clocks =
+        argc > 7 ? std::strtoull(argv[7], nullptr, 10) : ~0ULL;
 
     std::deque<std::vector<uint8_t>> frames;
     for (;;) {
@@ -125,12 +129,13 @@ int main(int argc, char **argv) {
         top->clk = 1;
         top->eval();
 #if VM_TRACE
-        if (vcd) vcd->dump((uint64_t)(2 * clock + 1));
+        if (vcd && clock < vcd_clocks) vcd->dump((uint64_t)(2 * clock + 1));
 #endif
         top->clk = 0;
         top->eval();
 #if VM_TRACE
-        if (vcd) vcd->dump((uint64_t)(2 * clock + 2));
+        if (vcd && clock < vcd_clocks) vcd->dump((uint64_t)(2 * clock + 2));
+        if (vcd && clock + 1 == vcd_clocks) vcd->close();
 #endif
         // ---- the pins, after the edge: the values of clock + 1 -----------------------------
         unsigned step = top->motion___05Fstep;
@@ -176,7 +181,7 @@ int main(int argc, char **argv) {
     }
     std::fprintf(out, "E %llu\n", clock);
 #if VM_TRACE
-    if (vcd) vcd->close();
+    if (vcd && clock < vcd_clocks) vcd->close();
 #endif
     top->final();
     std::fclose(out);

@@ -73,8 +73,11 @@ class FastRun:
         if result.returncode != 0:
             raise SimulatorError(f"the Verilator build of the controller failed; see {log}")
 
-    def run(self, frames, *, divisor, window, max_clocks, vcd=None, progress=None):
-        """Run ``frames`` (a list of bytes objects, in order); return a :class:`Run`.
+    def run(self, frames, *, divisor, window, max_clocks, vcd=None, vcd_clocks=None,
+            progress=None):
+        """Run ``frames`` (a list of bytes objects, in order); return a :class:`Run`. With
+        ``vcd``, the waveform of the run (of its first ``vcd_clocks`` clocks, if given) is
+        written there.
         ``progress``, if given, is called with the number of steps made so far about twice a
         second while the simulation runs.
 
@@ -90,6 +93,8 @@ class FastRun:
                    str(divisor), str(window), str(max_clocks)]
         if vcd is not None:
             command.append(str(Path(vcd).resolve()))
+            if vcd_clocks is not None:
+                command.append(str(vcd_clocks))
         started = time.monotonic()
         process = subprocess.Popen(command, cwd=run_dir, start_new_session=True)
         try:

@@ -45,7 +45,11 @@ class Kind:
 class Variant:
     """A core of a kind: ``core(width=, **params)`` builds the RTL core, ``model(width=,
     **params)`` its cycle model, ``steps(payload, width)`` returns the step-level trajectory;
-    ``params`` names the parameters besides ``width`` that it takes."""
+    ``params`` names the parameters besides ``width`` that it takes. ``clocks(payload, width,
+    **params)``, if given, is an upper bound on the clocks the core takes for a command at full
+    feed (its own setup included, the front end's not); without it a core makes one step per
+    clock (or per generator period) and no more steps than the longer projection of a line or
+    ``8R + 8`` for an arc."""
     kind: str
     name: str
     help: str
@@ -54,15 +58,17 @@ class Variant:
     steps: object
     params: tuple = ()
     min_width: int = 2
+    clocks: object = None
 
 
 @dataclass(frozen=True)
 class Board:
     """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top (a
-    program played in a loop); ``clock_hz`` is its clock, ``line`` and ``arc`` the
-    ``(variant, width)`` of the machine controller's engines on it, ``profile`` that of its
-    equidistant engine (cutter-radius compensation, G41/G42), or ``None`` where the board has
-    no room for one (see :func:`make_controller`)."""
+    program played in a loop); ``clock_hz`` is the machine controller's clock, the board's
+    divided by ``divide`` (see :class:`hdl.top.ControllerTop`), ``line`` and ``arc`` the
+    ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
+    (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
+    (see :func:`make_controller`)."""
     name: str
     help: str
     platform: object
@@ -70,6 +76,7 @@ class Board:
     clock_hz: float
     line: tuple = ("exact", 16)
     arc: tuple = ("fast", 24)
+    divide: int = 1
     profile: tuple = None
 
 
@@ -179,14 +186,16 @@ def check(kind_name, payload, width):
     kind(kind_name).check(payload, width)
 
 
-def steps(kind_name, payload, variant_name=None, *, width=None):
+def steps(kind_name, payload, variant_name=None, *, width=None, **params):
     """The step-level trajectory of ``payload`` (a program's frames for a program kind): a
-    list of ``(dx, dy)``."""
+    list of ``(dx, dy)``. ``params`` are those of the variant that change its trajectory (none
+    for most)."""
     item = variant(kind_name, variant_name)
-    width = _arguments(item, width, {})["width"]
+    arguments = _arguments(item, width, params)
+    width = arguments.pop("width")
     if kind(kind_name).program:
-        return [step for _, path in item.steps(payload, width) for step in path]
-    return item.steps(payload, width)
+        return [step for _, path in item.steps(payload, width, **arguments) for step in path]
+    return item.steps(payload, width, **arguments)
 
 
 def outcomes(kind_name, frames, variant_name=None, *, width=None):
@@ -320,6 +329,69 @@ def _profile_core(name):
     return core, model
 
 
+def _textbook(core_name, model_name, **fixed):
+    """Factories of a core of ``hdl.textbook`` or ``hdl.serial`` (its name starts with
+    ``Serial``) and of its cycle model, with ``fixed`` parameters."""
+    module = "serial" if core_name.startswith("Serial") else "textbook"
+
+    def core(**params):
+        from importlib import import_module
+        return getattr(import_module(f"hdl.{module}"), core_name)(**fixed, **params)
+
+    def model(**params):
+        from importlib import import_module
+        return getattr(import_module(f"sim.models.{module}"), model_name)(**fixed, **params)
+
+    return core, model
+
+
+def _separate_line_steps(payload, width):
+    from .models.textbook import separate_line_steps
+    return separate_line_steps(payload["x"], payload["y"], width=width)
+
+
+def _separate_arc_steps(payload, width):
+    from .models.textbook import separate_arc_steps
+    return separate_arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
+                              cw=payload["cw"], width=width)
+
+
+def _dda_steps(preset):
+    def trajectory(payload, width, capacity="segment"):
+        from .models.textbook import dda_steps
+        return dda_steps(payload["x"], payload["y"], width=width, preset=preset,
+                         capacity=capacity)
+    return trajectory
+
+
+def _arc_radius(payload):
+    from .models.arc import round_sqrt
+    return round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
+
+
+def _separate_line_clocks(payload, width, **params):
+    return abs(payload["x"]) + abs(payload["y"]) + 2
+
+
+def _dda_clocks(payload, width, capacity="segment", **params):
+    from .models.textbook import dda_capacity          # N iterations, a clock each
+    return (1 << dda_capacity(payload["x"], payload["y"], width=width, capacity=capacity)) + 2
+
+
+def _separate_arc_clocks(payload, width, **params):
+    return 8 * _arc_radius(payload) + 16             # 2·Rn steps a quadrant, up to 4 of them
+
+
+def _serial_line_clocks(payload, width, **params):
+    from .models.serial import word_length
+    return word_length(width) * (abs(payload["x"]) + abs(payload["y"]) + 2) + 2
+
+
+def _serial_arc_clocks(payload, width, **params):
+    from .models.serial import word_length           # up to 5 runs: 3 words more each
+    return word_length(width) * (8 * _arc_radius(payload) + 16)
+
+
 def _icebreaker_platform():
     from constraints import icebreaker
     return icebreaker.platform()
@@ -328,6 +400,11 @@ def _icebreaker_platform():
 def _icebreaker_demo():
     from hdl.top import DemoTop
     return DemoTop()
+
+
+def _ulx3s_platform():
+    from constraints import ulx3s
+    return ulx3s.platform()
 
 
 register(Kind("line", "segment from the origin to (X, Y)", _line_engine, _line_engine_model,
@@ -345,11 +422,36 @@ register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
                  _fast_core, _fast_model, _arc_trajectory, params=("period",)))
 register(Kind("profile", "a contour of a G-code program: the cutter's centre on its "
                          "equidistant (T. Siimut, 1963)", _profile_engine, _profile_engine_model,
-              (), _profile_check, "fast", 16, program=True))
+              (), _profile_check, "fast", 8, program=True))
 register(Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
                  *_profile_core("fast"), _profile_trajectory, params=("period",), min_width=4))
 register(Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
                  *_profile_core("faithful"), _profile_trajectory, params=("timing",),
                  min_width=4))
+register(Variant("line", "separate", "textbook: estimating function, separate steps",
+                 *_textbook("SeparateLineCore", "SeparateLineCoreModel"),
+                 _separate_line_steps, clocks=_separate_line_clocks))
+register(Variant("line", "dda", "textbook: DDA, registers preset to half their capacity",
+                 *_textbook("DdaCore", "DdaCoreModel", preset="half"),
+                 _dda_steps("half"), params=("capacity",), clocks=_dda_clocks))
+register(Variant("line", "dda-zero", "textbook: DDA, registers starting at zero",
+                 *_textbook("DdaCore", "DdaCoreModel", preset="zero"),
+                 _dda_steps("zero"), params=("capacity",), clocks=_dda_clocks))
+register(Variant("line", "serial", "textbook: the bit-serial linear-circular node",
+                 *_textbook("SerialLineCore", "SerialLineCoreModel"),
+                 _separate_line_steps, clocks=_serial_line_clocks))
+register(Variant("arc", "separate", "textbook: estimating function, separate steps",
+                 *_textbook("SeparateArcCore", "SeparateArcCoreModel"),
+                 _separate_arc_steps, clocks=_separate_arc_clocks))
+register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
+                 *_textbook("SerialArcCore", "SerialArcCoreModel"),
+                 _separate_arc_steps, clocks=_serial_arc_clocks))
+# The iCEBreaker's controller: both engines at 16 bits (moves and radii up to 65 535 steps, 819
+# mm at 80 steps/mm) fill 86 % of the UP5K; the 24-bit arc engine would not fit beside the rest.
+# Its longest path (the feed's permission through the arc engine's quadrant handover) closes
+# at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
-               _icebreaker_demo, clock_hz=12e6))
+               _icebreaker_demo, clock_hz=6e6, arc=("fast", 16), divide=2))
+# The ULX3S-85F holds both engines at their default widths, at the board's 25 MHz.
+register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
+               line=("exact", 16), arc=("fast", 24), profile=("fast", 16)))

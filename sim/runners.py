@@ -222,9 +222,13 @@ class CocotbBuild:
             build_args = ["-g2005"]
         else:
             # Lint of generated code: Amaranth mixes widths and leaves FSM cases open, and the
-            # port `abort` is also a C++ name (Verilator mangles it, the warning aside).
+            # port `abort` is also a C++ name (Verilator mangles it, the warning aside). Its
+            # If/Elif chains become casez statements whose patterns overlap on purpose (the
+            # first match wins, as Verilog has it); Verilator flags the overlap where it can
+            # prove it, e.g. when a strobe is tied to 0 (an AccumulatingAdder whose add2 is
+            # unused, as in the textbook cores).
             build_args = ["-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
-                          "-Wno-SYMRSVDWORD"]
+                          "-Wno-CASEOVERLAP", "-Wno-SYMRSVDWORD"]
         log = self.build_dir / "build.log"
         try:
             with _waves_env(self.waves):

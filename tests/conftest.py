@@ -12,6 +12,8 @@ from .utils import BUILD_DIR
 def pytest_configure(config):
     config.addinivalue_line(
         "markers", "cocotb: runs the generated Verilog under cocotb (Icarus or Verilator)")
+    config.addinivalue_line(
+        "markers", "formal: runs a SymbiYosys proof (make formal)")
 
 
 def selected_simulators():

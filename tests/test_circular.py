@@ -127,7 +127,8 @@ class ArcEngineTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         with self.assertRaisesRegex(ValueError,
-                r"^arc variant must be one of 'faithful', 'fast', not 'exact'$"):
+                r"^arc variant must be one of 'faithful', 'fast', 'separate', 'serial', "
+                r"not 'exact'$"):
             registry.make_engine("arc", "exact")
         with self.assertRaisesRegex(TypeError,
                 r"^arc variant 'fast' takes no parameter 'timing' \(it takes 'period'\)$"):

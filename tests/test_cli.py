@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The ``kontur`` command line, run as a program: output format, engines, refusals, waveforms."""
 
 import subprocess
@@ -39,7 +40,7 @@ def test_trace_line_cycles():
     assert run.returncode == 0
     lines = run.stdout.splitlines()
     assert [tuple(map(int, line.split()[1:])) for line in lines] == steps(3, 2)
-    assert [int(line.split()[0]) for line in lines] == [2, 3, 4]   # one step per clock
+    assert [int(line.split()[0]) for line in lines] == [3, 4, 5]   # one step per clock
 
 
 def test_trace_line_zero_length():
@@ -159,10 +160,18 @@ def kontur_env(**env):
     return dict(os.environ, **env)
 
 
+def _interruptible():
+    # As from a terminal: SIGINT at its default, whatever the test worker inherited (a
+    # process started with SIGINT ignored keeps ignoring it, and Python then never raises
+    # KeyboardInterrupt).
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args, env=None):
     return subprocess.Popen([sys.executable, "-m", "sim.host.cli", *map(str, args)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
+                            env=env, preexec_fn=_interruptible)
 
 
 @pytest.mark.cocotb

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The whole machine controller on Icarus and Verilator, end to end over its serial pin.
 
 A host coroutine sends a planned program's frames with ``cocotbext-uart`` (keeping at most

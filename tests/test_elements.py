@@ -4,8 +4,9 @@
 import random
 import unittest
 
-from hdl.elements import (AccumulatingAdder, Commutator, DelayElement, PulseExtender,
-                          PulseGenerator, ReversibleCounter, Trigger)
+from hdl.elements import (AccumulatingAdder, CapacityRegister, Commutator, DelayElement,
+                          PulseExtender, PulseGenerator, ReversibleCounter, SerialAdder,
+                          ShiftRegister, Trigger)
 from sim.models.codes import (from_code, mask, ones_add, ones_count, ones_decode, ones_encode,
                               ones_sub, sign_extend)
 
@@ -298,6 +299,111 @@ class PulseExtenderTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError,
                 r"^Extender length must be a positive integer, not -1$"):
             PulseExtender(-1)
+
+
+class ShiftRegisterTestCase(unittest.TestCase):
+    def check(self, width, seed):
+        dut = ShiftRegister(width)
+        rng = random.Random(seed)
+
+        async def testbench(ctx):
+            code = 0                                # reference contents
+            for clock in range(300):
+                op = rng.choice(["load", "shift", "shift", "shift", "hold"])
+                d, i = rng.randrange(1 << width), rng.randrange(2)
+                ctx.set(dut.load, op == "load")
+                ctx.set(dut.en, op == "shift" or rng.random() < 0.2)
+                ctx.set(dut.d, d)
+                ctx.set(dut.i, i)
+                self.assertEqual(ctx.get(dut.q), code, f"clock {clock}")
+                self.assertEqual(ctx.get(dut.o), code & 1, f"clock {clock}")
+                if op == "load":
+                    code = d
+                elif ctx.get(dut.en):
+                    code = (code >> 1) | (i << (width - 1))
+                await ctx.tick()
+
+        simulate(dut, testbench, name=f"shift_register_{width}")
+
+    def test_ring_of_8(self):
+        self.check(8, 1)
+
+    def test_one_bit_register(self):
+        self.check(1, 2)
+
+    def test_width_wrong(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Shift register width must be a positive integer, not 0$"):
+            ShiftRegister(0)
+
+
+class SerialAdderTestCase(unittest.TestCase):
+    def test_words(self):
+        # Random 9-bit words added (or subtracted: inverse code, carry in) one bit a clock, with
+        # clocks between bits in which the carry flip-flop holds (en low).
+        dut = SerialAdder()
+        rng = random.Random(3)
+        width = 9
+
+        async def testbench(ctx):
+            for _ in range(60):
+                a, b, ci = rng.randrange(1 << width), rng.randrange(1 << width), rng.randrange(2)
+                total = 0
+                for k in range(width):
+                    for hold in [1] * rng.choice([0, 0, 1, 2]) + [0]:
+                        ctx.set(dut.a, a >> k & 1)
+                        ctx.set(dut.b, b >> k & 1)
+                        ctx.set(dut.ci, ci if k == 0 else rng.randrange(2))
+                        ctx.set(dut.first, k == 0)
+                        ctx.set(dut.en, not hold)
+                        if not hold:
+                            total |= ctx.get(dut.s) << k
+                            carry = ctx.get(dut.co)
+                        await ctx.tick()
+                self.assertEqual(total | carry << width, a + b + ci)
+
+        simulate(dut, testbench, name="serial_adder")
+
+
+class CapacityRegisterTestCase(unittest.TestCase):
+    def test_random(self):
+        # Capacities 2**n for every n up to the width; contents below N, increments up to N.
+        width = 6
+        dut = CapacityRegister(width)
+        rng = random.Random(4)
+
+        async def testbench(ctx):
+            code = 0
+            mask_n = mask(width)
+            for clock in range(600):
+                if rng.random() < 0.05:
+                    mask_n = mask(rng.randint(0, width))
+                    op, d = "load", rng.randint(0, mask_n)
+                else:
+                    op, d = rng.choice(["add", "add", "add", "clr", "hold"]), 0
+                b = rng.randint(0, min(mask_n + 1, mask(width)))
+                ctx.set(dut.load, op == "load")
+                ctx.set(dut.clr, op == "clr")
+                ctx.set(dut.en, op == "add")
+                ctx.set(dut.d, d)
+                ctx.set(dut.b, b)
+                ctx.set(dut.mask, mask_n)
+                self.assertEqual(ctx.get(dut.q), code, f"clock {clock}")
+                self.assertEqual(ctx.get(dut.overflow), int(code + b > mask_n), f"clock {clock}")
+                if op == "load":
+                    code = d
+                elif op == "clr":
+                    code = 0
+                elif op == "add":
+                    code = (code + b) & mask_n
+                await ctx.tick()
+
+        simulate(dut, testbench, name="capacity_register")
+
+    def test_width_wrong(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Register width must be a positive integer, not 'wide'$"):
+            CapacityRegister("wide")
 
 
 if __name__ == "__main__":

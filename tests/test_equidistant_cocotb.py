@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The equidistant engine's Verilog on Icarus and Verilator, both arc cores: cocotb testbenches.
 
 As in ``test_arc_cocotb.py``: each ``@cocotb.test`` plays a :class:`~sim.stimulus.Job` with a

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The feed generator: contour rate (√2 for diagonals), linear ramps, no bursts; and the model."""
 
 import math

@@ -120,6 +120,20 @@ class GeometryTestCase(unittest.TestCase):
                 self.assertEqual(minor, (2 * n * b + a - 1) // (2 * a), (a, b, n))
 
 
+class CounterTestCase(unittest.TestCase):
+    def test_counters_never_pass_zero(self):
+        # AND 9 fires on one step left (counters 1 and 2 at 1 and -1, or 0 and 0) whatever the
+        # pulse: that holds because each step counts down the counter of its kind and neither
+        # is ever counted past zero, so with one step left the step is of that kind.
+        for a, b in itertools.product(range(1, 151), range(0, 151)):
+            if b > a:
+                continue
+            for variant in ("device", "exact"):
+                rows = table(a, b, variant)
+                self.assertTrue(all(r["c1"] >= 0 and r["c2"] >= 0 for r in rows),
+                                (a, b, variant))
+
+
 class CycleModelTestCase(unittest.TestCase):
     def test_cycle_model_steps_equal_step_model(self):
         rng = random.Random(11)
@@ -134,9 +148,11 @@ class CycleModelTestCase(unittest.TestCase):
         frames = [{"x": 5, "y": 2}, {"x": -3, "y": 7}, {"x": 4, "y": -4}]
         record = run_model(registry.make_model("line"), Job(frames=frames))
         cycles = [c for c, _, _ in record_moves(record)]
-        self.assertEqual(cycles, list(range(2, 2 + 5 + 7 + 4)))  # first step 2 clocks after offer
+        # First step 3 clocks after the offer (the stage register, the prepared segment, the
+        # start), then one step per clock across the segments; done with each last step.
+        self.assertEqual(cycles, list(range(3, 3 + 5 + 7 + 4)))
         dones = [e["cycle"] for e in record if e["done"]]
-        self.assertEqual(dones, [2 + 4, 2 + 11, 2 + 15])       # done with each last step
+        self.assertEqual(dones, [3 + 4, 3 + 11, 3 + 15])
 
     def test_zero_length_frame(self):
         record = run_model(registry.make_model("line"), Job(frames=[{"x": 0, "y": 0}]))

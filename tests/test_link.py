@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The host link: frames decoded and checked as the reference parser does, replies encoded."""
 
 import random

@@ -28,20 +28,22 @@ def staircase_registered():
 class LookupTestCase(unittest.TestCase):
     def test_kinds_and_variants(self):
         self.assertEqual(list(registry.KINDS), ["line", "arc", "profile"])
-        self.assertEqual(registry.variants("line"), ("device", "exact"))
-        self.assertEqual(registry.variants("arc"), ("faithful", "fast"))
+        self.assertEqual(registry.variants("line"),
+                         ("device", "exact", "separate", "dda", "dda-zero", "serial"))
+        self.assertEqual(registry.variants("arc"), ("faithful", "fast", "separate", "serial"))
         self.assertEqual(registry.variants("profile"), ("fast", "faithful"))
         self.assertEqual([kind.program for kind in registry.KINDS.values()],
                          [False, False, True])
         self.assertEqual(registry.variant("arc").name, "faithful")
-        self.assertEqual(list(registry.BOARDS), ["icebreaker"])
+        self.assertEqual(list(registry.BOARDS), ["icebreaker", "ulx3s"])
 
     def test_unknown(self):
         with self.assertRaisesRegex(ValueError,
                 r"^Kind must be one of 'line', 'arc', 'profile', not 'spline'$"):
             registry.variants("spline")
         with self.assertRaisesRegex(ValueError,
-                r"^line variant must be one of 'device', 'exact', not 'fast'$"):
+                r"^line variant must be one of 'device', 'exact', 'separate', 'dda', "
+                r"'dda-zero', 'serial', not 'fast'$"):
             registry.make_engine("line", "fast")
 
     def test_parameters_that_do_not_apply(self):
@@ -97,7 +99,7 @@ class NewVariantTestCase(unittest.TestCase):
         with staircase_registered():
             self.assertEqual(trace("line", {"x": 2, "y": -1}, variant="staircase",
                                    engine="amaranth", cycles=True),
-                             [(2, 1, 0), (3, 1, 0), (4, 0, -1)])
+                             [(3, 1, 0), (4, 1, 0), (5, 0, -1)])   # first step at k + 3
             out = io.StringIO()
             with mock.patch("sys.stdout", out):
                 self.assertEqual(cli.main(["trace", "line", "2", "-1", "--variant",

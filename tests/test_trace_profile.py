@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """``kontur trace profile FILE --radius R``, run as a program: output, engines, refusals."""
 
 import re
@@ -23,7 +24,8 @@ def kontur(*args):
                           capture_output=True, text=True, timeout=900)
 
 
-def model_steps(name, r, *, width=16, treatment="extend", detection="normal"):
+def model_steps(name, r, *, width=registry.KINDS["profile"].default_width, treatment="extend",
+                detection="normal"):
     """The steps of a test program by the model's functions (no command line)."""
     shape = profile_from_moves(read((PROGRAMS / f"{name}.ngc").read_text()).moves)
     prepared = prepare(shape, r, treatment=treatment, detection=detection,

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """The UART: bytes through the line and back, rate error, glitches, framing errors, overrun."""
 
 import random
@@ -122,8 +123,13 @@ class TransmitterTestCase(unittest.TestCase):
         # The line, bit for bit: every byte back to back, 10 bits of `divisor` clocks each.
         start = levels.index(0)
         expected = [level for byte in data for level in line_levels(byte, divisor)]
-        self.assertEqual(levels[start:start + len(expected)], expected)
-        self.assertEqual(levels[:start], [1] * start)
+        line = levels[start:start + len(expected)]
+        at = next((i for i, (a, b) in enumerate(zip(line, expected)) if a != b), None)
+        self.assertIsNone(at, f"the line differs from clock {at} after the first start bit: "
+                              f"{line[at:at + 12] if at is not None else ''} instead of "
+                              f"{expected[at:at + 12] if at is not None else ''}")
+        self.assertEqual(len(line), len(expected))
+        self.assertEqual(levels[:start].count(0), 0)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,18 @@
-"""Waveform regression: the RTL's dump, reduced to a per-clock trace, against golden traces."""
+# amaranth: UnusedElaboratable=no
+"""Waveform regression: the RTL's dump, reduced to a per-clock trace, against golden traces.
 
+The patents' worked tables are read back from the RTL's VCD and compared with goldens
+transcribed from the patents. The named scenarios of :data:`sim.waves.SCENARIOS` run on
+Amaranth's simulator, Icarus and Verilator; each simulator's own dump gives the same trace, the
+golden ``tests/golden/<scenario>.trace`` (reviewed, see docs/formal.md), and the engine's
+outputs in it are the golden cycle model's. A broken core changes the trace, and the failure
+names the first clock and signal that differ.
+"""
+
+import os
 import unittest
+
+import pytest
 
 from amaranth.sim import Simulator
 
@@ -10,8 +22,12 @@ from sim.models.circular import core_inputs, f4_initial, floor_f
 from sim.models.codes import from_code, mask, ones_decode
 from sim.runners import run_amaranth
 from sim.stimulus import Job
-from sim.waves import check_trace, sample_vcd
+from sim.stimulus import first_difference, run_model
+from sim.waves import (GTKW_VIEWS, SCENARIOS, check_trace, gtkw_view, sample_vcd,
+                       scenario_job, scenario_trace)
 
+from .broken import literal_transfer_core, opposite_tie_core
+from .conftest import cocotb_build_root, selected_simulators
 from .utils import BUILD_DIR
 
 GOLDEN = BUILD_DIR.parent / "tests" / "golden"
@@ -91,6 +107,76 @@ class CircularTable2WaveTestCase(unittest.TestCase):
                 break
         rows = [[name, *values] for name, values in columns.items()]
         check_trace(GOLDEN / "su1665343_table2.trace", ["column", "values"], rows)
+
+
+def _trace(name, simulator, core=None, tag=""):
+    scenario = SCENARIOS[name]
+    vcd = BUILD_DIR / "waves" / f"{name}{tag}_{simulator}.vcd"
+    return scenario_trace(scenario, simulator, vcd, core=core, build_root=cocotb_build_root())
+
+
+def _check_scenario(name, simulator):
+    scenario = SCENARIOS[name]
+    record, columns, rows = _trace(name, simulator)
+    model = registry.make_model(scenario.kind, scenario.variant, width=scenario.width)
+    expected = run_model(model, scenario_job(scenario))
+    difference = first_difference(expected, record)
+    assert difference is None, f"{name} on {simulator}: {difference}"
+    check_trace(GOLDEN / f"{name}.trace", columns, rows)
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_scenario_amaranth(name):
+    _check_scenario(name, "amaranth")
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("simulator", selected_simulators())
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_scenario_cocotb(name, simulator):
+    _check_scenario(name, simulator)
+
+
+def test_opposite_tie_changes_the_trace():
+    # (4, 2) starts with F = 0: eq. (1) steps along X alone, the broken core diagonally.
+    _, columns, rows = _trace("line_exact_back_to_back", "amaranth",
+                              core=opposite_tie_core(8), tag="_opposite_tie")
+    with pytest.raises(AssertionError, match=r"differs at row 3 \(clock 3\), signal step: "
+                                             r"golden 01, trace 11"):
+        check_trace(GOLDEN / "line_exact_back_to_back.trace", columns, rows)
+
+
+def test_literal_transfer_changes_the_trace():
+    # R = 10: the diagonal from (8, 6) lands on X = Y; the commutator passes -2 (the literal
+    # reading) where the built core passes -1, three clocks after that step.
+    _, columns, rows = _trace("arc_faithful_switch_x_eq_y", "amaranth",
+                              core=literal_transfer_core(8), tag="_literal")
+    with pytest.raises(AssertionError, match=r"differs at row \d+ \(clock \d+\), signal A: "
+                                             r"golden 0, trace "):
+        check_trace(GOLDEN / "arc_faithful_switch_x_eq_y.trace", columns, rows)
+
+
+@pytest.mark.parametrize("view", list(GTKW_VIEWS))
+def test_gtkw_view(view):
+    # The saved view in docs/ is the one generated from the traced columns, and every signal
+    # it names is in a dump of that core (by the same hierarchical name on every simulator).
+    path = BUILD_DIR.parent / "docs" / f"{view}.gtkw"
+    text = gtkw_view(view)
+    if os.environ.get("UPDATE_GOLDEN") == "1":
+        path.write_text(text)
+    assert path.read_text() == text, f"{path} is stale: rerun with UPDATE_GOLDEN=1"
+    scenario = {"linear": "line_exact_back_to_back", "circular_faithful":
+                "arc_faithful_switch_x_eq_y", "circular_fast": "arc_fast_switch_x_eq_y",
+                "separate_line": "line_separate_back_to_back",
+                "separate_arc": "arc_separate_quadrant_crossing",
+                "dda": "line_dda_back_to_back", "serial_line": "line_serial_back_to_back",
+                "serial_arc": "arc_serial_quadrant_crossing"}[view]
+    _trace(scenario, "amaranth", tag="_view")
+    vcd = BUILD_DIR / "waves" / f"{scenario}_view_amaranth.vcd"
+    names = [line.split("[")[0] for line in text.splitlines()
+             if line.startswith("engine.")]
+    clocks = sample_vcd(vcd, {name: name for name in names})
+    assert clocks and set(clocks[0]) == set(names)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The building blocks of the patents' block diagrams, each once, as synthesizable components.
+"""The building blocks of the patents' and the textbook's block diagrams, each once, as components.
 
 Every pulse is a one-clock strobe in a single synchronous clock domain (``sync``); a delay is a
 number of clocks.
@@ -10,6 +10,9 @@ from .commutator import Commutator
 from .delay import DelayElement
 from .trigger import Trigger
 from .pulse import PulseGenerator, PulseExtender
+from .shift import ShiftRegister
+from .serial_adder import SerialAdder
+from .capacity import CapacityRegister
 
 __all__ = ["AccumulatingAdder", "ReversibleCounter", "Commutator", "DelayElement", "Trigger",
-           "PulseGenerator", "PulseExtender"]
+           "PulseGenerator", "PulseExtender", "ShiftRegister", "SerialAdder", "CapacityRegister"]

@@ -13,9 +13,14 @@ class AccumulatingAdder(wiring.Component):
     """Accumulating adder with a sign flip-flop.
 
     Holds a signed number. On a clock in which :py:`add` is asserted the operand :py:`b` is added
-    to the contents; with :py:`sub` it is subtracted (the "сумматор-вычитатель" of SU 1571551).
-    :py:`load` replaces the contents by :py:`d`; :py:`clr` sets them to zero. Priority, highest
-    first: :py:`load`, :py:`clr`, :py:`add`, :py:`sub`. The new contents appear one clock later.
+    to the contents; with :py:`sub` it is subtracted (the "сумматор-вычитатель" of SU 1571551);
+    with :py:`add2` a second operand :py:`b2` is added. :py:`load` replaces the contents by
+    :py:`d`; :py:`clr` sets them to zero. Priority, highest first: :py:`load`, :py:`clr`,
+    :py:`add`, :py:`add2`, :py:`sub`. The new contents appear one clock later. Every sum is
+    formed in parallel and the strobes only pick one, so an operand chosen by a commutator
+    ahead of the adder can instead be wired to an operand input of its own, with the
+    commutator's strobes picking the sum: the choice then follows the carry chain instead of
+    preceding it.
 
     Two number codes are supported:
 
@@ -46,6 +51,10 @@ class AccumulatingAdder(wiring.Component):
         Operand (the second addend).
     add : :py:`In(1)`
         Add strobe.
+    b2 : :py:`In(signed(width))`
+        Second operand.
+    add2 : :py:`In(1)`
+        Strobe: add :py:`b2`.
     sub : :py:`In(1)`
         Subtract strobe.
     q : :py:`Out(signed(width))`
@@ -71,6 +80,8 @@ class AccumulatingAdder(wiring.Component):
             "clr":    In(1),
             "b":      In(signed(width)),
             "add":    In(1),
+            "b2":     In(signed(width)),
+            "add2":   In(1),
             "sub":    In(1),
             "q":      Out(signed(width)),
             "sign":   Out(1),
@@ -98,9 +109,11 @@ class AccumulatingAdder(wiring.Component):
                 m.d.comb += diff.eq(q - x)
                 return (diff[:w] - diff[w])[:w]
             total = minus(~b)        # q + b == q - (ones' complement of b)
+            total2 = minus(~self.b2.as_unsigned())
             difference = minus(b)
         else:
             total = (q + b)[:w]
+            total2 = (q + self.b2.as_unsigned())[:w]
             difference = (q - b)[:w]
 
         with m.If(self.load):
@@ -109,6 +122,8 @@ class AccumulatingAdder(wiring.Component):
             m.d.sync += self.q.eq(0)
         with m.Elif(self.add):
             m.d.sync += self.q.eq(total)
+        with m.Elif(self.add2):
+            m.d.sync += self.q.eq(total2)
         with m.Elif(self.sub):
             m.d.sync += self.q.eq(difference)
 

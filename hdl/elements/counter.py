@@ -31,6 +31,11 @@ class ReversibleCounter(wiring.Component):
         Number of bits, sign included.
     ones_complement : :class:`bool`
         Use the ones' complement code instead of two's complement.
+    parallel : :class:`bool`
+        Two's complement only: form every count the inputs can ask for (``+1``, ``-1``,
+        ``-2``, ``-3``) in parallel from the contents and let the count inputs pick one, so
+        that they arrive at the end of the carry chains instead of at their start. The same
+        behaviour, in more logic where several count inputs are used.
 
     Members
     -------
@@ -62,10 +67,11 @@ class ReversibleCounter(wiring.Component):
         If ``width`` is not an integer of at least 2.
     """
 
-    def __init__(self, width, *, ones_complement=False):
+    def __init__(self, width, *, ones_complement=False, parallel=False):
         check_width("Counter width", width, minimum=2)
         self._width = width
         self._ones_complement = bool(ones_complement)
+        self._parallel = bool(parallel) and not ones_complement
         super().__init__({
             "d":         In(signed(width)),
             "load":      In(1),
@@ -86,6 +92,10 @@ class ReversibleCounter(wiring.Component):
     @property
     def ones_complement(self):
         return self._ones_complement
+
+    @property
+    def parallel(self):
+        return self._parallel
 
     def elaborate(self, platform):
         m = Module()
@@ -112,6 +122,17 @@ class ReversibleCounter(wiring.Component):
                 m.d.comb += self.q_next.eq((less[:w] - less[w])[:w])
             with m.Else():
                 m.d.comb += self.q_next.eq(decremented)
+        elif self._parallel:
+            # up - down - 2·down2 for each combination of the count inputs, bit 0 up.
+            def count(up, down, down2):
+                delta = up - down - 2 * down2
+                return self.q + delta if delta else self.q
+            m.d.comb += self.q_next.eq(
+                Mux(self.down2,
+                    Mux(self.down, Mux(self.up, count(1, 1, 1), count(0, 1, 1)),
+                        Mux(self.up, count(1, 0, 1), count(0, 0, 1))),
+                    Mux(self.down, Mux(self.up, count(1, 1, 0), count(0, 1, 0)),
+                        Mux(self.up, count(1, 0, 0), count(0, 0, 0)))))
         else:
             m.d.comb += self.q_next.eq(self.q + self.up - dec)
 

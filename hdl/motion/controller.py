@@ -14,7 +14,7 @@ from ..elements._checks import check_width
 from ..engine import MotionSignature, Outcome
 from .feed import FeedGenerator, Profile, rate_limit
 from .link import (ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME, PROFILE, QUEUED, STATUS,
-                   FrameDecoder, FrameEncoder, profile_bytes)
+                   FrameDecoder, FrameEncoder, host_lengths, profile_bytes)
 from .player import check_engine
 from .queue import FrameQueue
 from .stepdir import StepDirStage
@@ -130,17 +130,11 @@ class MotionController(wiring.Component):
         self._queue_frames = queue_frames
         self._clock_hz = clock_hz
         self._min_interval = dir_setup + step_width + 1
-        self.decoder = FrameDecoder(
-            profile=None if profile is None else profile_bytes(profile.signature.frame))
-        self._lengths = {kind: count for kind, count in self.decoder.lengths.items()
+        self._divisor = divisor
+        self._dir_setup, self._step_width = dir_setup, step_width
+        self._profile_bytes = None if profile is None else profile_bytes(profile.signature.frame)
+        self._lengths = {kind: count for kind, count in host_lengths(self._profile_bytes).items()
                          if kind in QUEUED}
-        longest = 1 + max(self._lengths.values())
-        self.uart_rx = UARTReceiver(divisor)
-        self.uart_tx = UARTTransmitter(divisor)
-        self.queue = FrameQueue(1 << (queue_frames * longest - 1).bit_length())
-        self.encoder = FrameEncoder()
-        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
-        self.stepdir = StepDirStage(dir_setup=dir_setup, step_width=step_width)
         super().__init__({
             "rx":       In(1, init=1),
             "tx":       Out(1, init=1),
@@ -168,6 +162,16 @@ class MotionController(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         line, arc, equidistant = self._line, self._arc, self._profile
+        # The parts are made here, not in __init__: a controller only asked for its figures
+        # (or refused) leaves no unused elaboratable behind.
+        longest = 1 + max(self._lengths.values())
+        self.uart_rx = UARTReceiver(self._divisor)
+        self.uart_tx = UARTTransmitter(self._divisor)
+        self.decoder = FrameDecoder(profile=self._profile_bytes)
+        self.queue = FrameQueue(1 << (self._queue_frames * longest - 1).bit_length())
+        self.encoder = FrameEncoder()
+        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
+        self.stepdir = StepDirStage(dir_setup=self._dir_setup, step_width=self._step_width)
         for name in ("uart_rx", "uart_tx", "decoder", "queue", "encoder", "feed", "stepdir"):
             m.submodules[name] = getattr(self, name)
         m.submodules.line = line

@@ -146,18 +146,15 @@ class FeedGenerator(wiring.Component):
         target = Signal(40)
         wanted = Mux(steps < p.decelerate, p.cruise, p.exit)
         m.d.comb += target.eq(Mux(wanted > self._max_rate, self._max_rate, wanted) << 16)
-        diff = Signal(signed(41))
-        m.d.comb += diff.eq(target - rate)
-        with m.If(diff >= 0):
-            with m.If(diff <= self.accel):
-                m.d.sync += rate.eq(target)
-            with m.Else():
-                m.d.sync += rate.eq(rate + self.accel)
-        with m.Else():
-            with m.If(-diff <= self.accel):
-                m.d.sync += rate.eq(target)
-            with m.Else():
-                m.d.sync += rate.eq(rate - self.accel)
+        # One step of the ramp toward the target, and the target itself where that step would
+        # pass it: three carry chains (the direction, the step, the overshoot), not five.
+        up = Signal()
+        m.d.comb += up.eq(rate <= target)
+        moved = Signal(41)
+        m.d.comb += moved.eq(Mux(up, rate + self.accel, rate - self.accel))
+        passed = Signal()
+        m.d.comb += passed.eq(Mux(up, moved >= target, moved[40] | (moved <= target)))
+        m.d.sync += rate.eq(Mux(passed, target, moved[:40]))
 
         length = Mux(self.feed.diagonal, SQRT2, ONE)
         tick = Signal()

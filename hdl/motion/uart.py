@@ -121,8 +121,8 @@ class UARTTransmitter(wiring.Component):
     """8N1 transmitter: bytes from a stream onto the :py:`tx` line.
 
     A byte taken from :py:`i` goes out as a start bit, 8 data bits (least significant first)
-    and a stop bit, each ``divisor`` clocks; :py:`i` is ready while nothing is being sent, so
-    bytes follow one another with no gap.
+    and a stop bit, each ``divisor`` clocks; :py:`i` is ready while nothing is being sent and
+    in the last clock of a stop bit, so bytes follow one another with no gap.
 
     Parameters
     ----------
@@ -156,7 +156,9 @@ class UARTTransmitter(wiring.Component):
         timer = Signal(range(self._divisor))
         bits = Signal(range(11))                # bits still to send, start bit included
         frame = Signal(10, init=1)              # stop, data, start: shifted out from the bottom
-        m.d.comb += [self.i.ready.eq(bits == 0), self.tx.eq(frame[0] | (bits == 0))]
+        # Ready while idle and in the stop bit's last clock: the next start bit follows it.
+        m.d.comb += [self.i.ready.eq((bits == 0) | ((bits == 1) & (timer == 0))),
+                     self.tx.eq(frame[0] | (bits == 0))]
         with m.If(self.i.valid & self.i.ready):
             m.d.sync += [frame.eq(Cat(Const(0, 1), self.i.payload, Const(1, 1))),
                          bits.eq(10), timer.eq(self._divisor - 1)]

@@ -1,12 +1,16 @@
-"""``kontur demo``: the cores at work on a built-in program.
+"""``kontur demo``: the cores at work on a built-in program, and the machine controller on a
+part program.
 
 Every figure printed is measured in this run: the golden models and the RTL (Amaranth's
-simulator, Icarus, Verilator) trace the same commands and are compared clock for clock.
+simulator, Icarus, Verilator) trace the same commands and are compared clock for clock; the
+part program (``sim/host/programs/bracket.ngc``) runs through the whole controller on
+Verilator, its plot, waveform and summary written into ``build/demo/bracket/``.
 """
 
 import logging
 import math
 import time
+from pathlib import Path
 
 from .. import registry
 from ..geometry import radial_error, segment_deviation, walk
@@ -171,6 +175,35 @@ def demo(out):
     checks += _circular_section(out)
     checks += _program_section(out)
     ok = _rtl_section(out, checks)
+    ok &= _controller_section(out)
     out.write("\nall engines agree with the golden models\n" if ok else
               "\nTHE ENGINES DISAGREE\n")
     return 0 if ok else 1
+
+
+#: The demo's part program, and the clocks of its waveform (the first frames arriving and the
+#: first moves: the whole run would be gigabytes).
+PART = Path(__file__).resolve().parent / "programs" / "bracket.ngc"
+PART_VCD_CLOCKS = 60_000
+
+
+def _controller_section(out, program=PART, out_dir=None):
+    """5. The machine controller on Verilator: a part program through the whole top level."""
+    from .machining import RunError, execute, prepare, summary_text, write_outputs
+    out_dir = Path(out_dir or ROOT / "build" / "demo" / program.stem)
+    out.write(f"\n5. The machine controller: {program.name}, G-code in, step/dir out, on the "
+              f"iCEBreaker's\n   controller in Verilator (frames over its serial pin, checked "
+              f"against the models)\n\n")
+    job = prepare(program.read_text(), name=program.name)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        result = execute(job, "verilator", vcd=out_dir / "run.vcd",
+                         vcd_clocks=PART_VCD_CLOCKS)
+    except RunError as error:
+        out.write(f"   THE CONTROLLER DISAGREES: {error}\n")
+        return False
+    data = write_outputs(job, result, out_dir)
+    text = summary_text(data, out_dir)
+    text += f"waveform   {out_dir / 'run.vcd'} (the first {PART_VCD_CLOCKS:,} clocks)\n"
+    out.write("   " + text.rstrip("\n").replace("\n", "\n   ") + "\n")
+    return True

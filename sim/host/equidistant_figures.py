@@ -6,8 +6,8 @@ sim.host.equidistant_figures accuracy|formats|timing|fpga`` (docs/equidistant.md
   distances from the profile, the corners; then random polygons.
 * ``formats``: the effect of the fractional bits on a long line and on the test programs.
 * ``timing``: clocks, idle clocks and the first step of each test program on the cycle model.
-* ``fpga``: area (Yosys, nextpnr's packer) and speed (placed and routed on the iCEBreaker) of the
-  engine at width 16, both arc cores.
+* ``fpga``: area (Yosys, nextpnr's packer) of the engine at widths 8 to 16, and speed (placed and
+  routed on the iCEBreaker) at width 8, the widest that fits the UP5K, both arc cores.
 """
 
 import math
@@ -108,8 +108,8 @@ def formats(out):
     out.write("A line of 31623 steps (slope 1/3), r = 0, width 15: distance from the exact line "
               "by fractional bits\n\n")
     for fraction in (8, 11, 13, 15, 17, 19, 23):
-        report = _measure(line, 0, "extend", "normal", Formats(15, fraction))
-        out.write(f"  F = {fraction:2}: {float(report.path):.4f}\n")
+        prepared = prepare(line, 0, formats=Formats(15, fraction), verify=False)
+        out.write(f"  F = {fraction:2}: {float(check_trace(prepared).path):.4f}\n")
     out.write("\nThe test programs (both sides, radii 0-8), width 16: largest distance from the "
               "equidistant\n\n")
     for fraction in (6, 8, 12, 16, 20):
@@ -148,12 +148,27 @@ def timing(out):
 def fpga(out):
     from constraints import bench
     from .. import registry
-    designs = [("profile engine", 16, name,
-                (lambda n=name: registry.make_engine("profile", n, width=16)))
-               for name in registry.variants("profile")]
-    bench.area(out, designs=designs)
-    out.write("\n")
-    bench.speed(out, designs=designs)
+
+    def design(name, width):
+        return ("profile engine", width, name,
+                lambda: registry.make_engine("profile", name, width=width))
+    bench.area(out, designs=[design(name, width) for width in (8, 10, 12, 16)
+                             for name in registry.variants("profile")])
+    out.write("\nSpeed on the iCEBreaker (iCE40UP5K-SG48): the engine in ShiftInTop, width 8, "
+              "placed and routed\n(nextpnr fails the build below the board's 12 MHz; the "
+              "routed figure is read from its log)\n\n")
+    from constraints.flow import ToolchainError, measure_speed, parse_fmax, parse_utilisation
+    for name in registry.variants("profile"):
+        build_dir = bench.BUILD_ROOT / "speed" / f"profile_engine_w8_{name}"
+        try:
+            result = measure_speed(registry.make_engine("profile", name, width=8), build_dir)
+            fmax, lc = result["fmax"], result["lc"]
+        except ToolchainError:
+            log = (build_dir / "top.tim").read_text()
+            fmax, lc = parse_fmax(log), parse_utilisation(log).get("ICESTORM_LC")
+        (mhz, verdict, target), = fmax.values()
+        out.write(f"  {name:9} {mhz:6.2f} MHz ({verdict or '-'} at {target:g} MHz), "
+                  f"LC {lc[0]} of {lc[1]}\n")
     return 0
 
 

@@ -167,11 +167,13 @@ def _plan_times(job):
     return times
 
 
-def execute(job, engine="model", *, compress=None, vcd=None, build_root=None, progress=None):
+def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, build_root=None,
+            progress=None):
     """Run ``job`` on ``engine`` (one of :data:`ENGINES`); return the :class:`Result`.
 
     ``compress`` is the time compression of an RTL run (default :func:`auto_compress`); ``vcd``
-    a path for the waveform (RTL engines); ``progress`` a callable taking the steps made so far,
+    a path for the waveform (RTL engines; with ``vcd_clocks``, on Verilator, of the first
+    that many clocks only); ``progress`` a callable taking the steps made so far,
     called now and then (Verilator, Amaranth).
 
     Raises
@@ -208,7 +210,8 @@ def execute(job, engine="model", *, compress=None, vcd=None, build_root=None, pr
         fast = FastRun(controller, _root(build_root, "fastrun"), waves=vcd is not None)
         started = time.monotonic()                      # the build apart
         run = fast.run(sent, divisor=divisor, window=machine.queue_frames,
-                       max_clocks=max_clocks, vcd=vcd, progress=progress)
+                       max_clocks=max_clocks, vcd=vcd, vcd_clocks=vcd_clocks,
+                       progress=progress)
     elif engine == "amaranth":
         from ..testbench.host import run_amaranth
         run = run_amaranth(controller, sent, divisor=divisor, window=machine.queue_frames,

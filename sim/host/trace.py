@@ -135,7 +135,11 @@ def plan(kind, payload, *, variant=None, engine="model", width=None, vcd=None, c
             raise
         refused = reason
     steps = 0 if refused else _step_bound(kind, payload, width)
-    clocks = _latency(kind, width) + _clocks_per_step(item, params) * (steps + 16) + 64
+    if item.clocks is not None and not refused:
+        core_clocks = item.clocks(payload, width, **params)    # a core with its own timing
+    else:
+        core_clocks = _clocks_per_step(item, params) * (steps + 16)
+    clocks = _latency(kind, width) + core_clocks + 64
     step_model = engine == "model" and not cycles
     if not step_model and clocks > limit:
         seconds = clocks / SPEED[engine]

@@ -57,6 +57,10 @@ class StatusModel:
         return int(self.inflight == 0 and self.waiting is None)
 
     @property
+    def alone(self):
+        return int(self.inflight == 1 and self.waiting is None)
+
+    @property
     def busy(self):
         return int(self.inflight != 0 or self.waiting is not None)
 

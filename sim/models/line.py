@@ -27,6 +27,7 @@ class LineEngineModel:
         """Return every register to its reset value (the RTL's synchronous reset)."""
         self.core.reset()
         self.status.reset()
+        self.stage = None                # the stage register's segment, or None
         self.prepared_dir = 0
         self.prepared_moves = 0
         self.direction = 0
@@ -41,19 +42,21 @@ class LineEngineModel:
         limit = (1 << self.width) - 1
         x = payload["x"] if payload is not None else 0
         y = payload["y"] if payload is not None else 0
-        too_wide = abs(x) > limit or abs(y) > limit
-        zero = (abs(x) & limit) == 0 and (abs(y) & limit) == 0
 
-        accepting = not abort and not status.flushing and (not zero or status.idle)
-        refuse = int(bool(valid) and too_wide and bool(status.idle) and not status.flushing
-                     and not abort)
+        # The stage register: a segment's magnitudes, signs and checks on their way to the
+        # core (or, refused, to its outcome).
+        stage = self.stage
+        core_valid = int(stage is not None and not stage["wide"]
+                         and (not stage["zero"] or bool(status.alone)) and not abort)
+        handover = core_valid and bool(core["ready"])
+        refuse = int(stage is not None and stage["wide"] and bool(status.alone) and not abort)
+        ready = int(not abort and not status.flushing
+                    and (stage is None or bool(handover) or bool(refuse)))
+        accept = int(bool(valid) and bool(ready))
         end = int((bool(core["done"]) and not abort) or bool(refuse))
         stream = status.evaluate(step=core["step"], direction=self.direction, end=end,
                                  outcome=REFUSED if refuse else DONE,
                                  status_ready=status_ready)
-        core_valid = int(bool(valid) and accepting and not too_wide)
-        ready = refuse if too_wide else int(bool(core["ready"]) and accepting)
-        accept = int(bool(valid) and bool(ready))
 
         outputs = {"ready": ready, "step": core["step"], "dir": self.direction,
                    "busy": status.busy, "due": int(bool(core["due"]) and not hold),
@@ -62,13 +65,19 @@ class LineEngineModel:
         state = self.state()
 
         # ---- clock edge -------------------------------------------------------------------
-        magnitudes = {"x": abs(x) & limit, "y": abs(y) & limit}
+        magnitudes = stage["magnitudes"] if stage is not None else {"x": 0, "y": 0}
         self.core.cycle(tick=int(bool(tick) and not hold), abort=abort, valid=core_valid,
                         payload=magnitudes)
         if core["start"] and self.prepared_moves:
             self.direction = self.prepared_dir
-        if core_valid and core["ready"]:
-            self.prepared_dir = int(x < 0) | int(y < 0) << 1
-            self.prepared_moves = int(not zero)
+        if handover:
+            self.prepared_dir, self.prepared_moves = stage["dir"], int(not stage["zero"])
+        if accept:
+            self.stage = {"magnitudes": {"x": abs(x) & limit, "y": abs(y) & limit},
+                          "dir": int(x < 0) | int(y < 0) << 1,
+                          "zero": (abs(x) & limit) == 0 and (abs(y) & limit) == 0,
+                          "wide": abs(x) > limit or abs(y) > limit}
+        elif handover or refuse or abort:
+            self.stage = None
         status.advance(accept=accept, flush=abort)
         return outputs, state

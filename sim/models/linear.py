@@ -143,9 +143,10 @@ class LinearInterpolatorModel:
         return gen4 & self.trigger14 & (1 - sign), gen4 & self.trigger14 & sign
 
     def _and9_run(self, and5, and6):
-        """AND 9 on the counters' contents after this clock's pulse: the frame's last step."""
-        return int(self.trigger14 and self.counter1 - and5 == 0
-                   and self.counter2 - and6 == -1)
+        """AND 9: a pulse while one step is left, counters 1 and 2 holding 1 and -1 or 0 and 0
+        (the pulse is then that step: a frame exhausts both counters at its last step)."""
+        one_left = (self.counter1, self.counter2) in ((1, -1), (0, 0))
+        return int(bool(self.trigger14) and bool(and5 | and6) and one_left)
 
     def ready(self, in22, in23, tick=1):
         """Whether a start of frame is accepted in this clock (one frame ends per clock)."""
@@ -175,12 +176,12 @@ class LinearInterpolatorModel:
             self.counter1 = in22
             self.counter2 = in23 - 1               # OR 13: the start pulse subtracts one
             self.adder3 = in24
-            self.reg22, self.reg23 = in22, in23
+            self.reg22, self.reg23 = in22, in23 - 1     # register 23' holds min - 1
         elif and9:
             self.counter1 = self.counter2 = self.adder3 = 0
         else:
             if and5:   # multiplexer 12, channel 1: F -= C2 (device) or F -= min (exact)
-                self.adder3 += ~self.counter2 if self.variant == "device" else -self.reg23
+                self.adder3 += ~(self.counter2 if self.variant == "device" else self.reg23)
             if and6:   # multiplexer 12, channel 2: F += C1 (device) or F += |X|-|Y| (exact)
                 self.adder3 += self.counter1 if self.variant == "device" else self.reg22
             self.counter1 -= and5
