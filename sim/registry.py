@@ -452,6 +452,9 @@ register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node
 # at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=6e6, arc=("fast", 16), divide=2))
-# The ULX3S-85F holds both engines at their default widths, at the board's 25 MHz.
-register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
-               line=("exact", 16), arc=("fast", 24), profile=("fast", 16)))
+# The ULX3S-85F holds both engines at their default widths and the equidistant engine of
+# cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and 7-8
+# through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the controller
+# runs at half the board's clock, 12.5 MHz.
+register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
+               line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2))

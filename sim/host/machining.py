@@ -331,7 +331,8 @@ def summary(job, result):
         "moves": len(moves),
         "lines": [moves[0].line, moves[-1].line] if moves else None,
         "segments": len(job.segments),
-        "arcs": sum(1 for s in job.segments if s.kind == "arc"),
+        "arcs": sum(1 for s in job.segments if s.kind == "arc"
+                    or s.kind == "profile" and s.radius is not None),
         "steps": len(steps),
         "diagonal_steps": sum(1 for dx, dy in steps if dx and dy),
         "machining_seconds": job.seconds,
