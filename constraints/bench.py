@@ -12,7 +12,8 @@ import sys
 import time
 from pathlib import Path
 
-from .flow import (ROOT, SEED, ToolchainError, measure_area, measure_speed, tool_versions)
+from .flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
+                   tool_versions)
 
 __all__ = ["area", "speed", "main", "area_designs", "speed_designs", "report", "report_designs",
            "simulation_throughput", "WIDTHS"]
@@ -196,9 +197,10 @@ def _steps_per_clock(core):
 
 
 def report_designs(widths=WIDTHS):
-    """The designs of :func:`report`: dicts with ``kind`` (``"line"``, ``"arc"``, ``"bare"``),
+    """The designs of :func:`report`: dicts with ``kind`` (a registry kind, or ``"bare"``),
     ``what`` (``"core"``, ``"engine"``, ``"accumulator"``), ``variant``, ``width``, ``factory``
-    and ``steps`` (steps per clock)."""
+    and ``steps`` (steps per clock). Every kind at each of ``widths``, but program kinds (the
+    equidistant engine) at their default width alone."""
     from hdl.top import BareAccumulator
     from sim import registry
     rows = []
@@ -206,14 +208,21 @@ def report_designs(widths=WIDTHS):
         rows.append({"kind": "bare", "what": "accumulator", "variant": "-", "width": width,
                      "factory": (lambda w=width: BareAccumulator(w)), "steps": 1})
         for kind in registry.KINDS:
+            at = width
+            if registry.KINDS[kind].program:
+                # The equidistant engine: at its default width only (8 bits, already most of
+                # the UP5K; a wider one does not fit it, see docs/equidistant.md).
+                if width != widths[0]:
+                    continue
+                at = registry.KINDS[kind].default_width
             for name in registry.variants(kind):
-                core = (lambda k=kind, n=name, w=width: registry.variant(k, n).core(width=w))
-                engine = (lambda k=kind, n=name, w=width: registry.make_engine(k, n, width=w))
+                core = (lambda k=kind, n=name, w=at: registry.variant(k, n).core(width=w))
+                engine = (lambda k=kind, n=name, w=at: registry.make_engine(k, n, width=w))
                 probe = core()
                 steps = _steps_per_clock(getattr(probe, "interpolator", probe))
                 _used(probe)                  # made only to be asked; never elaborated
                 for what, factory in (("core", core), ("engine", engine)):
-                    rows.append({"kind": kind, "what": what, "variant": name, "width": width,
+                    rows.append({"kind": kind, "what": what, "variant": name, "width": at,
                                  "factory": factory, "steps": steps})
     return rows
 
@@ -309,12 +318,18 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
             row["area"][device] = measure_area(row["factory"](), name,
                                                build_root / "area" / device / name,
                                                device=device)
+            # Every seed at the default widths (not for program kinds: one seed of the
+            # equidistant engine is several minutes).
             default = (row["width"] in defaults if row["kind"] == "bare"
-                       else row["width"] == registry.KINDS[row["kind"]].default_width)
-            row["speed"][device] = measure_speed(row["factory"](),
-                                                 build_root / "speed" / device / name,
-                                                 device=device,
-                                                 seeds=seeds if default else seeds[:1])
+                       else row["width"] == registry.KINDS[row["kind"]].default_width
+                       and not registry.KINDS[row["kind"]].program)
+            try:
+                row["speed"][device] = measure_speed(row["factory"](),
+                                                     build_root / "speed" / device / name,
+                                                     device=device,
+                                                     seeds=seeds if default else seeds[:1])
+            except DoesNotFit as error:
+                row["speed"][device] = {"mhz": None, "fits": (error.used, error.available)}
             log.write(f"{row['label']} {row['width']} {row['variant']} {device}: "
                       f"{row['speed'][device]['mhz']}, {time.monotonic() - started:.0f} s\n")
     parts = []
@@ -358,13 +373,20 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
     from constraints.flow import DEVICES
     from sim import registry
     first = seeds[0]
-    mhz = {}
+    mhz = {}                             # None: the design does not fit the device
     for row in rows:
         for device in devices:
-            mhz[(id(row), device)] = row["speed"][device]["mhz"][first]
+            figures = row["speed"][device]["mhz"]
+            mhz[(id(row), device)] = None if figures is None else figures[first]
 
     def bare(row, device):
-        return mhz[(id(_find(rows, kind="bare", width=row["width"])), device)]
+        """The bare accumulator's Fmax at the row's width (None: none of that width)."""
+        found = _find(rows, kind="bare", width=row["width"])
+        return None if found is None else mhz[(id(found), device)]
+
+    def no_fit(row, device):
+        used, available = row["speed"][device]["fits"]
+        return f"does not fit ({used} of {available} {DEVICES[device]['logic']})"
 
     def core_of(row):
         return _find(rows, kind=row["kind"], what="core", variant=row["variant"],
@@ -391,9 +413,14 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
         if row["width"] != default:
             continue
         for device in devices:
-            run = row["speed"][device]["runs"][first]
             value = mhz[(id(row), device)]
-            if row["what"] == "core" and row["steps"] == 1:
+            if value is None:
+                targets.append([f"{row['label']} {row['width']} {row['variant']}",
+                                DEVICES[device]["name"].split(" ")[0], "Fmax",
+                                no_fit(row, device), "not met", "area"])
+                continue
+            run = row["speed"][device]["runs"][first]
+            if row["what"] == "core" and row["steps"] == 1 and bare(row, device) is not None:
                 ratio = value / bare(row, device)
                 targets.append([f"{row['label']} {row['width']} {row['variant']}",
                                 DEVICES[device]["name"].split(" ")[0],
@@ -401,8 +428,8 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
                                 f"{value:.1f} / {bare(row, device):.1f} MHz = {ratio:.2f}",
                                 "met" if ratio >= CORE_RATIO else "not met",
                                 "-" if ratio >= CORE_RATIO else _path(run)])
-            if row["what"] == "engine":
-                base = mhz[(id(core_of(row)), device)]
+            base = mhz[(id(core_of(row)), device)] if row["what"] == "engine" else None
+            if base is not None:
                 ratio = value / base
                 targets.append([f"{row['label']} {row['width']} {row['variant']}",
                                 DEVICES[device]["name"].split(" ")[0],
@@ -434,15 +461,19 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
         for row in rows:
             speed = row["speed"][device]
             figures = speed["mhz"]
+            if figures is None:
+                table.append([row["label"], row["width"], row["variant"], speed["fits"][0],
+                              no_fit(row, device), "-", "-", "-", f"{row['steps']:g}", "-"])
+                continue
             value = figures[first]
             spread = (f"{min(figures.values()):.1f}–{max(figures.values()):.1f}"
                       if len(figures) > 1 else "-")
             if row["kind"] == "bare":
                 ratio = "1"
             else:
-                ratio = f"{value / bare(row, device):.2f}"
-            versus_core = (f"{value / mhz[(id(core_of(row)), device)]:.2f}"
-                           if row["what"] == "engine" else "-")
+                ratio = "-" if bare(row, device) is None else f"{value / bare(row, device):.2f}"
+            base = mhz[(id(core_of(row)), device)] if row["what"] == "engine" else None
+            versus_core = "-" if base is None else f"{value / base:.2f}"
             table.append([row["label"], row["width"], row["variant"],
                           speed["runs"][first]["logic"][0],
                           " / ".join(f"{figures[s]:.1f}" for s in sorted(figures)), spread,

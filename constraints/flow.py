@@ -55,6 +55,15 @@ class ToolchainError(RuntimeError):
     """An FPGA tool is missing or failed; the message says which and what to do."""
 
 
+class DoesNotFit(ToolchainError):
+    """nextpnr could not place a design: it needs more logic cells than the device has.
+    ``used`` and ``available`` are the figures of its log."""
+
+    def __init__(self, message, used, available):
+        super().__init__(message)
+        self.used, self.available = used, available
+
+
 def tool_path(tool):
     """Return the executable to run for ``tool`` (``"yosys"``, ``"nextpnr-ice40"`` or
     ``"icepack"``): the program named by its variable (``YOSYS``, ...) if set, else the yowasp
@@ -347,7 +356,7 @@ def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     MHz}, "synth_seconds", "build_dir"}``: ``fmax`` the :func:`parse_fmax` dict of the routed
     design, ``logic`` the ``(used, available)`` logic cells (``ICESTORM_LC``, ``TRELLIS_COMB``),
     ``ff`` the flip-flops (``TRELLIS_FF``; ``None`` on the iCE40, whose flip-flops sit in the
-    logic cells).
+    logic cells). Raises :exc:`DoesNotFit` for a design larger than the device.
     """
     import shlex
 
@@ -383,8 +392,21 @@ def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     for seed in seeds:
         began = time.monotonic()
         log = f"top.seed{seed}.log"
-        _run([tool_path(tool), *args, "--seed", str(seed), "--log", log], cwd=build_dir,
-             what=f"{tool} --seed {seed} of {build_dir.name}")
+        try:
+            _run([tool_path(tool), *args, "--seed", str(seed), "--log", log], cwd=build_dir,
+                 what=f"{tool} --seed {seed} of {build_dir.name}")
+        except ToolchainError as error:
+            # A design larger than the device: say so with nextpnr's own figures.
+            try:
+                used, available = parse_utilisation(
+                    (build_dir / log).read_text())[DEVICES[device]["logic"]]
+            except (OSError, ValueError, KeyError):
+                raise error from None
+            if used <= available:
+                raise
+            raise DoesNotFit(f"{build_dir.name} does not fit the {DEVICES[device]['name']}: "
+                             f"{used} of {available} {DEVICES[device]['logic']}",
+                             used, available) from None
         text = (build_dir / log).read_text()
         utilisation = parse_utilisation(text)
         runs[seed] = {"fmax": parse_fmax(text), "logic": utilisation[DEVICES[device]["logic"]],

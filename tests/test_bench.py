@@ -188,6 +188,8 @@ class ReportTestCase(unittest.TestCase):
 
         def speed(design, build_dir, *, device, seeds):
             bench._used(design)
+            if "profile_engine" in str(build_dir) and device == "ice40":
+                raise flow.DoesNotFit("too big", 7911, 5280)
             mhz = 100.0 if "bare" in str(build_dir) else 90.0 if "core" in str(build_dir) \
                 else 72.0
             run = {"logic": (123, 5280), "path": {"from": "a", "to": "b", "luts": 3,
@@ -195,7 +197,10 @@ class ReportTestCase(unittest.TestCase):
             return {"mhz": {seed: mhz + seed for seed in seeds},
                     "runs": {seed: run for seed in seeds}}
 
-        rows = [r for r in bench.report_designs((16,)) if r["kind"] in ("bare", "line")]
+        rows = [r for r in bench.report_designs((16,))
+                if r["kind"] in ("bare", "line", "profile")]
+        # The equidistant engine, a program kind, at its default width alone.
+        self.assertEqual({r["width"] for r in rows if r["kind"] == "profile"}, {8})
         with tempfile.TemporaryDirectory() as root, \
                 mock.patch.object(bench, "measure_area", area), \
                 mock.patch.object(bench, "measure_speed", speed), \
@@ -216,6 +221,15 @@ class ReportTestCase(unittest.TestCase):
                       "not met |", text)
         self.assertIn("| LinearCore | 16 | device | 123 | 91.0 / 92.0 / 93.0 | 91.0–93.0 | 0.90 "
                       "| - | 1 | 91.0 |", text)
+        # A design larger than the device is reported as such, with nextpnr's figures; with no
+        # bare accumulator of its width there is no ratio to one.
+        self.assertIn("| EquidistantEngine | 8 | fast | 7911 | does not fit (7911 of 5280 "
+                      "ICESTORM_LC) | - | - | - | 1 | - |", text)
+        self.assertIn("| EquidistantEngine 8 fast | iCE40UP5K-SG48 | Fmax | does not fit (7911 "
+                      "of 5280 ICESTORM_LC) | not met | area |", text)
+        # A program kind is measured with the first seed alone.
+        self.assertIn("| EquidistantEngine | 8 | fast | 123 | 73.0 | - | - | 0.80 | 1 | 73.0 |",
+                      text)
         for heading in ("## Speed on the iCE40UP5K-SG48", "## Speed on the ECP5-85F",
                         "## Area, each design alone", "## Simulation throughput"):
             self.assertIn(heading, text)
@@ -277,6 +291,33 @@ class SpeedOptionsTestCase(unittest.TestCase):
                 flow.measure_speed(BareAccumulator(4), build_dir)
         self.assertEqual([command[0] for command in commands], ["yosys", "nextpnr-ice40"])
         self.assertIn("--timing-allow-fail", commands[-1])
+
+    def test_a_design_too_large_is_said_to_be(self):
+        # nextpnr fails to place a design larger than the device: measure_speed raises
+        # DoesNotFit with the figures of nextpnr's log; any other failure stays a failure.
+        from hdl.top import BareAccumulator
+
+        for used, expected in ((7911, flow.DoesNotFit), (4000, flow.ToolchainError)):
+            def run(args, cwd, what, used=used):
+                if "nextpnr" in what:
+                    log = Path(cwd) / args[args.index("--log") + 1]
+                    log.write_text(f"Info: Device utilisation:\n"
+                                   f"Info: \t         ICESTORM_LC:    {used}/   5280   149%\n"
+                                   f"ERROR: Failed to expand region\n")
+                    raise flow.ToolchainError("nextpnr failed")
+                return ""
+
+            with self.subTest(used=used), tempfile.TemporaryDirectory() as build_dir, \
+                    mock.patch.object(flow, "_run", run), \
+                    mock.patch.object(flow, "tool_path", lambda tool: tool):
+                with self.assertRaises(flow.ToolchainError) as caught:
+                    flow.measure_speed(BareAccumulator(4), build_dir)
+                self.assertIs(type(caught.exception), expected)
+                if expected is flow.DoesNotFit:
+                    self.assertEqual((caught.exception.used, caught.exception.available),
+                                     (7911, 5280))
+                    self.assertRegex(str(caught.exception), r"does not fit the iCE40UP5K-SG48: "
+                                                            r"7911 of 5280 ICESTORM_LC$")
 
 
 class AreaTestCase(unittest.TestCase):
