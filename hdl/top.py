@@ -321,7 +321,11 @@ class ControllerTop(Elaboratable):
             m.domains.motion = ClockDomain("motion")
             half = Signal()                         # the motion clock: the board's, halved
             m.d.sync += half.eq(~half)
-            m.d.comb += [ClockSignal("motion").eq(half), ResetSignal("motion").eq(ResetSignal())]
+            m.d.comb += [
+                ClockSignal("motion").eq(half),
+                # The board's reset where it has one (the ULX3S's sync domain has none).
+                ResetSignal("motion").eq(ResetSignal(allow_reset_less=True)),
+            ]
             platform.add_clock_constraint(half, platform.default_clk_frequency / 2)
             controller = DomainRenamer("motion")(controller)
         m.submodules.controller = controller

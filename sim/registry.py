@@ -66,7 +66,9 @@ class Board:
     """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top (a
     program played in a loop); ``clock_hz`` is the machine controller's clock, the board's
     divided by ``divide`` (see :class:`hdl.top.ControllerTop`), ``line`` and ``arc`` the
-    ``(variant, width)`` of its engines (see :func:`make_controller`)."""
+    ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
+    (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
+    (see :func:`make_controller`)."""
     name: str
     help: str
     platform: object
@@ -75,6 +77,7 @@ class Board:
     line: tuple = ("exact", 16)
     arc: tuple = ("fast", 24)
     divide: int = 1
+    profile: tuple = None
 
 
 KINDS = {}
@@ -148,7 +151,10 @@ def make_model(kind_name, variant_name=None, *, width=None, **params):
 
 
 def board(name):
-    """The :class:`Board` ``name``; :exc:`ValueError` if there is none."""
+    """The :class:`Board` ``name`` (a :class:`Board` itself is returned as it is: a board not
+    registered, for tests); :exc:`ValueError` if there is none."""
+    if isinstance(name, Board):
+        return name
     if name not in BOARDS:
         raise ValueError(f"Board must be one of {', '.join(map(repr, BOARDS))}, not {name!r}")
     return BOARDS[name]
@@ -156,16 +162,20 @@ def board(name):
 
 def make_controller(board_name, machine):
     """The machine controller of a board (:class:`hdl.motion.controller.MotionController`)
-    with its engines, its clock, and the serial rate, queue length and step/dir timing of
-    ``machine`` (a :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
+    with its engines (the equidistant engine too where the board has one), its clock, and the
+    serial rate, queue length and step/dir timing of ``machine`` (a
+    :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
     """
     from hdl.motion.controller import MotionController
     item = board(board_name)
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock is {machine.clock_hz:g} Hz, the {item.name}'s "
                          f"{item.clock_hz:g} Hz")
+    profile = None if item.profile is None else \
+        make_engine("profile", item.profile[0], width=item.profile[1])
     return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
                             arc=make_engine("arc", item.arc[0], width=item.arc[1]),
+                            profile=profile,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width)
@@ -442,6 +452,9 @@ register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node
 # at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=6e6, arc=("fast", 16), divide=2))
-# The ULX3S-85F holds both engines at their default widths, at the board's 25 MHz.
-register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
-               line=("exact", 16), arc=("fast", 24)))
+# The ULX3S-85F holds both engines at their default widths and the equidistant engine of
+# cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and 7-8
+# through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the controller
+# runs at half the board's clock, 12.5 MHz.
+register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
+               line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2))

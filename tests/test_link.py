@@ -4,22 +4,31 @@
 import random
 import unittest
 
-from amaranth import Module
+from amaranth import Module, Shape
 
+from hdl.equidistant import EquidistantEngine, Formats
 from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
-                             PAYLOAD_BYTES, QUERY, STATUS, STOP, SYNC, FrameDecoder, FrameEncoder)
+                             PAYLOAD_BYTES, PROFILE, QUERY, STATUS, STOP, SYNC, FrameDecoder,
+                             FrameEncoder, host_lengths, profile_bytes)
 from hdl.motion.queue import FrameQueue
 from sim.host import protocol
 
-from .utils import simulate
+from .utils import simulate, used
 
 
-def random_frames(rng, count):
-    """Bytes of ``count`` frames, good and bad, with noise between some of them."""
+#: The PROFILE payload of the equidistant engine at width 16 (304 bits).
+PROFILE_BYTES = profile_bytes(EquidistantEngine.Frame(Formats(16)))
+
+
+def random_frames(rng, count, *, profile=None):
+    """Bytes of ``count`` frames, good and bad, with noise between some of them (PROFILE
+    frames of ``profile`` bytes among them when it is given)."""
     stream = bytearray()
+    lengths = host_lengths(profile or PROFILE_BYTES)
+    kinds = [LINE, ARC, DWELL, FEED, STOP, CONFIG, QUERY, ABORT] + [PROFILE] * 2 * bool(profile)
     for _ in range(count):
-        kind = rng.choice([LINE, ARC, DWELL, FEED, STOP, CONFIG, QUERY, ABORT])
-        payload = bytes(rng.randrange(256) for _ in range(protocol.LENGTHS[kind]))
+        kind = rng.choice(kinds)
+        payload = bytes(rng.randrange(256) for _ in range(lengths[kind]))
         data = bytearray(protocol.frame(kind, payload))
         damage = rng.random()
         if damage < 0.1:
@@ -37,12 +46,14 @@ def random_frames(rng, count):
 
 
 class DecoderTestCase(unittest.TestCase):
-    def decode(self, data, *, seed, depth=512):
-        """Decode ``data`` into a frame queue read with random stalls; return the events:
-        the frames read back from the queue, and the query, abort and error signals."""
+    def decode(self, data, *, seed, depth=512, profile=None):
+        """Decode ``data`` into a frame queue read with random stalls (a decoder whose PROFILE
+        frames have ``profile`` bytes); return the events: the frames read back from the
+        queue, and the query, abort and error signals."""
         rng = random.Random(seed)
+        lengths = host_lengths(profile)
         m = Module()
-        m.submodules.decoder = dut = FrameDecoder()
+        m.submodules.decoder = dut = FrameDecoder(profile=profile)
         m.submodules.queue = queue = FrameQueue(depth)
         m.d.comb += [
             queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
@@ -63,7 +74,7 @@ class DecoderTestCase(unittest.TestCase):
                 ctx.set(dut.error.ready, 1)
                 if ctx.get(queue.r.valid) and ready:
                     current.append(ctx.get(queue.r.payload))
-                    if len(current) == 1 + protocol.LENGTHS[current[0]]:
+                    if len(current) == 1 + lengths[current[0]]:
                         frames.append(("frame", current[0], bytes(current[1:])))
                         current = []
                 if ctx.get(dut.query):
@@ -89,6 +100,34 @@ class DecoderTestCase(unittest.TestCase):
             self.assertEqual(signals, [e for e in expected if e[0] != "frame"])
             self.assertGreater(sum(e[0] == "error" for e in expected), 10)
             self.assertGreater(sum(e[0] == "frame" for e in expected), 50)
+
+    def test_profile_frames_as_the_reference(self):
+        # A controller with the equidistant engine takes PROFILE frames of its engine's length
+        # among the others, damaged ones dropped, exactly as the reference parser does.
+        data = random_frames(random.Random(11), 120, profile=PROFILE_BYTES)
+        expected = protocol.CommandParser(profile=PROFILE_BYTES).feed(data)
+        frames, signals = self.decode(data, seed=11, depth=1024, profile=PROFILE_BYTES)
+        self.assertEqual(frames, [e for e in expected if e[0] == "frame"])
+        self.assertEqual(signals, [e for e in expected if e[0] != "frame"])
+        self.assertGreater(sum(e[0] == "frame" and e[1] == PROFILE for e in expected), 15)
+        self.assertGreater(sum(e[0] == "error" for e in expected), 10)
+
+    def test_profile_is_unknown_without_the_engine(self):
+        # To a controller without the engine a PROFILE frame is an unknown type (ERROR 2):
+        # nothing of it reaches the queue, and the frame after it is taken.
+        good = protocol.profile({"kind": 2, "k": -5, "b": 1 << 30, "side": -1}, width=16)
+        data = good + protocol.line(3, -4) + good + protocol.stop()
+        expected = [("error", 2), ("frame", LINE, protocol.line(3, -4)[3:-2]), ("error", 2),
+                    ("frame", STOP, b"")]
+        self.assertEqual(protocol.CommandParser().feed(data), expected)
+        frames, signals = self.decode(data, seed=1)
+        self.assertEqual(frames, [e for e in expected if e[0] == "frame"])
+        self.assertEqual(signals, [("error", 2), ("error", 2)])
+        plain, with_profile = FrameDecoder(), FrameDecoder(profile=38)
+        used(plain, with_profile)
+        self.assertEqual(plain.lengths, host_lengths())
+        self.assertNotIn(PROFILE, host_lengths())
+        self.assertEqual(with_profile.lengths[PROFILE], 38)
 
     def test_queue_full_drops_and_reports(self):
         # A 32-byte queue nobody reads: frames fit until one does not; that one is dropped
@@ -138,6 +177,39 @@ class ReferenceTestCase(unittest.TestCase):
             self.assertNotIn(("frame", kind, payload), events)
             self.assertEqual(events[-1], ("frame", STOP, b""))          # and recovers
             self.assertTrue(any(e[0] == "error" for e in events))
+
+    def test_profile_packs_the_engines_layout(self):
+        # A PROFILE payload is the engine frame's bits, least significant first: unpacked with
+        # the layout it gives every field back; its length is the layout's in whole bytes.
+        rng = random.Random(5)
+        for width in (12, 16):
+            layout = EquidistantEngine.Frame(Formats(width))
+            self.assertEqual(profile_bytes(layout), (layout.size + 7) // 8)
+            shapes = {name: Shape.cast(field.shape) for name, field in layout}
+            for _ in range(20):
+                fields = {}
+                for name, shape in shapes.items():
+                    low = -(1 << (shape.width - 1)) if shape.signed else 0
+                    fields[name] = rng.randrange(low, low + (1 << shape.width))
+                data = protocol.profile(fields, width=width)
+                self.assertEqual(data[:3], bytes([SYNC, PROFILE, profile_bytes(layout)]))
+                bits = int.from_bytes(data[3:-2], "little")
+                back = {}
+                for name, field in layout:
+                    value = (bits >> field.offset) & ((1 << field.width) - 1)
+                    if shapes[name].signed and value >> (field.width - 1):
+                        value -= 1 << field.width
+                    back[name] = value
+                self.assertEqual(back, fields)
+        self.assertEqual(PROFILE_BYTES, 38)
+        self.assertEqual(len(protocol.profile({"kind": 1, "x": -3, "y": 4}, width=16)), 43)
+        with self.assertRaisesRegex(ValueError, r"^PROFILE field x must be an integer from "
+                                                r"-65536 to 65535, not 65536$"):
+            protocol.profile({"kind": 1, "x": 1 << 16}, width=16)
+        with self.assertRaisesRegex(ValueError, r"no field 'z'"):
+            protocol.profile({"z": 1}, width=16)
+        with self.assertRaisesRegex(ValueError, r"1 to 255 bytes, not 0"):
+            host_lengths(0)
 
     def test_frames_and_their_checks(self):
         self.assertEqual(PAYLOAD_BYTES, 17)

@@ -27,9 +27,11 @@ class FakeMachine:
     STATUS with the position the moves add up to (``offset`` added). It checks that the host
     never has more than ``window`` queued frames unanswered."""
 
-    def __init__(self, window, *, outcome=None, drop=None, offset=(0, 0), silent_after=None):
+    def __init__(self, window, *, outcome=None, drop=None, offset=(0, 0), silent_after=None,
+                 profile=None):
         self.window = window
-        self.parser = protocol.CommandParser()
+        self.parser = protocol.CommandParser(profile=profile)
+        self.kinds = []
         self.outcome = outcome or {}
         self.drop = drop
         self.offset = offset
@@ -45,6 +47,7 @@ class FakeMachine:
     def write(self, data):
         for event in self.parser.feed(data):
             if event[0] == "frame":
+                self.kinds.append(event[1])
                 self.unanswered += 1
                 self.most = max(self.most, self.unanswered)
                 assert self.unanswered <= self.window, "the host overran the window"
@@ -130,6 +133,30 @@ class SendTestCase(unittest.TestCase):
         with self.assertRaisesRegex(SendError, r"ended at \(1, 0\) steps, not at the program's "
                                                r"end \(0, 0\)"):
             send(job, FakeMachine(4, offset=(1, 0)))
+
+    def test_compensated_program(self):
+        # A G42 contour's PROFILE frames stream under the same window; the machine behind the
+        # port moves by their steps (the equidistant engine's, here given as an offset).
+        from hdl.motion.link import PROFILE
+        from pathlib import Path
+        plate = Path(__file__).resolve().parent.parent / "sim" / "host" / "programs" / "plate.ngc"
+        board = registry.board("ulx3s")
+        job = prepare(plate.read_text(), machine=Machine(clock_hz=board.clock_hz, queue_frames=4,
+                                                         cutter_radius=3), board="ulx3s")
+        moved = [sum(d[i] for s in job.segments if s.kind == "profile" for d in s.steps)
+                 for i in (0, 1)]
+        from hdl.motion.link import profile_bytes
+        engine = registry.make_engine("profile", board.profile[0], width=board.profile[1])
+        port = FakeMachine(4, profile=profile_bytes(engine.signature.frame), offset=moved)
+        self.assertEqual(send(job, port), tuple(job.end))
+        frames, _ = job.frames()
+        self.assertEqual(port.count, len(frames))
+        self.assertEqual(port.most, 4)
+        self.assertEqual(port.kinds.count(PROFILE),
+                         sum(1 for s in job.segments if s.kind == "profile"))
+        # To a controller without the engine the PROFILE frames are unknown types.
+        first = next(frame for frame in frames if frame[1] == PROFILE)
+        self.assertEqual(protocol.CommandParser().feed(first), [("error", 2)])
 
     def test_command_line(self):
         # The port is opened through pyserial: a port that does not exist is a failure (1), a

@@ -1,9 +1,9 @@
 """The machine controller: frames over a serial line in, step/dir out.
 
 UART (:mod:`.uart`) -> :class:`~.link.FrameDecoder` -> frame queue (block RAM) -> dispatcher ->
-engines (a line engine and an arc engine) -> step/dir stage; outcomes, errors and status
-replies go back through :class:`~.link.FrameEncoder` and the UART. The protocol is
-:mod:`.link`'s.
+engines (a line engine, an arc engine, and optionally the equidistant engine of cutter-radius
+compensation) -> step/dir stage; outcomes, errors and status replies go back through
+:class:`~.link.FrameEncoder` and the UART. The protocol is :mod:`.link`'s.
 """
 
 from amaranth import *
@@ -13,8 +13,8 @@ from amaranth.lib.wiring import In, Out
 from ..elements._checks import check_width
 from ..engine import MotionSignature, Outcome
 from .feed import FeedGenerator, Profile, rate_limit
-from .link import (ARC, CONFIG, DWELL, ERROR, FEED, LENGTHS, LINE, OUTCOME, PAYLOAD_BYTES,
-                   QUEUED, STATUS, FrameDecoder, FrameEncoder)
+from .link import (ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME, PROFILE, QUEUED, STATUS,
+                   FrameDecoder, FrameEncoder, host_lengths, profile_bytes)
 from .player import check_engine
 from .queue import FrameQueue
 from .stepdir import StepDirStage
@@ -23,14 +23,16 @@ from .uart import UARTReceiver, UARTTransmitter, divisor_for
 __all__ = ["MotionController", "Turn"]
 
 #: What a turn is for: nothing to move (FEED, STOP, CONFIG, an aborted frame), a line, an
-#: arc, a dwell.
-NONE_UNIT, LINE_UNIT, ARC_UNIT, DWELL_UNIT = 0, 1, 2, 3
+#: arc, a dwell, a frame of the profile engine.
+NONE_UNIT, LINE_UNIT, ARC_UNIT, DWELL_UNIT, PROFILE_UNIT = 0, 1, 2, 3, 4
 
 
-def Turn():
+def Turn(profile=False):
     """A queued frame's turn: which unit it runs on, whether it was aborted before it ran, and
-    its argument (a move's feed profile, or a dwell's clocks)."""
-    return data.StructLayout({"unit": 2, "aborted": 1, "argument": Profile()})
+    its argument (a move's feed profile, or a dwell's clocks). The unit takes a third bit only
+    in a controller with a ``profile`` engine."""
+    return data.StructLayout({"unit": 3 if profile else 2, "aborted": 1,
+                              "argument": Profile()})
 
 
 def _little(payload, first, count, *, signed_value=False):
@@ -39,7 +41,8 @@ def _little(payload, first, count, *, signed_value=False):
 
 
 class MotionController(wiring.Component):
-    """The machine: a frame queue fed over a serial line, two engines, a feed, step/dir pins.
+    """The machine: a frame queue fed over a serial line, two or three engines, a feed, step/dir
+    pins.
 
     Frames (:mod:`hdl.motion.link`) arrive on :py:`rx`. A checked queued frame goes into the
     frame queue (``queue_frames`` of them, in block RAM); the dispatcher hands each to its unit in
@@ -49,8 +52,20 @@ class MotionController(wiring.Component):
     the feed's permissions, so moves on different engines follow the program exactly, with no
     idle clock at a joint when the next move is prepared in time. A FEED frame sets the
     profile (cruise and exit rates, ramp-down point) of the move after it, CONFIG the
-    acceleration; a DWELL waits its clocks; STOP marks the end of a program. Every queued frame ends, in
-    order, with an ``OUTCOME`` reply (its number and outcome); a corrupt frame is dropped with
+    acceleration; a DWELL waits its clocks; STOP marks the end of a program.
+
+    With a ``profile`` engine (:class:`hdl.equidistant.EquidistantEngine`, cutter-radius
+    compensation) a PROFILE frame carries one of its frames (``RADIUS``, ``START``, an element,
+    ``CLOSE``); the dispatcher hands it over as soon as the engine takes it and records its
+    turn like a move's, so the engine reads its elements two ahead (its memory) while the
+    moves before them still run, and each frame's turn lasts from the end of the turn before
+    to the frame's outcome: an element's steps are made in its own turn, under its FEED's
+    profile. The engine takes ``RADIUS`` and ``START`` only when idle (every frame it took
+    before has its outcome), so the host sends ``START`` before the move that brings the
+    cutter there. Without ``profile`` nothing of it is built: PROFILE is an unknown type
+    (``ERROR`` 2) and the controller is the two-engine one, gate for gate.
+
+    Every queued frame ends, in order, with an ``OUTCOME`` reply (its number and outcome); a corrupt frame is dropped with
     an ``ERROR`` reply; ``QUERY`` answers ``STATUS`` (position, free queue slots, flags);
     ``ABORT`` stops the motion at once (the engines' abort) and ends every frame queued before
     it ``ABORTED``.
@@ -64,6 +79,9 @@ class MotionController(wiring.Component):
     ----------
     line, arc : :class:`~amaranth.lib.wiring.Component`
         The engines (``LineEngine`` and ``ArcEngine`` with 32-bit frame coordinates).
+    profile : :class:`~amaranth.lib.wiring.Component` or ``None``
+        The equidistant engine (or any engine: its frame layout's bits are the PROFILE
+        payload, :func:`~.link.profile_bytes`), or ``None`` (the default) for none.
     clock_hz : :class:`float`
         Clock frequency.
     baud : :class:`int`
@@ -98,20 +116,25 @@ class MotionController(wiring.Component):
         If the clock cannot make the baud rate.
     """
 
-    def __init__(self, *, line, arc, clock_hz=12e6, baud=115200, queue_frames=32,
+    def __init__(self, *, line, arc, profile=None, clock_hz=12e6, baud=115200, queue_frames=32,
                  dir_setup=12, step_width=24):
         check_engine(line)
         check_engine(arc)
+        if profile is not None:
+            check_engine(profile)
         check_width("Queue length", queue_frames, minimum=2)
         check_width("Direction setup", dir_setup, minimum=0)
         check_width("Step pulse width", step_width)
         divisor = divisor_for(clock_hz, baud)
-        self._line, self._arc = line, arc
+        self._line, self._arc, self._profile = line, arc, profile
         self._queue_frames = queue_frames
         self._clock_hz = clock_hz
         self._min_interval = dir_setup + step_width + 1
         self._divisor = divisor
         self._dir_setup, self._step_width = dir_setup, step_width
+        self._profile_bytes = None if profile is None else profile_bytes(profile.signature.frame)
+        self._lengths = {kind: count for kind, count in host_lengths(self._profile_bytes).items()
+                         if kind in QUEUED}
         super().__init__({
             "rx":       In(1, init=1),
             "tx":       Out(1, init=1),
@@ -127,19 +150,24 @@ class MotionController(wiring.Component):
         return self._queue_frames
 
     @property
+    def profile(self):
+        """The profile engine, or ``None``."""
+        return self._profile
+
+    @property
     def max_step_rate(self):
         """Steps a second at most, per axis (the step/dir timing's limit)."""
         return self._clock_hz / self._min_interval
 
     def elaborate(self, platform):
         m = Module()
-        line, arc = self._line, self._arc
+        line, arc, equidistant = self._line, self._arc, self._profile
         # The parts are made here, not in __init__: a controller only asked for its figures
         # (or refused) leaves no unused elaboratable behind.
-        longest = 1 + PAYLOAD_BYTES
+        longest = 1 + max(self._lengths.values())
         self.uart_rx = UARTReceiver(self._divisor)
         self.uart_tx = UARTTransmitter(self._divisor)
-        self.decoder = FrameDecoder()
+        self.decoder = FrameDecoder(profile=self._profile_bytes)
         self.queue = FrameQueue(1 << (self._queue_frames * longest - 1).bit_length())
         self.encoder = FrameEncoder()
         self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
@@ -148,6 +176,11 @@ class MotionController(wiring.Component):
             m.submodules[name] = getattr(self, name)
         m.submodules.line = line
         m.submodules.arc = arc
+        if equidistant is not None:
+            m.submodules.profile = equidistant
+        engines = {LINE_UNIT: line, ARC_UNIT: arc}          # the move units, by turn
+        if equidistant is not None:
+            engines[PROFILE_UNIT] = equidistant
         decoder, queue, feed = self.decoder, self.queue, self.feed
 
         # ---- serial line in, checked frames into the queue ----------------------------------
@@ -164,15 +197,16 @@ class MotionController(wiring.Component):
         queued = Signal(range(self._queue_frames + 2))      # whole frames in the queue
 
         # ---- dispatcher: a frame from the queue into the frame register, then to its unit ---
+        longest = max(self._lengths.values())
         kind = Signal(8)
-        payload = Signal(data.ArrayLayout(8, PAYLOAD_BYTES))
-        length = Signal(range(PAYLOAD_BYTES + 1))
-        index = Signal(range(PAYLOAD_BYTES + 1))
-        lengths = Signal(range(PAYLOAD_BYTES + 1))
+        payload = Signal(data.ArrayLayout(8, longest))
+        length = Signal(range(longest + 1))
+        index = Signal(range(longest + 1))
+        lengths = Signal(range(longest + 1))
         with m.Switch(queue.r.payload):
-            for frame_type in QUEUED:
+            for frame_type, count in self._lengths.items():
                 with m.Case(frame_type):
-                    m.d.comb += lengths.eq(LENGTHS[frame_type])
+                    m.d.comb += lengths.eq(count)
         held = Signal()                                     # the frame register holds a frame
         take = Signal()
         frame_start = Signal()                              # a frame's type byte is read
@@ -196,12 +230,13 @@ class MotionController(wiring.Component):
                     m.next = "Kind"
         m.d.sync += queued.eq(queued + decoder.q_commit - frame_start)
 
-        m.submodules.turns = turns = fifo.SyncFIFOBuffered(width=Turn().size, depth=16)
+        layout = Turn(equidistant is not None)
+        m.submodules.turns = turns = fifo.SyncFIFOBuffered(width=layout.size, depth=16)
         profile = Signal(Profile())                 # the last FEED's: for the next move
         accel = Signal(32)                          # CONFIG: the acceleration
         flush = Signal(range(self._queue_frames + 3))   # frames before an abort still to end
         aborting = flush != 0
-        unit = Signal(2)
+        unit = Signal(layout["unit"].shape)
         with m.Switch(kind):
             with m.Case(LINE):
                 m.d.comb += unit.eq(LINE_UNIT)
@@ -209,6 +244,9 @@ class MotionController(wiring.Component):
                 m.d.comb += unit.eq(ARC_UNIT)
             with m.Case(DWELL):
                 m.d.comb += unit.eq(DWELL_UNIT)
+            if equidistant is not None:
+                with m.Case(PROFILE):
+                    m.d.comb += unit.eq(PROFILE_UNIT)
         offer = held & turns.w_rdy & ~aborting
         m.d.comb += [
             line.cmd.payload.x.eq(_little(payload, 0, 4, signed_value=True)),
@@ -220,12 +258,20 @@ class MotionController(wiring.Component):
             arc.cmd.payload.y1.eq(_little(payload, 12, 4, signed_value=True)),
             arc.cmd.payload.cw.eq(payload[16][0]),
             arc.cmd.valid.eq(offer & (unit == ARC_UNIT)),
-            take.eq(held & turns.w_rdy & (
-                aborting | Mux(unit == LINE_UNIT, line.cmd.ready,
-                               Mux(unit == ARC_UNIT, arc.cmd.ready, 1)))),
+        ]
+        ready = Mux(unit == LINE_UNIT, line.cmd.ready, Mux(unit == ARC_UNIT, arc.cmd.ready, 1))
+        if equidistant is not None:
+            # The engine's frame is the payload's bits as they came (least significant first).
+            m.d.comb += [
+                equidistant.cmd.payload.eq(payload.as_value()[:equidistant.signature.frame.size]),
+                equidistant.cmd.valid.eq(offer & (unit == PROFILE_UNIT)),
+            ]
+            ready = Mux(unit == PROFILE_UNIT, equidistant.cmd.ready, ready)
+        m.d.comb += [
+            take.eq(held & turns.w_rdy & (aborting | ready)),
             turns.w_en.eq(take),
         ]
-        turn_in = Turn()(turns.w_data)
+        turn_in = layout(turns.w_data)
         m.d.comb += [
             turn_in.unit.eq(Mux(aborting, NONE_UNIT, unit)),
             turn_in.aborted.eq(aborting),
@@ -241,8 +287,8 @@ class MotionController(wiring.Component):
         with m.Elif(take & aborting):
             m.d.sync += flush.eq(flush - 1)
         # ---- turns: one unit moves at a time, in order --------------------------------------
-        current = Turn()(turns.r_data)
-        turn = Signal(2)
+        current = layout(turns.r_data)
+        turn = Signal(layout["unit"].shape)
         m.d.comb += turn.eq(Mux(turns.r_rdy, current.unit, NONE_UNIT))
         started = Signal()
         first = turns.r_rdy & ~started
@@ -261,11 +307,22 @@ class MotionController(wiring.Component):
             line.abort.eq(decoder.abort),
             arc.abort.eq(decoder.abort),
         ]
+        if equidistant is not None:
+            m.d.comb += [
+                equidistant.status.ready.eq(room & (turn == PROFILE_UNIT)),
+                equidistant.abort.eq(decoder.abort),
+            ]
         with m.Switch(turn):
             with m.Case(LINE_UNIT):
                 m.d.comb += [complete.eq(line_ends), outcome.eq(line.status.payload.outcome)]
             with m.Case(ARC_UNIT):
                 m.d.comb += [complete.eq(arc_ends), outcome.eq(arc.status.payload.outcome)]
+            if equidistant is not None:
+                with m.Case(PROFILE_UNIT):
+                    m.d.comb += [
+                        complete.eq(equidistant.status.valid & equidistant.status.ready),
+                        outcome.eq(equidistant.status.payload.outcome),
+                    ]
             with m.Case(DWELL_UNIT):
                 m.d.comb += [
                     complete.eq(room & started & ((dwell_left == 0) | decoder.abort)),
@@ -292,15 +349,29 @@ class MotionController(wiring.Component):
 
         # ---- the feed: permissions for the engine whose turn it is --------------------------
         moving = (turn == LINE_UNIT) | (turn == ARC_UNIT)
+        due = Mux(turn == ARC_UNIT, arc.feed.due, Mux(turn == LINE_UNIT, line.feed.due, 0))
+        diagonal = Mux(turn == ARC_UNIT, arc.feed.diagonal, line.feed.diagonal)
+        steps = line.motion.step | arc.motion.step
+        ways = Mux(turn == ARC_UNIT, arc.motion.dir, line.motion.dir)
+        if equidistant is not None:
+            # Every profile frame's turn is a move's: its FEED's profile, a ramp from the rate
+            # the turn before ended at (a frame without steps holds the rate: the host sends
+            # it a FEED whose cruise and exit are that rate).
+            mine = turn == PROFILE_UNIT
+            moving = moving | mine
+            due = Mux(mine, equidistant.feed.due, due)
+            diagonal = Mux(mine, equidistant.feed.diagonal, diagonal)
+            steps = steps | equidistant.motion.step
+            ways = Mux(mine, equidistant.motion.dir, ways)
+            m.d.comb += equidistant.feed.tick.eq(feed.feed.tick & mine)
         m.d.comb += [
             # Only a move's turn has a profile (a dwell's argument is its clocks, and with no
             # turn the FIFO's output is undefined): otherwise the rate ramps down to rest.
             feed.profile.eq(Mux(moving, current.argument, 0)),
             feed.accel.eq(accel),
             feed.start.eq(first & moving),
-            feed.feed.due.eq(Mux(turn == ARC_UNIT, arc.feed.due,
-                                 Mux(turn == LINE_UNIT, line.feed.due, 0))),
-            feed.feed.diagonal.eq(Mux(turn == ARC_UNIT, arc.feed.diagonal, line.feed.diagonal)),
+            feed.feed.due.eq(due),
+            feed.feed.diagonal.eq(diagonal),
             line.feed.tick.eq(feed.feed.tick & (turn == LINE_UNIT)),
             arc.feed.tick.eq(feed.feed.tick & (turn == ARC_UNIT)),
         ]
@@ -309,8 +380,8 @@ class MotionController(wiring.Component):
         step = Signal(2)
         direction = Signal(2)
         m.d.comb += [
-            step.eq(line.motion.step | arc.motion.step),
-            direction.eq(Mux(turn == ARC_UNIT, arc.motion.dir, line.motion.dir)),
+            step.eq(steps),
+            direction.eq(ways),
             self.stepdir.i.step.eq(step),
             self.stepdir.i.dir.eq(direction),
         ]

@@ -23,6 +23,13 @@ FEED      0x13  cruise, exit: uint24 step rates (steps a clock, Q0.24);    yes
 STOP      0x14  (none): the end of a program                               yes
 CONFIG    0x15  accel: uint32, the rate's change a clock (Q0.40); takes    yes
                 effect when dispatched: send it while nothing moves
+PROFILE   0x16  one frame of the controller's equidistant engine (cutter    yes
+                compensation, :class:`hdl.equidistant.EquidistantEngine`):
+                the bits of its ``Frame(formats)`` layout, least
+                significant first, in ``ceil(bits / 8)`` bytes (38 at the
+                engine's width 16); a move like LINE and ARC, with the
+                FEED before it. Only a controller built with a profile
+                engine knows the type; to any other it is unknown (ERROR 2)
 QUERY     0x20  (none): asks for a STATUS reply                            no
 ABORT     0x21  (none): stops the motion at once and ends every queued     no
                 frame ABORTED
@@ -40,6 +47,10 @@ STATUS    0x81  x, y: int32 absolute position; free: uint8 queue slots;
 ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
 ========  ====  ==========================================================
 
+The length of every frame type is fixed, but PROFILE's, which is the engine's: a decoder knows
+the lengths of its controller (:func:`host_lengths`), and a controller without the engine has
+no PROFILE type at all, so it is exactly as small as one built before the type existed.
+
 Flow control: the host keeps at most the queue's length (``STATUS.free`` right after reset)
 queued frames sent and not yet answered; each is answered by its ``OUTCOME``, or by an
 ``ERROR`` when it was dropped. The queue can then never overflow, and it never starves while
@@ -51,19 +62,20 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "QUERY", "ABORT", "OUTCOME",
-           "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES", "crc16_byte",
-           "FrameDecoder", "FrameEncoder"]
+__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
+           "ABORT", "OUTCOME", "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
+           "host_lengths", "profile_bytes", "crc16_byte", "FrameDecoder", "FrameEncoder"]
 
 SYNC = 0xA5
-LINE, ARC, DWELL, FEED, STOP, CONFIG = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15
+LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
 QUERY, ABORT = 0x20, 0x21
 OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 
 #: Frames that go into the queue.
-QUEUED = (LINE, ARC, DWELL, FEED, STOP, CONFIG)
+QUEUED = (LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE)
 
-#: Payload length of every frame type, both directions.
+#: Payload length of every frame type of fixed length, both directions (PROFILE's is the
+#: controller's: :func:`host_lengths`).
 LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
            OUTCOME: 2, STATUS: 10, ERROR: 1}
 
@@ -71,8 +83,35 @@ LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, AB
 ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
           4: "serial framing error or overrun", 5: "frame queue full"}
 
-#: The longest payload of a frame from the host.
-PAYLOAD_BYTES = max(LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT))
+
+
+def host_lengths(profile=None):
+    """The payload length of every frame type from the host to a controller whose PROFILE
+    frames carry ``profile`` bytes (``None``: a controller without a profile engine, which
+    does not know the type); a dict: the fixed types in the order of :data:`QUEUED`, QUERY,
+    ABORT, then PROFILE.
+
+    Raises
+    ------
+    :exc:`ValueError`
+        If ``profile`` is not an integer from 1 to 255 (a length byte).
+    """
+    table = {kind: LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT) if kind in LENGTHS}
+    if profile is not None:
+        if isinstance(profile, bool) or not isinstance(profile, int) or not 1 <= profile <= 255:
+            raise ValueError(f"A PROFILE payload must be 1 to 255 bytes, not {profile!r}")
+        table[PROFILE] = profile
+    return table
+
+
+def profile_bytes(layout):
+    """The PROFILE payload length (bytes) for an engine frame of ``layout``: its bits, least
+    significant first, in whole bytes."""
+    return (data.Layout.cast(layout).size + 7) // 8
+
+
+#: The longest payload of a frame from the host (without PROFILE: :func:`host_lengths`).
+PAYLOAD_BYTES = max(host_lengths().values())
 
 
 def crc16_byte(m, crc, byte):
@@ -101,6 +140,12 @@ class FrameDecoder(wiring.Component):
     :py:`query` or :py:`abort` when its CRC checks. :py:`error` carries the code of each
     dropped frame (and of the serial errors given on :py:`line_error`, code 4).
 
+    Parameters
+    ----------
+    profile : :class:`int` or ``None``
+        The PROFILE payload length of the controller's profile engine (:func:`profile_bytes`);
+        ``None`` (the default): the controller has none, and PROFILE is an unknown type.
+
     Members
     -------
     i : :py:`In(stream.Signature(8))`
@@ -116,9 +161,15 @@ class FrameDecoder(wiring.Component):
     error : :py:`Out(stream.Signature(8))`
         Codes of dropped frames (:data:`ERRORS`); a code not yet taken is replaced by the
         next.
+
+    Raises
+    ------
+    :exc:`ValueError`
+        If ``profile`` is not a length byte (1 to 255).
     """
 
-    def __init__(self):
+    def __init__(self, *, profile=None):
+        self._lengths = host_lengths(profile)
         super().__init__({
             "i":          In(stream.Signature(8)),
             "line_error": In(1),
@@ -132,13 +183,19 @@ class FrameDecoder(wiring.Component):
             "error":      Out(stream.Signature(8)),
         })
 
+    @property
+    def lengths(self):
+        """The payload length of every frame type it takes (:func:`host_lengths`)."""
+        return dict(self._lengths)
+
     def elaborate(self, platform):
         m = Module()
+        longest = max(self._lengths.values())
         byte = self.i.payload
         kind = Signal(8)
         queued = Signal()                       # the frame goes into the queue
-        length = Signal(range(PAYLOAD_BYTES + 1))
-        index = Signal(range(PAYLOAD_BYTES + 1))
+        length = Signal(range(longest + 1))
+        index = Signal(range(longest + 1))
         crc = Signal(16)
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
@@ -152,13 +209,12 @@ class FrameDecoder(wiring.Component):
 
         known = Signal()
         queued_type = Signal()
-        expected = Signal(range(PAYLOAD_BYTES + 1))
+        expected = Signal(range(longest + 1))
         with m.Switch(byte):
-            for frame_type, count in LENGTHS.items():
-                if frame_type in QUEUED + (QUERY, ABORT):
-                    with m.Case(frame_type):
-                        m.d.comb += [known.eq(1), expected.eq(count),
-                                     queued_type.eq(frame_type in QUEUED)]
+            for frame_type, count in self._lengths.items():
+                with m.Case(frame_type):
+                    m.d.comb += [known.eq(1), expected.eq(count),
+                                 queued_type.eq(frame_type in QUEUED)]
 
         def drop(error_code, rollback):
             m.d.sync += code.eq(error_code)

@@ -170,6 +170,10 @@ def _machine_options(parser):
                              "timing; see docs/controller.md)")
     parser.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
                         help="steps per millimetre, X and Y (overrides the machine file)")
+    parser.add_argument("--radius", type=float, default=None, metavar="MM",
+                        help="the cutter radius for G41/G42, mm (overrides the machine file's "
+                             "cutter_radius); compensation runs on a board whose controller "
+                             "has the equidistant engine")
 
 
 def _add_machining(commands):
@@ -219,9 +223,12 @@ def _job(args):
     try:
         if args.machine:
             machine = Machine.from_toml(args.machine, clock_hz=board.clock_hz,
-                                        steps_per_mm=args.steps_per_mm)
+                                        steps_per_mm=args.steps_per_mm,
+                                        cutter_radius=args.radius)
         else:
-            overrides = {} if args.steps_per_mm is None else {"steps_per_mm": args.steps_per_mm}
+            overrides = {key: value for key, value in (("steps_per_mm", args.steps_per_mm),
+                                                       ("cutter_radius", args.radius))
+                         if value is not None}
             machine = Machine(clock_hz=board.clock_hz, **overrides)
     except MachineError as error:
         raise UsageError(str(error)) from None

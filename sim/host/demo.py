@@ -3,8 +3,10 @@ part program.
 
 Every figure printed is measured in this run: the golden models and the RTL (Amaranth's
 simulator, Icarus, Verilator) trace the same commands and are compared clock for clock; the
-part program (``sim/host/programs/bracket.ngc``) runs through the whole controller on
-Verilator, its plot, waveform and summary written into ``build/demo/bracket/``.
+part programs run through the whole controller on Verilator: ``sim/host/programs/bracket.ngc``
+on the iCEBreaker's, and ``plate.ngc``, with cutter-radius compensation (G42), on the ULX3S's
+(which has the equidistant engine); their plots, waveforms and summaries are written into
+``build/demo/bracket/`` and ``build/demo/plate/``.
 """
 
 import logging
@@ -176,6 +178,7 @@ def demo(out):
     checks += _program_section(out)
     ok = _rtl_section(out, checks)
     ok &= _controller_section(out)
+    ok &= _controller_section(out, COMPENSATED, "ulx3s", number=6, radius=COMPENSATED_RADIUS)
     out.write("\nall engines agree with the golden models\n" if ok else
               "\nTHE ENGINES DISAGREE\n")
     return 0 if ok else 1
@@ -185,16 +188,26 @@ def demo(out):
 #: first moves: the whole run would be gigabytes).
 PART = Path(__file__).resolve().parent / "programs" / "bracket.ngc"
 PART_VCD_CLOCKS = 60_000
+#: The compensated part (G42 around a plate's outline), and its cutter radius (mm), on the
+#: board whose controller has the equidistant engine.
+COMPENSATED = PART.parent / "plate.ngc"
+COMPENSATED_RADIUS = 3
 
 
-def _controller_section(out, program=PART, out_dir=None):
-    """5. The machine controller on Verilator: a part program through the whole top level."""
+def _controller_section(out, program=PART, board="icebreaker", *, number=5, radius=None,
+                        out_dir=None):
+    """The machine controller on Verilator: a part program through ``board``'s whole top level
+    (with cutter-radius compensation at ``radius`` mm when it is given)."""
+    from .machine import Machine
     from .machining import RunError, execute, prepare, summary_text, write_outputs
+    item = registry.board(board)
     out_dir = Path(out_dir or ROOT / "build" / "demo" / program.stem)
-    out.write(f"\n5. The machine controller: {program.name}, G-code in, step/dir out, on the "
-              f"iCEBreaker's\n   controller in Verilator (frames over its serial pin, checked "
-              f"against the models)\n\n")
-    job = prepare(program.read_text(), name=program.name)
+    what = "" if radius is None else f", cutter compensation at R{radius:g}"
+    out.write(f"\n{number}. The machine controller: {program.name}{what}, G-code in, step/dir "
+              f"out,\n   on the controller of the {item.help} in Verilator (frames over its "
+              f"serial pin, checked against the models)\n\n")
+    job = prepare(program.read_text(), name=program.name, board=board,
+                  machine=Machine(clock_hz=item.clock_hz, cutter_radius=radius))
     out_dir.mkdir(parents=True, exist_ok=True)
     try:
         result = execute(job, "verilator", vcd=out_dir / "run.vcd",

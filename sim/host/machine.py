@@ -11,6 +11,7 @@ baud = 115200
 dir_setup_us = 1.0         # step/dir timing of the drivers
 step_width_us = 2.0
 queue_frames = 32
+cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them needs it)
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -39,9 +40,18 @@ class Machine:
     dir_setup_us: float = 1.0
     step_width_us: float = 2.0
     queue_frames: int = 32
+    cutter_radius: float = None       # mm: G41/G42's (None: a program with them is refused)
 
     def __post_init__(self):
+        if self.cutter_radius is not None:
+            value = self.cutter_radius
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value) or value < 0:
+                raise MachineError(f"cutter_radius must be a number of at least 0 (mm), not "
+                                   f"{value!r}")
         for item in fields(self):
+            if item.name == "cutter_radius":
+                continue
             value = getattr(self, item.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise MachineError(f"{item.name} must be a number, not {value!r}")

@@ -21,6 +21,10 @@ both the simulated time and the machining time it stands for.
 :func:`write_outputs` writes ``steps.txt`` (one ``dx dy`` line per step, the format of ``kontur
 trace``), ``toolpath.png`` (the programmed contour, the traced steps coloured by feed) and
 ``summary.json``; :func:`summary_text` is what ``kontur run`` prints.
+
+Cutter-radius compensation (G41/G42) runs on a board whose controller has the equidistant
+engine: :mod:`.compensation` puts the contours' frames among the moves (PROFILE frames, each
+with its FEED), with the engine's step model as their steps.
 """
 
 import json
@@ -31,6 +35,7 @@ from fractions import Fraction
 from pathlib import Path
 
 from .. import registry
+from .compensation import program_segments, references
 from .gcode import GCodeError, read
 from .machine import Machine
 from .planner import ProgramError, frames as program_frames, lattice, plan
@@ -59,6 +64,7 @@ class Job:
     segments: list                    # on the lattice, sim.host.planner.Segment
     items: list                       # the feed plan, sim.host.planner.PlanItem
     start: tuple = (0, 0)             # steps
+    contours: list = field(default_factory=list)    # sim.host.compensation.Contour
 
     @property
     def steps(self):
@@ -96,8 +102,8 @@ class Result:
 
 
 def prepare(text, *, machine=None, board="icebreaker", name=None):
-    """Read, place on the lattice and plan a program for ``board``'s controller; return the
-    :class:`Job`.
+    """Read, place on the lattice and plan a program for ``board``'s controller (a board's
+    name, or a :class:`sim.registry.Board`); return the :class:`Job`.
 
     Raises
     ------
@@ -115,17 +121,17 @@ def prepare(text, *, machine=None, board="icebreaker", name=None):
     except GCodeError as error:
         raise ProgramError(error.line, error.reason) from None
     moves = list(program.moves)
-    for move in moves:
-        if move.side is not None:
-            raise ProgramError(move.line, "cutter-radius compensation (G41/G42) needs a cutter "
-                                          "radius: give --radius")
     if not moves:
         raise ProgramError(None, "the program has no moves")
-    segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
-                       widths=(item.line[1], item.arc[1]))
+    contours = []
+    if any(move.side is not None for move in moves):
+        segments, contours = program_segments(moves, machine, board)
+    else:
+        segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
+                           widths=(item.line[1], item.arc[1]))
     start = segments[0].start if segments else (0, 0)
     return Job(name or "program", board, machine, moves, segments, plan(segments, machine),
-               start)
+               start, contours)
 
 
 def auto_compress(job):
@@ -267,13 +273,23 @@ def _distance_to_segment(p, a, b):
 def deviation(job, steps):
     """The largest distance (mm) of a point the steps visit from the programmed contour: for
     each segment's points, from its program move (a line segment, or the arc's circle of its
-    start radius)."""
+    start radius); a compensated contour's, from its exact equidistant (the approach to it
+    from its own line)."""
     moves = {move.line: move for move in job.moves}
+    special = references(job)
     spm = job.machine.steps_per_mm
     worst = 0.0
     index = 0
-    for segment in job.segments:
+    for number, segment in enumerate(job.segments):
         x, y = segment.start
+        if number in special:
+            measure = special[number] or (lambda p, a=segment.start, b=segment.end:
+                                          _distance_to_segment(p, a, b) / spm)
+            for dx, dy in steps[index:index + len(segment.steps)]:
+                x, y = x + dx, y + dy
+                worst = max(worst, measure((x, y)))
+            index += len(segment.steps)
+            continue
         move = moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
@@ -310,12 +326,13 @@ def summary(job, result):
     moves = job.moves
     data = {
         "program": job.name,
-        "board": job.board,
+        "board": registry.board(job.board).name,
         "engine": result.engine,
         "moves": len(moves),
         "lines": [moves[0].line, moves[-1].line] if moves else None,
         "segments": len(job.segments),
-        "arcs": sum(1 for s in job.segments if s.kind == "arc"),
+        "arcs": sum(1 for s in job.segments if s.kind == "arc"
+                    or s.kind == "profile" and s.radius is not None),
         "steps": len(steps),
         "diagonal_steps": sum(1 for dx, dy in steps if dx and dy),
         "machining_seconds": job.seconds,
@@ -334,6 +351,17 @@ def summary(job, result):
                               else None),
         "machine_seconds_traced": result.times[-1] if result.times else 0.0,
     }
+    if job.contours:
+        data["cutter_radius_mm"] = job.machine.cutter_radius
+        data["cutter_radius_steps"] = job.contours[0].radius
+        data["contours"] = [{
+            "lines": list(contour.lines),
+            "side": contour.prepared.profile.side,
+            "closed": contour.prepared.closed,
+            "profile_frames": len(contour.prepared.frames) - (1 if number else 0),
+            "steps": sum(len(s.steps) for s in job.segments[contour.first:contour.first
+                                                            + contour.count]),
+        } for number, contour in enumerate(job.contours)]
     return data
 
 
@@ -353,8 +381,16 @@ def summary_text(data, out_dir=None):
                      f"{data['simulated_seconds']:.3f} s simulated (time compressed x"
                      f"{data['compress']}), {data['clocks']:,} clocks in {data['wall_seconds']:.1f}"
                      f" s on {data['engine']} ({data['clocks_per_second']:,.0f} clocks/s)")
+    for contour in data.get("contours", ()):
+        lines.append(f"contour    lines {contour['lines'][0]}-{contour['lines'][1]} "
+                     f"({'G41' if contour['side'] == 'left' else 'G42'}, "
+                     f"{'closed' if contour['closed'] else 'open'}): "
+                     f"{contour['profile_frames']} PROFILE frames through the equidistant "
+                     f"engine, cutter radius {data['cutter_radius_mm']:g} mm "
+                     f"({data['cutter_radius_steps']} steps), {contour['steps']} steps")
     lines += [
-        f"deviation  {data['max_deviation_mm']:.4f} mm at most from the programmed contour",
+        f"deviation  {data['max_deviation_mm']:.4f} mm at most from the programmed contour"
+        + (" (a compensated one's: from its equidistant)" if data.get("contours") else ""),
         f"end        ({data['end_mm'][0]:.4f}, {data['end_mm'][1]:.4f}) mm = "
         f"({data['end_steps'][0]}, {data['end_steps'][1]}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]

@@ -24,7 +24,8 @@ from ..models.arc import check_arc
 from ..models.errors import InputError
 from . import protocol
 
-__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError"]
+__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
+           "check_arc_radii"]
 
 
 class ProgramError(ValueError):
@@ -61,6 +62,28 @@ class Segment:
         return sum(math.sqrt(2) if dx and dy else 1.0 for dx, dy in self.steps)
 
 
+def on_lattice(point, machine):
+    """A point in millimetres on the step lattice: each coordinate rounded to the nearest step
+    (halves away from zero), exactly."""
+    spm = Fraction(machine.steps_per_mm)
+    return tuple(_round(Fraction(c) * spm) for c in point)
+
+
+def check_arc_radii(line, start, end, machine):
+    """Raise :exc:`ProgramError` (naming ``line``) when an arc's radii at its ``start`` and
+    ``end`` (relative to its centre, in steps) differ by more than the machine's
+    ``arc_tolerance``; return the start's radius (steps)."""
+    spm = float(machine.steps_per_mm)
+    r_start, r_end = math.hypot(*start), math.hypot(*end)
+    difference = abs(r_start - r_end) / spm
+    if difference > machine.arc_tolerance:
+        raise ProgramError(line,
+                           f"the arc's radius is {r_start / spm:.4f} mm at its start "
+                           f"and {r_end / spm:.4f} mm at its end: {difference:.4f} mm "
+                           f"apart, more than the {machine.arc_tolerance:g} mm tolerance")
+    return r_start
+
+
 def _unit(x, y):
     norm = math.hypot(x, y)
     return (x / norm, y / norm)
@@ -93,13 +116,14 @@ def _path_point(x0, y0, x1, y1, width):
     return best[1]
 
 
-def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24)):
+def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), start=None):
     """The moves on the step lattice: a list of :class:`Segment`.
 
     ``moves`` have ``line``, ``kind`` (``"rapid"``, ``"line"``, ``"arc"``), ``start``,
     ``end``, ``centre``, ``cw`` and ``feed`` (mm/min, ``None`` for the machine's maximum), in
     millimetres. ``variants`` and ``widths`` are the line and arc engines' (their steps are
-    the segments' steps).
+    the segments' steps). The first move starts at ``start`` (steps) when it is given (where
+    the machine is: after a compensated contour, on its equidistant), else at its own start.
 
     Raises
     ------
@@ -107,9 +131,8 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24)):
         For an arc whose radii differ by more than the tolerance, an arc of radius zero, or a
         move the engines cannot make (too wide for their registers).
     """
-    spm = Fraction(machine.steps_per_mm)
     segments = []
-    position = None
+    position = None if start is None else tuple(start)
 
     def add(line, kind, payload, start, end, feed, tangents=None, radius=None):
         variant, width = (variants[0], widths[0]) if kind == "line" else (variants[1], widths[1])
@@ -130,25 +153,19 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24)):
             min(float(move.feed), machine.max_feed)
         feed = speed / 60
         if position is None:
-            position = (_round(Fraction(move.start[0]) * spm), _round(Fraction(move.start[1]) * spm))
-        end = (_round(Fraction(move.end[0]) * spm), _round(Fraction(move.end[1]) * spm))
+            position = on_lattice(move.start, machine)
+        end = on_lattice(move.end, machine)
         if move.kind in ("rapid", "line"):
             add(move.line, "line", {"x": end[0] - position[0], "y": end[1] - position[1]},
                 position, end, feed)
             position = end
             continue
-        centre = (_round(Fraction(move.centre[0]) * spm), _round(Fraction(move.centre[1]) * spm))
+        centre = on_lattice(move.centre, machine)
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
         if (x0, y0) == (0, 0):
             raise ProgramError(move.line, "the arc's start is its centre: radius zero")
-        r_start, r_end = math.hypot(x0, y0), math.hypot(x1, y1)
-        difference = abs(r_start - r_end) / float(spm)
-        if difference > machine.arc_tolerance:
-            raise ProgramError(move.line,
-                               f"the arc's radius is {r_start / float(spm):.4f} mm at its start "
-                               f"and {r_end / float(spm):.4f} mm at its end: {difference:.4f} mm "
-                               f"apart, more than the {machine.arc_tolerance:g} mm tolerance")
+        r_start = check_arc_radii(move.line, (x0, y0), (x1, y1), machine)
         try:
             reach = _path_point(x0, y0, x1, y1, widths[1])
         except InputError as error:
@@ -236,6 +253,17 @@ def plan(segments, machine):
     return items
 
 
+def _move_frame(segment):
+    """The frame of a segment: a LINE, an ARC, or a PROFILE (one frame of the equidistant
+    engine: ``payload`` is ``{"frame": its fields, "width": the engine's width}``)."""
+    p = segment.payload
+    if segment.kind == "line":
+        return protocol.line(p["x"], p["y"])
+    if segment.kind == "arc":
+        return protocol.arc(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"])
+    return protocol.profile(p["frame"], width=p["width"])
+
+
 def frames(segments, items, machine, *, compress=1):
     """The frames of the program: the configuration, a FEED and a move for each segment, the
     STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
@@ -252,9 +280,7 @@ def frames(segments, items, machine, *, compress=1):
         out.append(protocol.feed(machine.rate(item.cruise * compress),
                                  machine.rate(item.exit * compress),
                                  min(item.decelerate, (1 << 24) - 1)))
-        p = segment.payload
-        out.append(protocol.line(p["x"], p["y"]) if segment.kind == "line" else
-                   protocol.arc(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"]))
+        out.append(_move_frame(segment))
         lines += [segment.line, segment.line]
     out.append(protocol.stop())
     lines.append(None)

@@ -69,8 +69,9 @@ def plot_profile(prepared, moves, path, *, title=None):
 
 def plot_toolpath(job, steps, speeds, path, *, title=None):
     """``kontur run``'s ``toolpath.png``: the programmed contour (black; rapid moves dotted),
-    and the traced steps (a line through every point visited) coloured by the feed at each
-    step (mm/min), in millimetres."""
+    the offset path of every compensated contour (its exact equidistant, blue, dashed), and
+    the traced steps (a line through every point visited) coloured by the feed at each step
+    (mm/min), in millimetres."""
     import matplotlib
     matplotlib.use("Agg")
     from matplotlib import pyplot
@@ -90,6 +91,19 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
         axes.plot(xs, ys, color="black", linewidth=1.2,
                   linestyle=":" if move.kind == "rapid" else "-",
                   label="programmed contour" if number == 0 else None)
+    for number, contour in enumerate(getattr(job, "contours", ())):
+        prepared = contour.prepared
+        for index, piece in enumerate(prepared.pieces):
+            start = [float(c) / spm for c in contour.on_machine(piece.start)]
+            end = [float(c) / spm for c in contour.on_machine(piece.end)]
+            if piece.kind == "line":
+                xs, ys = zip(start, end)
+            else:
+                centre = [float(c) / spm for c in contour.on_machine(piece.centre)]
+                xs, ys = zip(*_arc_points(centre, float(piece.radius(prepared.radius)) / spm,
+                                          start, end, piece.cw, piece.start == piece.end))
+            axes.plot(xs, ys, color="tab:blue", linestyle="--", linewidth=1,
+                      label="offset path" if number == index == 0 else None)
     x, y = job.start
     points = [(x / spm, y / spm)]
     for dx, dy in steps:

@@ -2,7 +2,9 @@
 
 The frame types, payload lengths and error codes are :mod:`hdl.motion.link`'s own constants;
 the CRC is :func:`binascii.crc_hqx` (CRC-16/CCITT, initial value 0xFFFF), which the gateware's
-``crc16_byte`` reproduces bit for bit.
+``crc16_byte`` reproduces bit for bit. A PROFILE frame (:func:`profile`) packs a frame of the
+equidistant engine with the engine's own layout (:meth:`hdl.equidistant.EquidistantEngine.Frame`),
+so host and gateware cannot disagree on a bit of it.
 """
 
 import binascii
@@ -10,10 +12,11 @@ import struct
 from dataclasses import dataclass
 
 from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
-                             OUTCOME, QUERY, STATUS, STOP, SYNC)
+                             OUTCOME, PROFILE, QUERY, STATUS, STOP, SYNC, host_lengths,
+                             profile_bytes)
 
-__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "query", "abort",
-           "Reply", "ReplyParser", "CommandParser", "crc"]
+__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "profile",
+           "profile_layout", "query", "abort", "Reply", "ReplyParser", "CommandParser", "crc"]
 
 
 def crc(body):
@@ -22,9 +25,13 @@ def crc(body):
 
 
 def frame(kind, payload=b""):
-    """The bytes of a frame of type ``kind`` with ``payload``."""
+    """The bytes of a frame of type ``kind`` with ``payload`` (a PROFILE frame's length is its
+    engine's: any from 1 to 255 bytes)."""
     payload = bytes(payload)
-    if LENGTHS.get(kind) != len(payload):
+    if kind == PROFILE:
+        if not 1 <= len(payload) <= 255:
+            raise ValueError(f"A PROFILE frame has 1 to 255 payload bytes, not {len(payload)}")
+    elif LENGTHS.get(kind) != len(payload):
         raise ValueError(f"A frame of type {kind:#04x} has {LENGTHS.get(kind)} payload bytes, "
                          f"not {len(payload)}")
     body = bytes([kind, len(payload)]) + payload
@@ -63,6 +70,40 @@ def config(accel):
 
 def stop():
     return frame(STOP)
+
+
+def profile_layout(width, fraction=None):
+    """The frame layout of the equidistant engine of coordinate width ``width`` (and
+    ``fraction`` fractional bits, default ``width + 4``): what a PROFILE frame carries."""
+    from hdl.equidistant import EquidistantEngine, Formats
+    return EquidistantEngine.Frame(Formats(width, fraction))
+
+
+def profile(fields, *, width, fraction=None):
+    """A PROFILE frame: one frame of the equidistant engine (``fields``: a dict of the frame's
+    fields, as :func:`sim.models.equidistant.prepare` gives them, missing ones zero) for an
+    engine of ``width`` (and ``fraction``); its layout's bits, least significant first, in
+    :func:`~hdl.motion.link.profile_bytes` bytes.
+
+    Raises
+    ------
+    :exc:`ValueError`
+        For a field the layout does not have, or a value that does not fit its field.
+    """
+    from amaranth import Shape
+    layout = profile_layout(width, fraction)
+    names = {name for name, _ in layout}
+    for name, value in fields.items():
+        if name not in names:
+            raise ValueError(f"The equidistant engine's frame has no field {name!r}")
+        shape = Shape.cast(layout[name].shape)
+        low = -(1 << (shape.width - 1)) if shape.signed else 0
+        high = (1 << (shape.width - 1 if shape.signed else shape.width)) - 1
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ValueError(f"PROFILE field {name} must be an integer from {low} to {high}, "
+                             f"not {value!r}")
+    bits = layout.const(dict(fields)).as_bits()
+    return frame(PROFILE, bits.to_bytes(profile_bytes(layout), "little"))
 
 
 def query():
@@ -139,10 +180,13 @@ class CommandParser:
     :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
     queued frame, ``("query",)``, ``("abort",)``, ``("error", code)`` for a dropped frame. Like
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
-    type, a wrong length) or at a bad CRC, and hunts again from the next byte.
+    type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
+    the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
+    and PROFILE is unknown), as :class:`~hdl.motion.link.FrameDecoder` takes it.
     """
 
-    def __init__(self):
+    def __init__(self, *, profile=None):
+        self.lengths = host_lengths(profile)
         self.state = "hunt"
         self.kind = self.length = 0
         self.body = bytearray()
@@ -160,8 +204,8 @@ class CommandParser:
             if byte == SYNC:
                 self.state, self.body = "type", bytearray()
         elif self.state == "type":
-            if byte in LENGTHS and byte not in (OUTCOME, STATUS, ERROR):
-                self.kind, self.length = byte, LENGTHS[byte]
+            if byte in self.lengths:
+                self.kind, self.length = byte, self.lengths[byte]
                 self.body.append(byte)
                 self.state = "length"
             else:

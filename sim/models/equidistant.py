@@ -172,16 +172,23 @@ def _lattice(value, letter, line):
     return int(value)
 
 
-def profile_from_moves(moves):
+def profile_from_moves(moves, *, tolerance=0):
     """The compensated contour of a program's moves (:class:`sim.host.gcode.Move` or anything
     with its attributes): the moves made while G41 or G42 is in effect.
+
+    ``tolerance`` is how far (steps: the difference of the radii) an arc's end point may lie
+    off the circle through its start; 0 (the default, a program in lattice units) wants it
+    exactly on it. The machine controller's programs in millimetres, rounded to the lattice,
+    have their arcs' ends up to about a step off (the host checks them against the machine's
+    tolerance first, :mod:`sim.host.compensation`): the end point stays where it is, where the
+    next element begins, and the arc is the circle through its start.
 
     Raises
     ------
     ProfileError
         When there is no compensated move, more than one contour, a rapid move or a change of
         side inside the contour, a coordinate off the lattice, a segment of length zero, an
-        arc of radius zero, or an arc's end point off its circle.
+        arc of radius zero, or an arc's end point off its circle (beyond ``tolerance``).
     """
     runs, current = [], []
     for move in moves:
@@ -219,7 +226,7 @@ def profile_from_moves(moves):
             raise ProfileError(f"line {line}: an arc of radius zero (I = J = 0)")
         seg = Segment("arc", start, end, line, centre, bool(move.cw))
         d2 = _dot(_sub(end, centre), _sub(end, centre))
-        if d2 != seg.r2:
+        if d2 != seg.r2 and abs(math.sqrt(d2) - math.sqrt(seg.r2)) > tolerance:
             raise ProfileError(f"line {line}: the arc's end point {end} is not on its circle "
                                f"(centre {centre}, R² = {seg.r2}, but {d2} at the end point)")
         segments.append(seg)
