@@ -84,8 +84,10 @@ async def extremes(dut):
     top = (1 << width) - 1
     # The first values too wide come before the long frames: a reset that cuts a frame also
     # drops the one waiting behind it in the engine's stage.
+    # The maximum on both axes (top, top), and on each axis with the other at 1, in other
+    # quadrants; the third quadrant's diagonal shorter (the run's length is its cost).
     ends = [(0, 0), (1, 0), (top + 1, 0), (0, -(top + 1)), (0, 1), (-1, -1), (1, -1),
-            (top, top), (-top, 1), (1, -top), (-top, -top), (2, 3)]
+            (top, top), (-top, 1), (1, -top), (-(top >> 3), -(top >> 3)), (2, 3)]
     frames = [{"x": x, "y": y} for x, y in ends]
     # At 16 bits every frame runs to its end (65535 steps) if the core takes no more than
     # 70 000 clocks for it; at 32, or for a slower core (separate steps, 131070; the serial
