@@ -412,31 +412,30 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
         default = registry.KINDS[row["kind"]].default_width
         if row["width"] != default:
             continue
+        design = f"{row['label']} {row['width']} {row['variant']}"
         for device in devices:
+            device_name = DEVICES[device]["name"].split(" ")[0]
             value = mhz[(id(row), device)]
             if value is None:
-                targets.append([f"{row['label']} {row['width']} {row['variant']}",
-                                DEVICES[device]["name"].split(" ")[0], "Fmax",
-                                no_fit(row, device), "not met", "area"])
+                targets.append([design, device_name, "Fmax", no_fit(row, device), "not met",
+                                "area"])
                 continue
             run = row["speed"][device]["runs"][first]
-            if row["what"] == "core" and row["steps"] == 1 and bare(row, device) is not None:
-                ratio = value / bare(row, device)
-                targets.append([f"{row['label']} {row['width']} {row['variant']}",
-                                DEVICES[device]["name"].split(" ")[0],
-                                f"≥ {CORE_RATIO} × bare accumulator",
-                                f"{value:.1f} / {bare(row, device):.1f} MHz = {ratio:.2f}",
-                                "met" if ratio >= CORE_RATIO else "not met",
-                                "-" if ratio >= CORE_RATIO else _path(run)])
-            base = mhz[(id(core_of(row)), device)] if row["what"] == "engine" else None
-            if base is not None:
+
+            def ratio_target(target, base, goal):
+                """A ratio target's row (none where there is nothing to compare with)."""
+                if base is None:
+                    return
                 ratio = value / base
-                targets.append([f"{row['label']} {row['width']} {row['variant']}",
-                                DEVICES[device]["name"].split(" ")[0],
-                                f"≥ {ENGINE_RATIO} × its core",
+                targets.append([design, device_name, f"≥ {goal} × {target}",
                                 f"{value:.1f} / {base:.1f} MHz = {ratio:.2f}",
-                                "met" if ratio >= ENGINE_RATIO else "not met",
-                                "-" if ratio >= ENGINE_RATIO else _path(run)])
+                                "met" if ratio >= goal else "not met",
+                                "-" if ratio >= goal else _path(run)])
+
+            if row["what"] == "core" and row["steps"] == 1:
+                ratio_target("bare accumulator", bare(row, device), CORE_RATIO)
+            if row["what"] == "engine":
+                ratio_target("its core", mhz[(id(core_of(row)), device)], ENGINE_RATIO)
         lc = row["area"]["ice40"]["lc"] if "ice40" in devices else None
         limit = None
         if row["what"] == "core":
@@ -446,7 +445,7 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
         elif row["width"] == 16:
             limit = AREA_LIMITS[("line", "engine", 16)]
         if limit is not None and lc is not None:
-            targets.append([f"{row['label']} {row['width']} {row['variant']}", "iCE40UP5K",
+            targets.append([design, "iCE40UP5K",
                             f"≤ {limit} logic cells", f"{lc} LC",
                             "met" if lc <= limit else "not met",
                             "-" if lc <= limit else "area, see below"])

@@ -447,7 +447,7 @@ register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node
                  *_textbook("SerialArcCore", "SerialArcCoreModel"),
                  _separate_arc_steps, clocks=_serial_arc_clocks))
 # The iCEBreaker's controller: both engines at 16 bits (moves and radii up to 65 535 steps, 819
-# mm at 80 steps/mm) fill 86 % of the UP5K; the 24-bit arc engine would not fit beside the rest.
+# mm at 80 steps/mm) fill 87 % of the UP5K; the 24-bit arc engine would not fit beside the rest.
 # Its longest path (the feed's permission through the arc engine's quadrant handover) closes
 # at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,

