@@ -234,6 +234,13 @@ def test_runs_beyond_the_limits_are_refused_up_front():
     assert run.returncode == 2 and "--max-clocks must be a positive integer, not 0" in run.stderr
 
 
+def test_positional_given_as_a_double_dash_is_a_usage_error():
+    # Found by test_cli_fuzz: argparse leaves Y1 an empty list here, not a converted word.
+    run = kontur("trace", "arc", 0, 0, 0, "--", "--")
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.splitlines()[-1].endswith("argument Y1: expected an integer")
+
+
 @pytest.mark.parametrize("width", ["0", "1", "-5", "65", "1000000", "x"])
 def test_bad_width(width):
     run = kontur("trace", "line", 1, 1, "--width", width)

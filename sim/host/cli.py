@@ -327,7 +327,13 @@ def main(argv=None):
     logging.getLogger().setLevel(logging.ERROR)    # the simulator runners' chatter off stderr
     args = None
     try:
-        args = _parser().parse_args(argv)
+        parser = _parser()
+        args = parser.parse_args(argv)
+        # argparse (3.11) leaves a positional given only as "--" unconverted, an empty list:
+        # a missing argument, a usage error like any other.
+        for name, value in vars(args).items():
+            if isinstance(value, list):
+                parser.error(f"argument {name.upper()}: expected an integer")
         if args.command == "trace":
             return _trace(args, sys.stdout)
         if args.command == "demo":
