@@ -4,6 +4,7 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
+from .elements import carry_save
 from .elements._checks import check_width
 from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
@@ -203,6 +204,7 @@ class ArcPlanner(wiring.Component):
 
         r2 = Signal(2 * w + 2)                       # x0² + y0², then shifted out by the root
         on_circle = Signal()
+        big = Signal(w)                              # M = max(x1, y1), the end's bound
         root = Signal(w + 1)                         # ⌊sqrt(r2)⌋, a bit a clock
         remainder = Signal(w + 3)                    # r2 - root²
         count = Signal(range(w + 1))
@@ -231,6 +233,7 @@ class ArcPlanner(wiring.Component):
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
+                    big.eq(Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)),
                     upper.eq(partial[1:]), lower.eq(Cat(lower[1:], partial[0])),
                     bits_a.eq(bits_a >> 1), bits_b.eq(bits_b >> 1),
                     count.eq(count + 1),
@@ -247,10 +250,16 @@ class ArcPlanner(wiring.Component):
                                                                          partial[0]))]
                         m.next = "Check end"
             with m.State("Check end"):               # -M < r2 - (x1² + y1²) <= M
-                d = Signal(signed(2 * w + 3))
-                big = Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)
-                m.d.comb += d.eq(r2 - square_sum)
-                m.d.sync += [on_circle.eq((d > -big) & (d <= big)),
+                # Both bounds as the sign of a three-operand sum, one carry chain each:
+                # r2 - S > -M is r2 + ~S + M >= 0, and r2 - S <= M is M + ~r2 + S + 1 >= 0 (the
+                # + 1 in the free lowest bit of the carries).
+                cw2 = 2 * w + 4
+                r2_, s_, big_ = Signal(cw2), Signal(cw2), Signal(cw2)
+                m.d.comb += [r2_.eq(r2), s_.eq(square_sum), big_.eq(big)]
+                above = carry_save(m, r2_, ~s_, big_)
+                below = carry_save(m, big_, ~r2_, s_)
+                m.d.sync += [on_circle.eq(~(above[0] + above[1])[cw2 - 1]
+                                          & ~(below[0] + (below[1] | 1))[cw2 - 1]),
                              root.eq(0), remainder.eq(0)]
                 m.next = "Root"
             with m.State("Root"):                    # two radicand bits a clock, from the top
@@ -287,6 +296,13 @@ class ArcPlanner(wiring.Component):
                 with m.If(self.o.ready):
                     m.next = "Idle"
         return m
+
+
+def _distances(m, dx, dy, near, x_distance, y_distance):
+    """Assignments loading the sequencer's distances to the end and their flags."""
+    dx_, dy_ = Signal.like(dx), Signal.like(dy)
+    m.d.comb += [dx_.eq(x_distance), dy_.eq(y_distance)]
+    return [dx.eq(dx_), dy.eq(dy_), near.eq(Cat(dx_ == 0, dx_ == 1, dy_ == 0, dy_ == 1))]
 
 
 class ArcEngine(wiring.Component):
@@ -390,14 +406,13 @@ class ArcEngine(wiring.Component):
         radius = Signal(w)
         residue = Signal(signed(w + 1))
         end = Signal(ArcPlanner.Plan(w)["end"].shape)
-        x = Signal(w + 1)                 # native position in the running run
-        y = Signal(w + 1)
+        dx = Signal(signed(w + 2))        # native X - end X in the running run
+        dy = Signal(signed(w + 2))        # end Y - native Y
+        near = Signal(4)                  # dx = 0, dx = 1, dy = 0, dy = 1
         swap = Signal()
         direction = Signal(2)
 
         native = core.step
-        x_next = x - native[0]
-        y_next = y + native[1]
         last_run = active & (later_runs == 0)
         reached = Signal()
         arc_done = Signal()
@@ -405,8 +420,10 @@ class ArcEngine(wiring.Component):
         following = Signal()              # a later quadrant of this arc starts
         refuse = Signal()
         m.d.comb += [
+            # The step lands on the end (X falls by native[0], Y rises by native[1]): the
+            # distances are compared from registers, not through the step's own sums.
             reached.eq(last_run & (end.y != 0) & native.any()
-                       & (x_next == end.x) & (y_next == end.y)),
+                       & Mux(native[0], near[1], near[0]) & Mux(native[1], near[3], near[2])),
             core.stop.eq(reached),
             arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
@@ -418,19 +435,23 @@ class ArcEngine(wiring.Component):
 
         # Runs handed to the core, in order: this arc's later quadrants (each from the axis),
         # then the next plan's first run. In the clock a plan is taken its own later runs come
-        # first, from the plan itself.
+        # first, from the plan itself. Which run is offered is known from registers (no run of
+        # this arc left to offer; the next plan's first run already offered): the clock's
+        # start only validates the offer, so the core's preparation of the run does not wait
+        # for the handover.
         offer_axis = Signal()
         offer_first = Signal()
-        axis_radius = Mux(begin, next_plan.radius, radius)
-        axis_residue = Mux(begin, next_plan.residue, residue)
+        own_axis = to_offer != 0          # this arc's later quadrants (never in a begin clock)
+        plan_axis = ~own_axis & first_offered       # the next plan's, in the clock it begins
         m.d.comb += [
-            offer_axis.eq(Mux(begin, next_plan.runs > 1, to_offer != 0)),
-            offer_first.eq(~offer_axis & ~begin & planner_o.valid & ~next_plan.refused
-                           & ~first_offered),
+            offer_axis.eq(own_axis | (begin & (next_plan.runs > 1))),
+            offer_first.eq(~own_axis & ~first_offered & planner_o.valid & ~next_plan.refused),
             core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
-            core.cmd.payload.x.eq(Mux(offer_axis, axis_radius, next_plan.start.x)),
-            core.cmd.payload.y.eq(Mux(offer_axis, 0, next_plan.start.y)),
-            core.cmd.payload.residue.eq(Mux(offer_axis, axis_residue, 0)),
+            core.cmd.payload.x.eq(Mux(own_axis, radius,
+                                      Mux(plan_axis, next_plan.radius, next_plan.start.x))),
+            core.cmd.payload.y.eq(Mux(own_axis | plan_axis, 0, next_plan.start.y)),
+            core.cmd.payload.residue.eq(Mux(own_axis, residue,
+                                            Mux(plan_axis, next_plan.residue, 0))),
         ]
         offered = core.cmd.valid & core.cmd.ready
         with m.If(begin):
@@ -457,20 +478,28 @@ class ArcEngine(wiring.Component):
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
                 radius.eq(next_plan.radius), residue.eq(next_plan.residue),
                 end.eq(next_plan.end),
-                x.eq(next_plan.start.x), y.eq(next_plan.start.y),
+                *_distances(m, dx, dy, near, next_plan.start.x - next_plan.end.x,
+                            next_plan.end.y - next_plan.start.y),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
             q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
-                later_runs.eq(later_runs - 1), quadrant.eq(q_next), x.eq(radius), y.eq(0),
+                later_runs.eq(later_runs - 1), quadrant.eq(q_next),
+                *_distances(m, dx, dy, near, radius - end.x, end.y),
                 *enter(q_next, clockwise),
             ]
         with m.Else():
             with m.If(arc_done):
                 m.d.sync += active.eq(0)
             with m.If(active):
-                m.d.sync += [x.eq(x_next), y.eq(y_next)]
+                m.d.sync += [
+                    dx.eq(dx - native[0]), dy.eq(dy - native[1]),
+                    near.eq(Cat(Mux(native[0], near[1], near[0]),
+                                Mux(native[0], dx == 2, near[1]),
+                                Mux(native[1], near[3], near[2]),
+                                Mux(native[1], dy == 2, near[3]))),
+                ]
 
         with m.If(self.abort):
             m.d.sync += [active.eq(0), later_runs.eq(0), to_offer.eq(0),

@@ -2,13 +2,13 @@
 and each as an arc core."""
 
 from amaranth import *
-from amaranth.lib import wiring
+from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
 
 from .arc import ArcCoreSignature
 from .circular_timing import FaithfulTiming
 from .elements import (AccumulatingAdder, Commutator, DelayElement, PulseExtender,
-                       PulseGenerator, ReversibleCounter, Trigger)
+                       PulseGenerator, ReversibleCounter, Trigger, carry_save)
 from .elements._checks import check_positive, check_width
 from .engine import permit
 
@@ -298,15 +298,71 @@ class CircularInterpolator(wiring.Component):
         return m
 
 
+_CHOICE = data.StructLayout({
+    "from_pos": 1,              # operand_neg' is formed from ~operand_pos (2Y + 2 in sector 1)
+    "k_neg":    signed(4),      # ... plus this
+    "keep_pos": 1,              # operand_pos' is formed from operand_pos (else from 0)
+    "k_pos":    signed(4),      # ... plus this
+})
+_CHOICES = data.StructLayout({"neg": _CHOICE, "pos": _CHOICE})
+
+
+def _choices(m, sector2, near):
+    """The fast core's choices (:data:`_CHOICES`) of a state: sector 2, or sector 1 with
+    ``near[k - 1]`` for ``X - Y = k`` (``k = 1 .. 4``; none of them: ``X - Y >= 5``). Each is
+    how the step of that sign moves the operands on (the table of
+    :class:`CircularInterpolatorFast`: a source and a constant)."""
+    e1, e2, e3, e4 = (Signal(name=f"near{k}") for k in range(1, 5))
+    choices = Signal(_CHOICES)
+    m.d.comb += [Cat(e1, e2, e3, e4).eq(Mux(sector2, 0, Cat(*near)))]
+    neg, pos = choices.neg, choices.pos
+    m.d.comb += [
+        # F < 0, a diagonal in sector 1 (d falls by 2) or an X step in sector 2.
+        neg.from_pos.eq(e2 | e3 | e4),
+        neg.k_neg.eq(Mux(sector2, -2, Mux(e1, -1, Mux(e2, -3, Mux(e3, -2, Mux(e4, 1, -4)))))),
+        neg.keep_pos.eq(~(e1 | e2 | e3)),
+        neg.k_pos.eq(Mux(e1, -7, Mux(e2, -5, Mux(e3, -1, -2)))),
+        # F >= 0, a Y step in sector 1 (d falls by 1) or a diagonal in sector 2.
+        pos.from_pos.eq(e2 | e3),
+        pos.k_neg.eq(Mux(e1 | e3, 1, -2)),
+        pos.keep_pos.eq(~(e1 | e2)),
+        pos.k_pos.eq(Mux(sector2, -4, Mux(e1, -5, Mux(e2, -1, -2)))),
+    ]
+    return choices
+
+
 class CircularInterpolatorFast(wiring.Component):
     """The SU 1665343 trajectory at one step per clock.
 
     The same registers as the patent's structure (adder, counters 7 and 8, triggers 4 and 16,
-    generator 5) and the same inputs and outputs as :class:`CircularInterpolator`, but each
-    step's operand and, on the switch-over step, the ``X + Y`` correction are formed in the
-    clock of the step, so a quadrant takes exactly as many generator pulses as it has steps and
-    a run can follow another with no idle clock: :py:`done` pulses in the clock of the last step
-    (counter 7's underflow output looks ahead at the count). The numbers are two's complement.
+    generator 5) and the same inputs and outputs as :class:`CircularInterpolator`, so a quadrant
+    takes exactly as many generator pulses as it has steps and a run can follow another with no
+    idle clock: :py:`done` pulses in the clock of the last step. The numbers are two's
+    complement.
+
+    The clock's decision is the bare accumulator's: the sign of adder 1 selects one of two
+    *operand registers*, :py:`operand_neg` (``F < 0``) or :py:`operand_pos` (``F >= 0``), which
+    hold the two possible increments of ``F`` for the next step, the switch-over correction
+    ``X + Y`` already folded in. With ``d = X - Y`` in sector 1 and the point ``(X, Y)``:
+
+    ============  =========================  ==========================
+    state         operand_neg (``F < 0``)    operand_pos (``F >= 0``)
+    ============  =========================  ==========================
+    sector 1      D: ``2d - 5``              Y: ``-(2Y + 3)``
+    ``d = 2``     D and switch: ``2Y + 1``   Y: ``-(2Y + 3)``
+    ``d = 1``     D and switch: ``2Y - 2``   Y and switch: ``-1``
+    sector 2      X: ``2X - 3``              D: ``2(X - Y) - 5``
+    ============  =========================  ==========================
+
+    Each step moves the operands on by a constant (``-1`` to ``-7``, or ``+1``) added to
+    themselves or to the inverse of :py:`operand_pos` (``2Y + 2`` in sector 1), or replaces
+    :py:`operand_pos` by a constant. The source and the constant of each sign are
+    :py:`choices`, registered one step ahead from the counters (they depend on the sector and on
+    ``d = 1 .. 4``), so that in the clock of a step the sign only selects: no increment is formed
+    from the counters then. The flags ``d = 1, 2`` (:py:`near`) and ``counter 7 = 0``
+    (:py:`last7`) are registered ahead in the same way; with them the switch-over and the end of
+    the run (counter 7's underflow) are known from registers. The proof ``circular_fast``
+    (``docs/formal.md``) ties every one of these registers to the point.
 
     Parameters
     ----------
@@ -332,6 +388,12 @@ class CircularInterpolatorFast(wiring.Component):
         self.counter7 = ReversibleCounter(cw)
         self.counter8 = ReversibleCounter(cw)
         self.trigger16 = Trigger(priority="set")
+        # The registers of the one-step-per-clock decision (see above).
+        self.operand_neg = Signal(signed(aw))
+        self.operand_pos = Signal(signed(aw))
+        self.near = Signal(2)             # bit k - 1: sector 1 and X - Y = k (k = 1, 2)
+        self.choices = Signal(_CHOICES)   # how each sign moves the operands on (_choices)
+        self.last7 = Signal()             # counter 7 holds 0
         super().__init__(_core_signature(width))
 
     @property
@@ -348,55 +410,68 @@ class CircularInterpolatorFast(wiring.Component):
             m.submodules[name] = getattr(self, name)
         adder1, trigger4, generator5 = self.adder1, self.trigger4, self.generator5
         counter7, counter8, trigger16 = self.counter7, self.counter8, self.trigger16
-        aw, cw = self._width + 4, self._width + 1
+        op_neg, op_pos, near, last7 = self.operand_neg, self.operand_pos, self.near, self.last7
+        d1, d2 = near
+        aw = self._width + 4
 
         move = Signal()                   # a step is made in this clock
         sector2 = trigger16.q
+        negative = adder1.sign            # F < 0: operand_neg
         step_x = Signal()                 # X falls (output 36)
         step_y = Signal()                 # Y rises (output 35)
         diagonal = Signal()
         m.d.comb += [
             generator5.en.eq(self.tick),
             move.eq(generator5.o & trigger4.q),
-            step_x.eq(move & (sector2 | adder1.sign)),
-            step_y.eq(move & (~sector2 | adder1.sign_n)),
+            step_x.eq(move & (sector2 | negative)),
+            step_y.eq(move & (~sector2 | ~negative)),
             diagonal.eq(step_x & step_y),
             self.step.eq(Cat(step_x, step_y)),
         ]
 
-        # Counters after the step itself (before any switch-over correction).
-        ct7 = Signal(signed(cw + 1))      # Y' in sector 1, X' - 1 in sector 2
-        ct8 = Signal(signed(cw + 1))      # X' - Y' - 1 in sector 1, X' - Y' in sector 2
-        m.d.comb += [
-            ct7.eq(Mux(sector2, counter7.q - 1, counter7.q + 1)),
-            ct8.eq(counter8.q - 1 - diagonal),
-        ]
-        increment = Signal(signed(aw))
-        with m.If(~sector2 & ~diagonal):
-            m.d.comb += increment.eq(-(2 * ct7 + 1))     # Y: F -= 2Y' + 1
-        with m.Elif(~sector2):
-            m.d.comb += increment.eq(2 * ct8 + 1)        # D: F += 2(X' - Y') - 1
-        with m.Elif(diagonal):
-            m.d.comb += increment.eq(2 * ct8 - 1)        # D: F += 2(X' - Y') - 1
-        with m.Else():
-            m.d.comb += increment.eq(2 * ct7 + 1)        # X: F += 2X' - 1
-
-        # Switch-over in the same clock: F += X' + Y', counter 7 becomes X' - 1.
-        at_diagonal = Signal()            # X' = Y' (counter 8 would read -1)
-        past_diagonal = Signal()          # X' - Y' = -1 (counter 8 would read -2)
+        # The switch-over (sector 1 only, where the flags are): a Y step at d = 1 makes X = Y,
+        # a diagonal at d = 2 X = Y, a diagonal at d = 1 X - Y = -1.
+        at_diagonal = Signal()
+        past_diagonal = Signal()
         switch = Signal()
-        correction = Signal(signed(aw))
         m.d.comb += [
-            at_diagonal.eq(move & ~sector2 & (ct8 == -1)),
-            past_diagonal.eq(move & ~sector2 & (ct8 == -2)),
+            at_diagonal.eq(move & Mux(negative, d2, d1)),
+            past_diagonal.eq(move & negative & d1),
             switch.eq(at_diagonal | past_diagonal),
-            correction.eq(Mux(at_diagonal, 2 * ct7, Mux(past_diagonal, 2 * ct7 - 1, 0))),
         ]
+
+        # The operands after this step: a source plus a constant, both chosen by the sign
+        # from the registered choices of the state (see _choices):
+        #   operand_neg' = (operand_neg or ~operand_pos) + k_neg
+        #   operand_pos' = (operand_pos or 0) + k_pos
+        choices = self.choices
+        choice = Signal(_CHOICE)
+        m.d.comb += choice.eq(Mux(negative, choices.neg, choices.pos))
+
+        # The flags and the choices after this step. In sector 1, X - Y falls by one on a Y
+        # step and by two on a diagonal; counter 8 holds X - Y - 1 there (and X - Y <= 0 in
+        # sector 2, so no flag). Counter 7 rises on a sector-1 step but for the switch-over's
+        # correction, falls in sector 2.
+        c7, c8 = counter7.q, counter8.q
+        near_next = Signal(2)
+        for k in range(2):
+            m.d.comb += near_next[k].eq(Mux(negative, c8 == k + 2, c8 == k + 1))
+        after_neg = _choices(m, sector2 | d1 | d2, [c8 == k + 1 for k in range(1, 5)])
+        after_pos = _choices(m, sector2 | d1, [c8 == k for k in range(1, 5)])
+        last7_next = Signal()
+        m.d.comb += last7_next.eq(Mux(sector2, c7 == 1,
+                                      Mux(past_diagonal, c7 == 1,
+                                          Mux(at_diagonal, c7 == 0, c7 == -1))))
+
+        # Counter 7's underflow, known ahead: the step that makes X = 0 (sector 2, counter 7
+        # = X - 1 = 0; or the diagonal from (1, 0)).
+        last = Signal()
+        m.d.comb += last.eq(move & last7 & (sector2 | (negative & d1)))
 
         stop = Signal()
         start = Signal()
         m.d.comb += [
-            stop.eq(trigger4.q & (counter7.underflow | self.in32)),
+            stop.eq(trigger4.q & (last | self.in32)),
             self.ready.eq(trigger4.q_n | stop),
             start.eq(self.in33 & self.ready),
             self.error.eq(self.in33 & ~self.ready),
@@ -408,7 +483,7 @@ class CircularInterpolatorFast(wiring.Component):
             adder1.d.eq(self.in29),
             adder1.load.eq(start),
             adder1.clr.eq(stop),
-            adder1.b.eq(increment + correction),
+            adder1.b.eq(Mux(negative, op_neg, op_pos)),
             adder1.add.eq(move),
 
             counter7.d.eq(self.in30),
@@ -428,6 +503,32 @@ class CircularInterpolatorFast(wiring.Component):
             trigger16.set.eq(Mux(start, self.in34, switch & ~stop)),
             trigger16.reset.eq(Mux(start, ~self.in34, stop)),
         ]
+
+        # The operands and flags of a starting run, from inputs 30, 31 and 34 (counter 7: Y
+        # or X - 1; counter 8: d - 1 or X - Y), one carry chain for each operand.
+        in30, in31, in34 = self.in30, self.in31, self.in34
+        first_d1 = ~in34 & (in31 == 0)
+        first_d2 = ~in34 & (in31 == 1)
+        with m.If(start):
+            m.d.sync += [
+                # 2X - 3, 2Y - 2, 2Y + 1, 2d - 5 (the table above)
+                op_neg.eq(Mux(in34 | first_d1 | first_d2, 2 * in30, 2 * in31)
+                          + Mux(in34, -1, Mux(first_d1, -2, Mux(first_d2, 1, -3)))),
+                # 2(X - Y) - 5, -1, -(2Y + 3) = ~2Y - 2
+                op_pos.eq(Mux(in34, 2 * in31, Mux(first_d1, 0, ~(2 * in30)))
+                          + Mux(in34, -5, Mux(first_d1, -1, -2))),
+                near.eq(Cat(first_d1, first_d2)),
+                choices.eq(_choices(m, in34, [in31 == k - 1 for k in range(1, 5)])),
+                last7.eq(in30 == 0),
+            ]
+        with m.Elif(move):
+            m.d.sync += [
+                op_neg.eq(Mux(choice.from_pos, ~op_pos, op_neg) + choice.k_neg),
+                op_pos.eq(Mux(choice.keep_pos, op_pos, 0) + choice.k_pos),
+                near.eq(near_next),
+                choices.eq(Mux(negative, after_neg, after_pos)),
+                last7.eq(last7_next),
+            ]
         return m
 
 
@@ -479,14 +580,27 @@ class _QuadrantCore(wiring.Component):
             take.eq(full & ip.ready & ~self.abort),
             self.cmd.ready.eq(~full | take),
         ]
-        with m.If(self.cmd.valid & self.cmd.ready):
+        # ⌊F⌋ in one carry chain per sector: both three-operand sums are first reduced to two
+        # by carry-save (the numbers are taken modulo 2**(width + 4)).
+        aw = w + 4
+        r, one_x, two_x = Signal(aw), Signal(aw), Signal(aw)
+        two_y_1, y_ = Signal(aw), Signal(aw)
+        m.d.comb += [r.eq(residue), one_x.eq(x), two_x.eq(2 * x), two_y_1.eq(2 * y + 1),
+                     y_.eq(y)]
+        s1_sum, s1_carry = carry_save(m, r, one_x, ~two_y_1)      # r + x - 2y - 2
+        s2_sum, s2_carry = carry_save(m, r, two_x, ~y_)           # r + 2x - y - 1
+        s2_sum, s2_carry = carry_save(m, s2_sum, s2_carry, Const(-1, aw))   # ... - 1
+        # The register takes the payload whenever it may (:py:`cmd.valid` only sets full), so
+        # that the handover's valid is not on the path to every bit's enable.
+        with m.If(self.cmd.ready):
             m.d.sync += [
-                full.eq(1),
-                in29.eq(residue + Mux(sector2, 2 * x - y, x - 2 * y) - 2),
+                in29.eq(Mux(sector2, s2_sum + s2_carry, s1_sum + s1_carry)),
                 in30.eq(Mux(sector2, x - 1, y)),
                 in31.eq(Mux(sector2, x - y, x - y - 1)),
                 in34.eq(sector2),
             ]
+        with m.If(self.cmd.valid & self.cmd.ready):
+            m.d.sync += full.eq(1)
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
 

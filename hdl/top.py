@@ -142,7 +142,8 @@ class ShiftInTop(wiring.Component):
 
     def __init__(self, engine):
         members = getattr(getattr(engine, "signature", None), "members", {})
-        cmd = members.get("cmd") if isinstance(engine, wiring.Component) else None
+        cmd = (members["cmd"] if isinstance(engine, wiring.Component) and "cmd" in members
+               else None)
         if (cmd is None or cmd.flow != In or not cmd.is_signature
                 or not isinstance(cmd.signature, stream.Signature)):
             raise TypeError(f"Design must be a component with a command stream 'cmd', "

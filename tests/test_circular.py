@@ -12,6 +12,7 @@ from sim.models.arc import arc_steps, points_ahead
 from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
                                  core_inputs, f4_initial, floor_f, native_steps)
 from sim.models.codes import ones_decode
+from sim.models.engine import REFUSED
 from sim.models.errors import InputError
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
@@ -88,6 +89,26 @@ class ArcEngineTestCase(unittest.TestCase):
                     job = Job(frames=frames, gaps=gaps, tick=tick, resets={1500: 2, 4000: 1})
                     record = self.check(job, variant=variant)
                     self.assertGreaterEqual(sum(e.get("error", 0) for e in record), 2)
+
+    def test_end_point_bound(self):
+        # End points on both sides of each bound of -M < r2 - x1² - y1² <= M: the planner's
+        # check (two three-operand sums) refuses exactly the ones the model refuses.
+        frames = []
+        for x0, y0 in ((9, 4), (-13, 7), (20, -3)):
+            r2 = x0 * x0 + y0 * y0
+            for x1 in range(-25, 26):
+                for y1 in range(-25, 26):
+                    big = max(abs(x1), abs(y1))
+                    if r2 - x1 * x1 - y1 * y1 in (-big - 1, -big, -big + 1, big, big + 1):
+                        frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": 0})
+        refused = [f for f in frames
+                   if not -max(abs(f["x1"]), abs(f["y1"])) < f["x0"] ** 2 + f["y0"] ** 2
+                   - f["x1"] ** 2 - f["y1"] ** 2 <= max(abs(f["x1"]), abs(f["y1"]))]
+        self.assertTrue(10 < len(refused) < len(frames) - 10, (len(refused), len(frames)))
+        record = self.check(Job(frames=frames), variant="fast", width=8, state=False)
+        outcomes = [e["status"][1] for e in record if e.get("status")]
+        self.assertEqual(len(outcomes), len(frames))
+        self.assertEqual(outcomes.count(REFUSED), len(refused))
 
     def test_non_integer_radii(self):
         rng = random.Random(5)

@@ -10,6 +10,7 @@ from amaranth import *
 from amaranth.lib import data, wiring
 
 from constraints import icebreaker
+from hdl.circular import CircularInterpolatorFast
 from hdl.engine import EngineSignature
 from hdl.line import LineEngine
 from hdl.linear import LinearCore
@@ -154,6 +155,11 @@ class ShiftInTopTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError,
                 r"^Design must be a component with a command stream 'cmd', not 42$"):
             ShiftInTop(42)
+        # A component without a command stream (the bare interpolator of a core).
+        with self.assertRaisesRegex(TypeError,
+                r"^Design must be a component with a command stream 'cmd', "
+                r"not <hdl\.circular\.CircularInterpolatorFast object"):
+            ShiftInTop(CircularInterpolatorFast(width=4))
         with self.assertRaisesRegex(TypeError,
                 r"^Frame layout must be a data layout, not unsigned\(8\)$"):
             RecordingEngine(layout=unsigned(8))

@@ -4,7 +4,7 @@ Every pulse is a one-clock strobe in a single synchronous clock domain (``sync``
 number of clocks.
 """
 
-from .adder import AccumulatingAdder
+from .adder import AccumulatingAdder, carry_save
 from .counter import ReversibleCounter
 from .commutator import Commutator
 from .delay import DelayElement
@@ -15,4 +15,5 @@ from .serial_adder import SerialAdder
 from .capacity import CapacityRegister
 
 __all__ = ["AccumulatingAdder", "ReversibleCounter", "Commutator", "DelayElement", "Trigger",
-           "PulseGenerator", "PulseExtender", "ShiftRegister", "SerialAdder", "CapacityRegister"]
+           "PulseGenerator", "PulseExtender", "ShiftRegister", "SerialAdder", "CapacityRegister",
+           "carry_save"]

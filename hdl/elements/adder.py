@@ -6,7 +6,7 @@ from amaranth.lib.wiring import In, Out
 
 from ._checks import check_width
 
-__all__ = ["AccumulatingAdder"]
+__all__ = ["AccumulatingAdder", "carry_save"]
 
 
 class AccumulatingAdder(wiring.Component):
@@ -132,3 +132,17 @@ class AccumulatingAdder(wiring.Component):
             self.sign_n.eq(~self.q[-1]),
         ]
         return m
+
+
+def carry_save(m, a, b, c):
+    """Reduce ``a + b + c`` to two numbers with no carry chain: return ``(total, carries)``,
+    signals of ``len(a)`` bits with ``total + carries == a + b + c`` modulo ``2**len(a)``.
+
+    One full adder per bit (its sum in ``total``, its carry one bit up in ``carries``, whose
+    lowest bit is 0), so that a three-operand sum needs one carry chain, not two. The operands
+    should be ``len(a)`` bits wide (shorter ones are extended by their signedness).
+    """
+    width = len(a)
+    total, carries = Signal(width), Signal(width)
+    m.d.comb += [total.eq(a ^ b ^ c), carries.eq(((a & b) | (a & c) | (b & c)) << 1)]
+    return total, carries

@@ -35,7 +35,7 @@ coordinates below ``2**(width - 1)`` (so that no point of the quadrant overflows
 from amaranth import *
 from amaranth.hdl import Assert, Assume
 
-from ..circular import CircularInterpolator, CircularInterpolatorFast
+from ..circular import CircularInterpolator, CircularInterpolatorFast, _choices
 from ._util import free, ones_value
 
 __all__ = ["CircularInterpolatorFastProperties", "CircularInterpolatorProperties",
@@ -186,7 +186,31 @@ class CircularInterpolatorFastProperties(Elaboratable):
         _run_claims(m, ip, run, nx, ny, nrho, moving=running & ip.generator5.o,
                     f=ip.adder1.q, ct8=ip.counter8.q, running=running,
                     stopping=ip.done | stop_now)
+        _operand_claims(m, ip, run, running=running)
         return m
+
+
+def _operand_claims(m, ip, run, *, running):
+    """The one-step-per-clock core's own registers: the two operands of the next step (the
+    switch-over correction folded in), the flags ``X - Y = 1, 2`` of sector 1, the choices of
+    the state (by the core's own decoding of it: these tie the register for the induction; the
+    claims are on the operands) and counter 7's zero, each tied to the point."""
+    X, Y, s2 = run.x, run.y, run.sector2
+    d = Signal(signed(len(X) + 1), name="point_d")
+    m.d.comb += d.eq(X - Y)
+    neg = Mux(s2, 2 * X - 3, Mux(d == 1, 2 * Y - 2, Mux(d == 2, 2 * Y + 1, 2 * d - 5)))
+    pos = Mux(s2, 2 * d - 5, Mux(d == 1, -1, -(2 * Y + 3)))
+    choices = _choices(m, s2, [d == k for k in range(1, 5)])
+    with m.If(running):
+        m.d.comb += [
+            Assert(ip.operand_neg == neg, "operand for F < 0: D (sector 1), X (sector 2)"),
+            Assert(ip.operand_pos == pos, "operand for F >= 0: Y (sector 1), D (sector 2)"),
+            Assert(ip.near == Cat(*(~s2 & (d == k) for k in range(1, 3))),
+                   "flags: sector 1 and X - Y = 1, 2"),
+            Assert(ip.choices.as_value() == choices.as_value(),
+                   "choices: how each sign moves the operands on, of the point's state"),
+            Assert(ip.last7 == (ip.counter7.q == 0), "flag: counter 7 holds 0"),
+        ]
 
 
 class CircularInterpolatorProperties(Elaboratable):
