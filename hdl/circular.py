@@ -412,7 +412,6 @@ class CircularInterpolatorFast(wiring.Component):
         counter7, counter8, trigger16 = self.counter7, self.counter8, self.trigger16
         op_neg, op_pos, near, last7 = self.operand_neg, self.operand_pos, self.near, self.last7
         d1, d2 = near
-        aw = self._width + 4
 
         move = Signal()                   # a step is made in this clock
         sector2 = trigger16.q
