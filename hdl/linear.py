@@ -62,6 +62,11 @@ class LinearInterpolator(wiring.Component):
         Whether a start may come with inputs 22 and 23 both zero (a zero-length segment, as
         above). ``False`` promises it never does (:class:`LinearCore` ends those itself), which
         takes the decode of inputs 22 and 23 off the path of a start.
+    one_step_input : :class:`bool`
+        Whether the decode "a frame of one step" (inputs 22 and 23 are 1 and 0, or 0 and 1) is
+        an input, :py:`one_step`, formed by whoever forms inputs 22-25 (:class:`LinearCore`,
+        from the magnitudes, a clock ahead), instead of decoded here from inputs 22 and 23 in
+        the clock of the start.
 
     Members
     -------
@@ -75,6 +80,8 @@ class LinearInterpolator(wiring.Component):
         ``|X| >= |Y|``: sets trigger 15 (the long axis is X).
     in26 : :py:`In(1)`
         Start of frame ("Начало кадра").
+    one_step : :py:`In(1)`
+        With ``one_step_input``: the frame started has one step (read with input 26).
     tick : :py:`In(1)`
         Enable of generator 4 (feed rate): tie high for one step per ``period`` clocks.
     step : :py:`Out(2)`
@@ -92,19 +99,23 @@ class LinearInterpolator(wiring.Component):
     ------
     :exc:`TypeError`
         If ``width`` is not an integer of at least 2, ``period`` not a positive integer, or
-        ``zero_frames`` not a bool.
+        ``zero_frames`` or ``one_step_input`` not a bool.
     :exc:`ValueError`
         If ``variant`` is not one of the two above.
     """
 
-    def __init__(self, *, width=16, variant="exact", period=1, zero_frames=True):
+    def __init__(self, *, width=16, variant="exact", period=1, zero_frames=True,
+                 one_step_input=False):
         _check(width, variant, period)
         if not isinstance(zero_frames, bool):
             raise TypeError(f"Zero frames must be a bool, not {zero_frames!r}")
+        if not isinstance(one_step_input, bool):
+            raise TypeError(f"One step input must be a bool, not {one_step_input!r}")
         self._width = width
         self._variant = variant
         self._period = period
         self._zero_frames = zero_frames
+        self._one_step_input = one_step_input
         # The numbered elements, reachable as attributes (tests sample their contents).
         self.counter1 = ReversibleCounter(width + 1, parallel=True)
         self.counter2 = ReversibleCounter(width + 1, parallel=True)
@@ -118,7 +129,7 @@ class LinearInterpolator(wiring.Component):
         if variant == "exact":
             self.reg22 = Signal(width, name="reg22")    # constant increment ||X| - |Y||
             self.reg23 = Signal(signed(width + 1), name="reg23")   # min(|X|, |Y|) - 1
-        super().__init__({
+        members = {
             "in22":  In(width),
             "in23":  In(width),
             "in24":  In(signed(width + 1)),
@@ -130,7 +141,10 @@ class LinearInterpolator(wiring.Component):
             "busy":  Out(1),
             "done":  Out(1),
             "error": Out(1),
-        })
+        }
+        if one_step_input:
+            members["one_step"] = In(1)
+        super().__init__(members)
 
     @property
     def width(self):
@@ -147,6 +161,10 @@ class LinearInterpolator(wiring.Component):
     @property
     def zero_frames(self):
         return self._zero_frames
+
+    @property
+    def one_step_input(self):
+        return self._one_step_input
 
     def elaborate(self, platform):
         m = Module()
@@ -209,9 +227,16 @@ class LinearInterpolator(wiring.Component):
         two_left_1 = c1_high_zero & (c1[:2] == 2) & c2.all()                     # 2 and -1
         two_left_2 = c1_high_zero & (c1[:2] == 1) & c2_high_zero & ~c2[0]        # 1 and 0
         two_left_3 = c1_high_zero & (c1[:2] == 0) & c2_high_zero & c2[0]         # 0 and 1
+        if self._one_step_input:
+            one_step = self.one_step
+        else:
+            # Inputs 22 and 23 are 1 and 0, or 0 and 1: a frame of one step. Written bit by
+            # bit (a wide OR and an XOR), so that it does not wait for the carry chain that
+            # forms input 23 minus one for counter 2.
+            one_step = (~self.in22[1:].any() & ~self.in23[1:].any()
+                        & (self.in22[0] ^ self.in23[0]))
         with m.If(go):
-            m.d.sync += last_step.eq(((self.in22 == 1) & ~self.in23.any())
-                                     | (~self.in22.any() & (self.in23 == 1)))
+            m.d.sync += last_step.eq(one_step)
         with m.Elif(and9):
             m.d.sync += last_step.eq(0)
         with m.Elif(and5):       # counter 1 counts down
@@ -236,16 +261,18 @@ class LinearInterpolator(wiring.Component):
 
         # ---- node 19: adder-subtractor (adder 3, multiplexer 12) -------------------------------
         # Multiplexer 12 passes the inverse code of counter 2 (channel 1, AND 5: F -= C2) or
-        # counter 1 (channel 2, AND 6: F += C1) to adder 3. Here adder 3 forms both sums in
-        # parallel, each channel's code on an operand input of its own, and the channel's strobe
-        # picks the sum: the sign of F then chooses at the end of the carry chain, not at its
-        # start (the loop is that of a bare accumulator).
+        # counter 1 (channel 2, AND 6: F += C1) to adder 3. AND 5 and AND 6 are the generator's
+        # pulse with the sign of F, and the channel a pulse opens is the one the sign chooses,
+        # so here the sign drives the channels' control inputs and the pulse (AND 5 or AND 6)
+        # drives the adder's strobe: the choice precedes the carry chain, as in a bare
+        # accumulator's loop, and the late pulse only enables the register. What the adder adds
+        # in a clock is what it adds with the patent's wiring.
         m.d.comb += [
             adder3.d.eq(self.in24),
             adder3.load.eq(go),
             adder3.clr.eq(and9),
-            mux12.a[0].eq(and5),
-            mux12.a[1].eq(and6),
+            mux12.a[0].eq(adder3.sign_n),
+            mux12.a[1].eq(adder3.sign),
         ]
         if self._variant == "device":
             m.d.comb += [
@@ -263,10 +290,8 @@ class LinearInterpolator(wiring.Component):
                 mux12.b[1].eq(reg22),        # F += |X| - |Y|
             ]
         m.d.comb += [
-            adder3.b2.eq(mux12.b[0]),
-            adder3.add2.eq(mux12.a[0]),
-            adder3.b.eq(mux12.b[1]),
-            adder3.add.eq(mux12.a[1]),
+            adder3.b.eq(mux12.o),
+            adder3.add.eq(and5 | and6),
         ]
 
         # ---- node 20: coordinate increments (trigger 15, AND 7, AND 8, OR 10, OR 11) -----------
@@ -289,9 +314,10 @@ class LinearInterpolator(wiring.Component):
 class LinearCore(wiring.Component):
     """:class:`LinearInterpolator` as a line core (:class:`~hdl.line.LineCoreSignature`).
 
-    A segment taken from :py:`cmd` is prepared in a register holding the patent's inputs 22-25,
-    formed from the magnitudes in the clock it is taken (every candidate in parallel, the
-    comparison ``|X| >= |Y|`` only selecting), and started by input 26 as soon as the
+    A segment taken from :py:`cmd` is prepared in registers holding the candidates for the
+    patent's inputs 22-25 under either long axis, and the comparison ``|X| >= |Y|``, all formed
+    from the magnitudes in parallel in the clock it is taken; the comparison selects inputs
+    22-25 from the registers (a multiplexer, no carry chain after the comparison). It is started by input 26 as soon as the
     interpolator is ready: in the next clock when it is idle, in the clock of the running
     segment's last step otherwise. A segment of length zero does not reach the interpolator: it
     starts and ends in an idle clock of the interpolator, as the interpolator would end it. The
@@ -314,7 +340,7 @@ class LinearCore(wiring.Component):
     def __init__(self, *, width=16, variant="exact", period=1):
         _check(width, variant, period)          # before the interpolator is made
         self.interpolator = LinearInterpolator(width=width, variant=variant, period=period,
-                                               zero_frames=False)
+                                               zero_frames=False, one_step_input=True)
         super().__init__(LineCoreSignature(width))
 
     @property
@@ -335,7 +361,10 @@ class LinearCore(wiring.Component):
         ip = self.interpolator
         m.submodules.interpolator = ResetInserter(self.abort)(ip)
 
-        # The prepared segment: inputs 22-25 from the magnitudes, every candidate in parallel.
+        # The prepared segment: the candidates for inputs 22-25 under either long axis, from
+        # the magnitudes in parallel, and the comparison that chooses between them. The choice
+        # is made after the registers, so that the comparison's carry chain ends at a flip-flop
+        # instead of fanning out to every input bit in the clock the segment is taken.
         mx, my = self.cmd.payload.x, self.cmd.payload.y
         x_minus_y = Signal(signed(w + 2))         # |x| - |y|; its sign is the comparison
         y_minus_x = Signal(signed(w + 2))
@@ -347,17 +376,20 @@ class LinearCore(wiring.Component):
             f0_x_long.eq(mx - (my << 1)),
             f0_y_long.eq(my - (mx << 1)),
         ]
-        x_ge_y = ~x_minus_y[-1]
 
         # The prepared segment's registers need no reset (only ``full`` says they count), which
         # keeps the reset off their load enable.
         full = Signal()
         queued = Signal()                         # full, and the segment has steps
         empty = Signal(reset_less=True)           # the prepared segment has length zero
-        in22 = Signal(w, reset_less=True)
-        in23 = Signal(w, reset_less=True)
-        in24 = Signal(signed(w + 1), reset_less=True)
-        in25 = Signal(reset_less=True)
+        one_step = Signal(reset_less=True)        # the prepared segment has one step
+        x_ge_y = Signal(reset_less=True)          # |x| >= |y|: X is the long axis (input 25)
+        prepared_x = Signal(w, reset_less=True)   # the magnitudes (input 23 is the short one)
+        prepared_y = Signal(w, reset_less=True)
+        long_less_x = Signal(w, reset_less=True)  # input 22 with X long: |x| - |y|
+        long_less_y = Signal(w, reset_less=True)
+        f0_x = Signal(signed(w + 1), reset_less=True)    # input 24 with X long: F0
+        f0_y = Signal(signed(w + 1), reset_less=True)
         take = Signal()
         ending = Signal()       # the running segment makes its last step in this clock
         # A segment of length zero never reaches the interpolator: it starts and ends here, in
@@ -378,19 +410,25 @@ class LinearCore(wiring.Component):
         with m.If(self.cmd.ready):
             m.d.sync += [
                 empty.eq(~mx.any() & ~my.any()),
-                in22.eq(Mux(x_ge_y, x_minus_y, y_minus_x)[:w]),
-                in23.eq(Mux(x_ge_y, my, mx)),
-                in24.eq(Mux(x_ge_y, f0_x_long, f0_y_long) >> 1),
-                in25.eq(x_ge_y),
+                # max(|x|, |y|) == 1: inputs 22 and 23 are 1 and 0, or 0 and 1.
+                one_step.eq(~mx[1:].any() & ~my[1:].any() & (mx[0] | my[0])),
+                x_ge_y.eq(~x_minus_y[-1]),
+                prepared_x.eq(mx),
+                prepared_y.eq(my),
+                long_less_x.eq(x_minus_y[:w]),
+                long_less_y.eq(y_minus_x[:w]),
+                f0_x.eq(f0_x_long >> 1),
+                f0_y.eq(f0_y_long >> 1),
             ]
 
         enable = permit(m, self.feed, armed=ip.generator4.armed, running=ip.busy,
                         abort=self.abort)
         m.d.comb += [
-            ip.in22.eq(in22),
-            ip.in23.eq(in23),
-            ip.in24.eq(in24),
-            ip.in25.eq(in25),
+            ip.in22.eq(Mux(x_ge_y, long_less_x, long_less_y)),
+            ip.in23.eq(Mux(x_ge_y, prepared_y, prepared_x)),
+            ip.in24.eq(Mux(x_ge_y, f0_x, f0_y)),
+            ip.in25.eq(x_ge_y),
+            ip.one_step.eq(one_step),
             ip.in26.eq(~self.abort & queued & (ip.trigger14.q_n | ending)),
             ip.tick.eq(enable),
             self.feed.diagonal.eq(ip.adder3.sign),

@@ -47,8 +47,9 @@ class _TieAdder(wiring.Component):
 class OppositeTieInterpolator(LinearInterpolator):
     """:class:`~hdl.linear.LinearInterpolator` (``exact``) with the opposite tie at F = 0."""
 
-    def __init__(self, *, width=16, period=1, zero_frames=True):
-        super().__init__(width=width, variant="exact", period=period, zero_frames=zero_frames)
+    def __init__(self, *, width=16, period=1, zero_frames=True, one_step_input=False):
+        super().__init__(width=width, variant="exact", period=period, zero_frames=zero_frames,
+                         one_step_input=one_step_input)
         used(self.adder3)                                 # the one it replaces
         self.adder3 = _TieAdder(width + 1)
 
@@ -63,7 +64,8 @@ def opposite_tie_core(width):
     """A :class:`~hdl.linear.LinearCore` around :class:`OppositeTieInterpolator`."""
     core = LinearCore(width=width, variant="exact")
     used(core.interpolator)                               # the one it replaces
-    core.interpolator = OppositeTieInterpolator(width=width, zero_frames=False)
+    core.interpolator = OppositeTieInterpolator(width=width, zero_frames=False,
+                                                one_step_input=True)
     return core
 
 

@@ -324,6 +324,8 @@ class LinearCoreProperties(Elaboratable):
                 Assert(ip.in23 == in23, "prepared: input 23"),
                 Assert(ip.in24 == in24, "prepared: input 24"),
                 Assert(ip.in25 == in25, "prepared: input 25"),
+                Assert(ip.one_step == ((px <= 1) & (py <= 1) & ~empty),
+                       "prepared: one step, max(|x|, |y|) == 1"),
             ]
         with m.If(~core.abort):
             _interpolator_claims(m, ip, frame, self.variant, zero=C(0),
