@@ -187,6 +187,8 @@ WIDTHS = (16, 24, 32)
 #: The issue's targets.
 CORE_RATIO, ENGINE_RATIO = 0.8, 0.9
 AREA_LIMITS = {("arc", "engine"): 1100, ("line", "engine", 16): 450, "core": 528}
+# The long arc of the simulation throughput: a full circle of this radius, about 57 000 clocks.
+LONG_ARC_RADIUS = 10000
 
 
 def _steps_per_clock(core):
@@ -246,7 +248,7 @@ def _label(row):
     return type(probe).__name__
 
 
-def simulation_throughput(build_root, *, radius=1000, simulators=("amaranth", "icarus",
+def simulation_throughput(build_root, *, radius=LONG_ARC_RADIUS, simulators=("amaranth", "icarus",
                                                                   "verilator")):
     """Clock cycles per second of a full circle of ``radius`` on the fast arc engine, on each
     simulator (the build timed apart); returns a list of dicts."""
@@ -345,6 +347,20 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
     return {"designs": rows, "throughput": throughput, "seconds": seconds}
 
 
+# The parts of the engines measured alone (:func:`_parts`), and the designs they are parts of:
+# a core's interpolator by (kind, variant), an engine's front-end parts by kind.
+_LINEAR_DEVICE = "LinearInterpolator 16 device"
+_LINEAR_EXACT = "LinearInterpolator 16 exact"
+_LINE_STATUS = "StatusUnit (17-bit positions, LineEngine 16)"
+_CIRCULAR = "CircularInterpolator 24 (faithful)"
+_CIRCULAR_FAST = "CircularInterpolatorFast 24"
+_PLANNER = "ArcPlanner 24"
+_ARC_STATUS = "StatusUnit (26-bit positions, ArcEngine 24)"
+_CORE_PART = {("line", "device"): _LINEAR_DEVICE, ("line", "exact"): _LINEAR_EXACT,
+              ("arc", "faithful"): _CIRCULAR, ("arc", "fast"): _CIRCULAR_FAST}
+_ENGINE_PARTS = {"line": (_LINE_STATUS,), "arc": (_PLANNER, _ARC_STATUS)}
+
+
 def _parts():
     """The parts of the engines at their default widths, each alone: where the area goes."""
     from hdl.arc import ArcPlanner
@@ -352,14 +368,31 @@ def _parts():
     from hdl.linear import LinearInterpolator
     from hdl.circular import CircularInterpolator, CircularInterpolatorFast
     return [
-        ("LinearInterpolator 16 device", lambda: LinearInterpolator(width=16, variant="device")),
-        ("LinearInterpolator 16 exact", lambda: LinearInterpolator(width=16, variant="exact")),
-        ("StatusUnit (17-bit positions, LineEngine 16)", lambda: StatusUnit(position_width=17)),
-        ("CircularInterpolator 24 (faithful)", lambda: CircularInterpolator(width=24)),
-        ("CircularInterpolatorFast 24", lambda: CircularInterpolatorFast(width=24)),
-        ("ArcPlanner 24", lambda: ArcPlanner(width=24)),
-        ("StatusUnit (26-bit positions, ArcEngine 24)", lambda: StatusUnit(position_width=26)),
+        (_LINEAR_DEVICE, lambda: LinearInterpolator(width=16, variant="device")),
+        (_LINEAR_EXACT, lambda: LinearInterpolator(width=16, variant="exact")),
+        (_LINE_STATUS, lambda: StatusUnit(position_width=17)),
+        (_CIRCULAR, lambda: CircularInterpolator(width=24)),
+        (_CIRCULAR_FAST, lambda: CircularInterpolatorFast(width=24)),
+        (_PLANNER, lambda: ArcPlanner(width=24)),
+        (_ARC_STATUS, lambda: StatusUnit(position_width=26)),
     ]
+
+
+def _area_split(row, lc, core_lc, parts_lc):
+    """Where the logic cells of a design over its area target go, from this run's figures: an
+    engine's core and the rest (with the rest's parts measured alone), a core's interpolator
+    (alone) and the rest."""
+    if row["what"] == "engine" and core_lc is not None:
+        named = [label for label in _ENGINE_PARTS.get(row["kind"], ()) if label in parts_lc]
+        text = f"its core {core_lc} LC + the rest {lc - core_lc} LC"
+        if named:
+            text += " (alone: " + ", ".join(f"{label} {parts_lc[label]} LC"
+                                            for label in named) + ")"
+        return text
+    label = _CORE_PART.get((row["kind"], row["variant"]))
+    if row["what"] == "core" and label in parts_lc:
+        return f"{label} {parts_lc[label]} LC (alone) + the rest {lc - parts_lc[label]} LC"
+    return "area, see below"
 
 
 def _find(rows, **keys):
@@ -373,6 +406,7 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
     from constraints.flow import DEVICES
     from sim import registry
     first = seeds[0]
+    parts_lc = {label: area["lc"] for label, area in parts}
     mhz = {}                             # None: the design does not fit the device
     for row in rows:
         for device in devices:
@@ -445,10 +479,12 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
         elif row["width"] == 16:
             limit = AREA_LIMITS[("line", "engine", 16)]
         if limit is not None and lc is not None:
+            core = core_of(row) if row["what"] == "engine" else None
+            core_lc = None if core is None else core["area"]["ice40"]["lc"]
             targets.append([design, "iCE40UP5K",
                             f"≤ {limit} logic cells", f"{lc} LC",
                             "met" if lc <= limit else "not met",
-                            "-" if lc <= limit else "area, see below"])
+                            "-" if lc <= limit else _area_split(row, lc, core_lc, parts_lc)])
     out.append(_markdown(["design", "device", "target", "measured", "", "limiting path "
                           "(seed 1)"], targets))
 
@@ -508,8 +544,8 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
                               for label, a in parts]))
 
     # ---- simulation
-    out.append("\n## Simulation throughput: a full circle of radius 1000 on `ArcEngine` "
-               "(fast core, 24 bits)\n\n")
+    out.append(f"\n## Simulation throughput: a full circle of radius {LONG_ARC_RADIUS} on "
+               "`ArcEngine` (fast core, 24 bits)\n\n")
     out.append(_markdown(["simulator", "clock cycles", "steps", "build s", "run s",
                           "cycles per second"],
                          [[r["simulator"], r["cycles"], r["steps"], f"{r['build']:.1f}",

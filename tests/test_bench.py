@@ -217,8 +217,9 @@ class ReportTestCase(unittest.TestCase):
         self.assertIn("| LineEngine 16 exact | iCE40UP5K-SG48 | ≥ 0.9 × its core | "
                       "73.0 / 91.0 MHz = 0.80 | not met | a → b: 3 LUT, 0 carry, 1.0 ns logic "
                       "+ 2.0 ns routing |", text)
+        # An engine over its area: its core's cells (400 here) and the rest.
         self.assertIn("| LineEngine 16 device | iCE40UP5K | ≤ 450 logic cells | 600 LC | "
-                      "not met |", text)
+                      "not met | its core 400 LC + the rest 200 LC |", text)
         self.assertIn("| LinearCore | 16 | device | 123 | 91.0 / 92.0 / 93.0 | 91.0–93.0 | 0.90 "
                       "| - | 1 | 91.0 |", text)
         # A design larger than the device is reported as such, with nextpnr's figures; with no
@@ -233,6 +234,26 @@ class ReportTestCase(unittest.TestCase):
         for heading in ("## Speed on the iCE40UP5K-SG48", "## Speed on the ECP5-85F",
                         "## Area, each design alone", "## Simulation throughput"):
             self.assertIn(heading, text)
+
+
+class AreaSplitTestCase(unittest.TestCase):
+    """What an area target's row says of a design over it: where its cells go."""
+
+    def test_core(self):
+        parts = {"CircularInterpolatorFast 24": 650}
+        self.assertEqual(bench._area_split({"what": "core", "kind": "arc", "variant": "fast"},
+                                           1000, None, parts),
+                         "CircularInterpolatorFast 24 650 LC (alone) + the rest 350 LC")
+        # No part measured for it: the area tables.
+        self.assertEqual(bench._area_split({"what": "core", "kind": "arc", "variant": "serial"},
+                                           1000, None, parts), "area, see below")
+
+    def test_engine(self):
+        parts = {"ArcPlanner 24": 1400, "StatusUnit (26-bit positions, ArcEngine 24)": 200}
+        self.assertEqual(bench._area_split({"what": "engine", "kind": "arc", "variant": "fast"},
+                                           3300, 1000, parts),
+                         "its core 1000 LC + the rest 2300 LC (alone: ArcPlanner 24 1400 LC, "
+                         "StatusUnit (26-bit positions, ArcEngine 24) 200 LC)")
 
 
 def _fpga_tools():
