@@ -261,18 +261,16 @@ class LinearInterpolator(wiring.Component):
 
         # ---- node 19: adder-subtractor (adder 3, multiplexer 12) -------------------------------
         # Multiplexer 12 passes the inverse code of counter 2 (channel 1, AND 5: F -= C2) or
-        # counter 1 (channel 2, AND 6: F += C1) to adder 3. AND 5 and AND 6 are the generator's
-        # pulse with the sign of F, and the channel a pulse opens is the one the sign chooses,
-        # so here the sign drives the channels' control inputs and the pulse (AND 5 or AND 6)
-        # drives the adder's strobe: the choice precedes the carry chain, as in a bare
-        # accumulator's loop, and the late pulse only enables the register. What the adder adds
-        # in a clock is what it adds with the patent's wiring.
+        # counter 1 (channel 2, AND 6: F += C1) to adder 3. Here adder 3 forms both sums in
+        # parallel, each channel's code on an operand input of its own, and the channel's strobe
+        # picks the sum: the sign of F then chooses at the end of the carry chain, not at its
+        # start (the loop is that of a bare accumulator).
         m.d.comb += [
             adder3.d.eq(self.in24),
             adder3.load.eq(go),
             adder3.clr.eq(and9),
-            mux12.a[0].eq(adder3.sign_n),
-            mux12.a[1].eq(adder3.sign),
+            mux12.a[0].eq(and5),
+            mux12.a[1].eq(and6),
         ]
         if self._variant == "device":
             m.d.comb += [
@@ -290,8 +288,10 @@ class LinearInterpolator(wiring.Component):
                 mux12.b[1].eq(reg22),        # F += |X| - |Y|
             ]
         m.d.comb += [
-            adder3.b.eq(mux12.o),
-            adder3.add.eq(and5 | and6),
+            adder3.b2.eq(mux12.b[0]),
+            adder3.add2.eq(mux12.a[0]),
+            adder3.b.eq(mux12.b[1]),
+            adder3.add.eq(mux12.a[1]),
         ]
 
         # ---- node 20: coordinate increments (trigger 15, AND 7, AND 8, OR 10, OR 11) -----------
@@ -315,9 +315,10 @@ class LinearCore(wiring.Component):
     """:class:`LinearInterpolator` as a line core (:class:`~hdl.line.LineCoreSignature`).
 
     A segment taken from :py:`cmd` is prepared in registers holding the candidates for the
-    patent's inputs 22-25 under either long axis, and the comparison ``|X| >= |Y|``, all formed
-    from the magnitudes in parallel in the clock it is taken; the comparison selects inputs
-    22-25 from the registers (a multiplexer, no carry chain after the comparison). It is started by input 26 as soon as the
+    patent's inputs 22-25 under either long axis, the comparison ``|X| >= |Y|`` and the flag
+    "one step", all formed from the magnitudes in parallel in the clock it is taken; the
+    registered comparison selects inputs 22-25 (a multiplexer, no carry chain after the
+    comparison). It is started by input 26 as soon as the
     interpolator is ready: in the next clock when it is idle, in the clock of the running
     segment's last step otherwise. A segment of length zero does not reach the interpolator: it
     starts and ends in an idle clock of the interpolator, as the interpolator would end it. The
