@@ -49,10 +49,10 @@ def area_designs():
 
 
 def speed_designs():
-    """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine, at
-    the widths of :func:`_widths` (a program kind's, the equidistant engine's, at its default
-    alone: it is routed as any other, slower than the board's clock, since
-    :func:`~constraints.flow.measure_speed` lets a design miss the constraint)."""
+    """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine at
+    the widths of :func:`_widths`. The equidistant engine, slower than the board's clock, is
+    routed like the others: :func:`~constraints.flow.measure_speed` lets a design miss the
+    constraint."""
     from sim import registry
     return [(f"{kind} engine", width, name,
              (lambda k=kind, n=name, w=width: registry.make_engine(k, n, width=w)))
@@ -248,8 +248,8 @@ def _label(row):
     return type(probe).__name__
 
 
-def simulation_throughput(build_root, *, radius=LONG_ARC_RADIUS, simulators=("amaranth", "icarus",
-                                                                  "verilator")):
+def simulation_throughput(build_root, *, radius=LONG_ARC_RADIUS,
+                          simulators=("amaranth", "icarus", "verilator")):
     """Clock cycles per second of a full circle of ``radius`` on the fast arc engine, on each
     simulator (the build timed apart); returns a list of dicts."""
     from sim import registry

@@ -107,6 +107,10 @@ class LineEngineTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError,
                 r"^Generator period must be a positive integer, not 0$"):
             LinearInterpolator(period=0)
+        with self.assertRaisesRegex(TypeError, r"^Zero frames must be a bool, not 0$"):
+            LinearInterpolator(zero_frames=0)
+        with self.assertRaisesRegex(TypeError, r"^One step input must be a bool, not 1$"):
+            LinearInterpolator(one_step_input=1)
 
 
 class LinearInterpolatorTestCase(unittest.TestCase):
