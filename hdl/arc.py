@@ -4,7 +4,7 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from .elements import carry_save
+from .elements import carry_save, magnitude
 from .elements._checks import check_width
 from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
@@ -181,8 +181,8 @@ class ArcPlanner(wiring.Component):
         plan = Signal(self.Plan(w))                  # the one plan, built in place
         m.d.comb += self.o.payload.eq(plan)
 
-        magnitude = [Mux(v < 0, -v, v)[:self._coord_width]
-                     for v in (frame.x0, frame.y0, frame.x1, frame.y1)]
+        magnitudes, overs = zip(*[magnitude(m, v, w)
+                                  for v in (frame.x0, frame.y0, frame.x1, frame.y1)])
         start_quadrant = _quadrant(frame.x0, frame.y0, frame.cw)
         end_quadrant = Signal(2)                     # the quadrant of the last run
         too_wide = Signal()
@@ -220,15 +220,15 @@ class ArcPlanner(wiring.Component):
                         plan.cw.eq(frame.cw),
                         plan.quadrant.eq(start_quadrant),
                         end_quadrant.eq(end_q),
-                        plan.start.x.eq(Mux(x_falls_0, magnitude[0], magnitude[1])),
-                        plan.start.y.eq(Mux(x_falls_0, magnitude[1], magnitude[0])),
-                        plan.end.x.eq(Mux(x_falls_1, magnitude[2], magnitude[3])),
-                        plan.end.y.eq(Mux(x_falls_1, magnitude[3], magnitude[2])),
-                        too_wide.eq(Cat(*[(v >> w).any() for v in magnitude]).any()),
+                        plan.start.x.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
+                        plan.start.y.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
+                        plan.end.x.eq(Mux(x_falls_1, magnitudes[2], magnitudes[3])),
+                        plan.end.y.eq(Mux(x_falls_1, magnitudes[3], magnitudes[2])),
+                        too_wide.eq(Cat(*overs).any()),
                         zero_radius.eq((frame.x0 == 0) & (frame.y0 == 0)),
                         upper.eq(0), lower.eq(0), second.eq(0), count.eq(0),
-                        bits_a.eq(Mux(x_falls_0, magnitude[0], magnitude[1])),
-                        bits_b.eq(Mux(x_falls_0, magnitude[1], magnitude[0])),
+                        bits_a.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
+                        bits_b.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
                     ]
                     m.next = "Square"
             with m.State("Square"):

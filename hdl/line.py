@@ -4,6 +4,7 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
+from .elements import magnitude
 from .elements._checks import check_width
 from .engine import (EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width)
 
@@ -77,12 +78,6 @@ class LineCoreSignature(wiring.Signature):
 
     def __repr__(self):
         return f"LineCoreSignature({self._width})"
-
-
-def _beyond(value, width):
-    """``|value| > 2**width - 1`` for a signed ``value`` wider than ``width + 1`` bits."""
-    upper = value[width:]
-    return ~(upper.all() | ~upper.any()) | (upper.all() & ~value[:width].any())
 
 
 class LineEngine(wiring.Component):
@@ -191,14 +186,15 @@ class LineEngine(wiring.Component):
             m.d.sync += staged.eq(0)
         # The stage's registers follow cmd whenever it may be taken (``staged`` says whether
         # they count), so that their load enable does not wait for cmd.valid.
+        magnitude_x, beyond_x = magnitude(m, x, w)
+        magnitude_y, beyond_y = magnitude(m, y, w)
         with m.If(self.cmd.ready):
             m.d.sync += [
-                stage_x.eq(Mux(x[-1], -x[:w + 1], x[:w + 1])[:w]),
-                stage_y.eq(Mux(y[-1], -y[:w + 1], y[:w + 1])[:w]),
+                stage_x.eq(magnitude_x),
+                stage_y.eq(magnitude_y),
                 stage_dir.eq(Cat(x[-1], y[-1])),
-                # |x| fits when every bit above the magnitude's is the sign, -2**width aside;
-                # the magnitudes' low bits are zero exactly when the coordinates' are.
-                stage_wide.eq(_beyond(x, w) | _beyond(y, w)),
+                stage_wide.eq(beyond_x | beyond_y),
+                # The magnitudes' low bits are zero exactly when the coordinates' are.
                 stage_zero.eq(~x[:w].any() & ~y[:w].any()),
             ]
 

@@ -4,9 +4,11 @@
 import random
 import unittest
 
+from amaranth import Module, Signal, signed
+
 from hdl.elements import (AccumulatingAdder, CapacityRegister, Commutator, DelayElement,
                           PulseExtender, PulseGenerator, ReversibleCounter, SerialAdder,
-                          ShiftRegister, Trigger)
+                          ShiftRegister, Trigger, magnitude)
 from sim.models.codes import (from_code, mask, ones_add, ones_count, ones_decode, ones_encode,
                               ones_sub, sign_extend)
 
@@ -404,6 +406,40 @@ class CapacityRegisterTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError,
                 r"^Register width must be a positive integer, not 'wide'$"):
             CapacityRegister("wide")
+
+
+class MagnitudeTestCase(unittest.TestCase):
+    def check(self, value_width, width):
+        m = Module()
+        value = Signal(signed(value_width))
+        result, over = magnitude(m, value, width)
+        seen = []
+
+        async def testbench(ctx):
+            for v in range(-(1 << (value_width - 1)), 1 << (value_width - 1)):
+                ctx.set(value, v)
+                seen.append((v, ctx.get(result), ctx.get(over)))
+
+        simulate(m, testbench, name=f"magnitude_{value_width}_{width}")
+        self.assertEqual(len(seen), 1 << value_width)
+        for v, got, got_over in seen:
+            with self.subTest(value=v):
+                self.assertEqual(got_over, int(abs(v) > (1 << width) - 1))
+                if not got_over:
+                    self.assertEqual(got, abs(v))
+
+    def test_every_value(self):
+        # Wider than the magnitude by one bit (the line engine at its narrowest), and by more.
+        self.check(5, 4)
+        self.check(8, 4)
+
+    def test_value_not_signed_or_too_narrow(self):
+        with self.assertRaisesRegex(TypeError,
+                r"^Value must be signed and at least 5 bits wide, not unsigned\(8\)$"):
+            magnitude(Module(), Signal(8), 4)
+        with self.assertRaisesRegex(TypeError,
+                r"^Value must be signed and at least 5 bits wide, not signed\(4\)$"):
+            magnitude(Module(), Signal(signed(4)), 4)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ Every pulse is a one-clock strobe in a single synchronous clock domain (``sync``
 number of clocks.
 """
 
-from .adder import AccumulatingAdder, carry_save
+from .adder import AccumulatingAdder, carry_save, magnitude
 from .counter import ReversibleCounter
 from .commutator import Commutator
 from .delay import DelayElement
@@ -16,4 +16,4 @@ from .capacity import CapacityRegister
 
 __all__ = ["AccumulatingAdder", "ReversibleCounter", "Commutator", "DelayElement", "Trigger",
            "PulseGenerator", "PulseExtender", "ShiftRegister", "SerialAdder", "CapacityRegister",
-           "carry_save"]
+           "carry_save", "magnitude"]

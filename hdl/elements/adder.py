@@ -146,3 +146,28 @@ def carry_save(m, a, b, c):
     total, carries = Signal(width), Signal(width)
     m.d.comb += [total.eq(a ^ b ^ c), carries.eq(((a & b) | (a & c) | (b & c)) << 1)]
     return total, carries
+
+
+def magnitude(m, value, width):
+    """``|value|`` in ``width`` bits, in one carry chain: return ``(magnitude, over)``.
+
+    ``magnitude`` is ``(value ^ s) + s`` over the low ``width`` bits (``s`` the sign), a
+    conditional negation that needs one LUT and one carry a bit, where ``Mux(value < 0,
+    -value, value)`` builds a negation and a multiplexer beside it. ``over`` is set when
+    ``|value| > 2**width - 1`` (then ``magnitude`` does not count). ``value`` is a signed value
+    of at least ``width + 1`` bits.
+    """
+    value = Value.cast(value)
+    if not value.shape().signed or len(value) < width + 1:
+        raise TypeError(f"Value must be signed and at least {width + 1} bits wide, not "
+                        f"{value.shape()!r}")
+    sign = value[-1]
+    low, high = value[:width], value[width:]
+    result, over = Signal(width), Signal()
+    m.d.comb += [
+        result.eq(((low ^ sign.replicate(width)) + sign)[:width]),
+        # In range: the high bits are all zero, or all one with a nonzero low part (-2**width,
+        # all ones over zeros, is one too far).
+        over.eq(~((high == 0) | (high.all() & low.any()))),
+    ]
+    return result, over
