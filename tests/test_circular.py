@@ -1,14 +1,15 @@
 # amaranth: UnusedElaboratable=no
 """The SU 1665343 RTL against the golden cycle model in Amaranth's simulator, clock for clock."""
 
+import math
 import random
 import unittest
 
-from hdl.arc import ArcEngine
+from hdl.arc import ArcEngine, ArcPlanner
 from hdl.circular import (CircularInterpolator, CircularInterpolatorFast, FaithfulArcCore,
                           FastArcCore, FaithfulTiming)
 from sim import registry
-from sim.models.arc import arc_steps, points_ahead
+from sim.models.arc import arc_plan, arc_steps, points_ahead, setup_latency
 from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
                                  core_inputs, f4_initial, floor_f, native_steps)
 from sim.models.codes import ones_decode
@@ -17,7 +18,7 @@ from sim.models.errors import InputError
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 
-from .utils import compare_core, used
+from .utils import compare_core, simulate, used
 
 
 def state_signals(engine):
@@ -47,6 +48,97 @@ def random_arcs(rng, count, limit, *, longest=300):
         x1, y1 = points_ahead(x0, y0, rng.randint(1, longest), cw=cw)[-1]
         frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw})
     return frames
+
+
+def near_bound_arcs(rng, count, width):
+    """Arcs whose end point is within a step or two of either bound of the planner's check
+    -M < x0² + y0² - x1² - y1² <= M (M = max(|x1|, |y1|)), every quadrant, with radii up to
+    the register's."""
+    top = (1 << width) - 1
+    frames = []
+    while len(frames) < count:
+        x0, y0 = rng.randint(-top, top), rng.randint(-top, top)
+        r2 = x0 * x0 + y0 * y0
+        if r2 == 0 or r2 > top * top:
+            continue
+        x1 = rng.randint(-math.isqrt(r2), math.isqrt(r2))
+        centre = math.isqrt(r2 - x1 * x1)
+        for y1 in range(max(0, centre - 3), min(top, centre + 3) + 1):
+            y1 = rng.choice([y1, -y1])
+            big, excess = max(abs(x1), abs(y1)), r2 - x1 * x1 - y1 * y1
+            if min(abs(excess - big), abs(excess + big)) <= 2:
+                frames.append({"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": rng.randrange(2)})
+    return frames
+
+
+class ArcPlannerTestCase(unittest.TestCase):
+    """The planner alone: every plan as :func:`~sim.models.arc.arc_plan` forms it, offered
+    :func:`~sim.models.arc.setup_latency` clocks after the arc is taken."""
+
+    def check(self, frames, width):
+        dut = ArcPlanner(width=width)
+        seen = []
+
+        async def testbench(ctx):
+            ctx.set(dut.o.ready, 0)
+            for frame in frames:
+                ctx.set(dut.i.payload, frame)
+                ctx.set(dut.i.valid, 1)
+                self.assertEqual(ctx.get(dut.i.ready), 1)
+                await ctx.tick()
+                ctx.set(dut.i.valid, 0)
+                clocks = 1
+                while not ctx.get(dut.o.valid):
+                    await ctx.tick()
+                    clocks += 1
+                plan = ctx.get(dut.o.payload)
+                seen.append((frame, clocks, plan))
+                ctx.set(dut.o.ready, 1)
+                await ctx.tick()
+                ctx.set(dut.o.ready, 0)
+
+        simulate(dut, testbench, name=f"arc_planner_{width}")
+        self.assertEqual(len(seen), len(frames))
+        refused = 0
+        for frame, clocks, plan in seen:
+            with self.subTest(frame=frame):
+                self.assertEqual(clocks, setup_latency(width))
+                expected = arc_plan(frame, width)
+                self.assertEqual(plan.refused, expected["refused"])
+                refused += expected["refused"]
+                if not expected["refused"]:
+                    got = {"cw": plan.cw, "quadrant": plan.quadrant, "runs": plan.runs,
+                           "start": (plan.start.x, plan.start.y),
+                           "end": (plan.end.x, plan.end.y),
+                           "radius": plan.radius, "residue": plan.residue}
+                    self.assertEqual(got, {k: expected[k] for k in got})
+        return refused
+
+    def test_end_points_near_the_bounds(self):
+        # Both sides of both bounds, at widths where x0² + y0² and x1² + y1² cross bit
+        # `width` (the check splits them there) in either direction.
+        for width, count in ((6, 150), (11, 120)):
+            with self.subTest(width=width):
+                frames = near_bound_arcs(random.Random(width), count, width)
+                refused = self.check(frames, width)
+                self.assertTrue(20 < refused < len(frames) - 20, (refused, len(frames)))
+
+    def test_refusals_at_the_register_limits(self):
+        width = 8
+        top = (1 << width) - 1
+        frames = [
+            {"x0": top, "y0": 0, "x1": -top, "y1": 0, "cw": 0},          # R = 255, half a turn
+            {"x0": -top, "y0": 0, "x1": -top, "y1": 0, "cw": 1},         # full circle
+            {"x0": top + 1, "y0": 0, "x1": top + 1, "y1": 0, "cw": 0},   # coordinate too wide
+            {"x0": -top - 1, "y0": 0, "x1": -top - 1, "y1": 0, "cw": 0},  # ... negative
+            {"x0": 0, "y0": -top - 1, "x1": 0, "y1": -top - 1, "cw": 1},
+            {"x0": 3, "y0": 4, "x1": 0, "y1": -top - 1, "cw": 1},        # the end too wide
+            {"x0": 181, "y0": 181, "x1": 181, "y1": 181, "cw": 0},       # radius rounds to 256
+            {"x0": 180, "y0": 180, "x1": -180, "y1": 180, "cw": 0},      # radius 254.6: 255
+            {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 0},               # R = 0
+            {"x0": -(1 << 30), "y0": 5, "x1": 5, "y1": 5, "cw": 0},      # far beyond
+        ]
+        self.assertEqual(self.check(frames, width), 7)
 
 
 class ArcEngineTestCase(unittest.TestCase):
@@ -92,7 +184,8 @@ class ArcEngineTestCase(unittest.TestCase):
 
     def test_end_point_bound(self):
         # End points on both sides of each bound of -M < r2 - x1² - y1² <= M: the planner's
-        # check (two three-operand sums) refuses exactly the ones the model refuses.
+        # check (split at bit `width`, serial below it) refuses exactly the ones the model
+        # refuses.
         frames = []
         for x0, y0 in ((9, 4), (-13, 7), (20, -3)):
             r2 = x0 * x0 + y0 * y0
