@@ -336,13 +336,14 @@ class DdaCore(wiring.Component):
         prepared_y = Signal(w)
         empty = (prepared_x == 0) & (prepared_y == 0)
         payload = self.cmd.payload
-        # The capacity of the prepared segment, formed from its registers (not from the
-        # command stream, whose magnitudes come through the front end's arithmetic).
+        # The capacity of the prepared segment, formed as it is taken (so that the registers'
+        # look-ahead sums and overflows at the start begin from flip-flops).
         prepared_mask = Signal(w)                     # capacity - 1
         if self._capacity == "register":
             m.d.comb += prepared_mask.eq((1 << w) - 1)
         else:
-            m.d.comb += prepared_mask.eq(_smear(prepared_x | prepared_y))
+            with m.If(self.cmd.valid & self.cmd.ready):
+                m.d.sync += prepared_mask.eq(_smear(payload.x | payload.y))
 
         run = trigger.q
         over_x = Signal()
@@ -372,20 +373,15 @@ class DdaCore(wiring.Component):
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
 
-        # The increments and the capacity of the running segment.
-        inc_x = Signal(w)
-        inc_y = Signal(w)
-        mask = Signal(w)
-        with m.If(go):
-            m.d.sync += [inc_x.eq(prepared_x), inc_y.eq(prepared_y), mask.eq(prepared_mask)]
+        # The registers take their increments and the capacity at the start.
         preset = (prepared_mask ^ (prepared_mask >> 1)) if self._preset == "half" else 0
-        for register, increment in ((register_x, inc_x), (register_y, inc_y)):
+        for register, increment in ((register_x, prepared_x), (register_y, prepared_y)):
             m.d.comb += [
                 register.d.eq(preset),
                 register.load.eq(go),
                 register.clr.eq(end),
                 register.b.eq(increment),
-                register.mask.eq(mask),
+                register.mask.eq(prepared_mask),
                 register.en.eq(iterate),
             ]
         m.d.comb += [

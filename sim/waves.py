@@ -271,7 +271,7 @@ def _dda_columns(width):
     return _engine_columns() + (
         Column("diag", "engine.feed__diagonal"),
         Column("run", f"{core}.trigger.q"),
-        Column("mask", f"{core}.register_x.mask", "u", width),
+        Column("mask", f"{core}.register_x.capacity", "u", width),
         Column("ctr", f"{core}.counter.q", "s", width + 1),
         Column("regX", f"{core}.register_x.q", "u", width),
         Column("ovX", f"{core}.register_x.overflow"),

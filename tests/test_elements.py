@@ -370,34 +370,36 @@ class SerialAdderTestCase(unittest.TestCase):
 class CapacityRegisterTestCase(unittest.TestCase):
     def test_random(self):
         # Capacities 2**n for every n up to the width; contents below N, increments up to N.
+        # The increment and the capacity are taken by a load: their inputs change in every
+        # clock, and only the load's count.
         width = 6
         dut = CapacityRegister(width)
         rng = random.Random(4)
 
         async def testbench(ctx):
-            code = 0
-            mask_n = mask(width)
-            for clock in range(600):
-                if rng.random() < 0.05:
-                    mask_n = mask(rng.randint(0, width))
-                    op, d = "load", rng.randint(0, mask_n)
-                else:
-                    op, d = rng.choice(["add", "add", "add", "clr", "hold"]), 0
-                b = rng.randint(0, min(mask_n + 1, mask(width)))
+            code = increment = 0
+            mask_n = mask(0)                    # the reset's: capacity 1, increment 0
+            for clock in range(1500):
+                op = "load" if rng.random() < 0.05 else rng.choice(["add", "add", "add", "clr",
+                                                                    "hold"])
+                new_mask = mask(rng.randint(0, width))
+                d = rng.randint(0, new_mask)
+                b = rng.randint(0, min(new_mask + 1, mask(width)))
                 ctx.set(dut.load, op == "load")
                 ctx.set(dut.clr, op == "clr")
                 ctx.set(dut.en, op == "add")
                 ctx.set(dut.d, d)
                 ctx.set(dut.b, b)
-                ctx.set(dut.mask, mask_n)
+                ctx.set(dut.mask, new_mask)
                 self.assertEqual(ctx.get(dut.q), code, f"clock {clock}")
-                self.assertEqual(ctx.get(dut.overflow), int(code + b > mask_n), f"clock {clock}")
+                self.assertEqual(ctx.get(dut.overflow), int(code + increment > mask_n),
+                                 f"clock {clock}")
                 if op == "load":
-                    code = d
+                    code, increment, mask_n = d, b, new_mask
                 elif op == "clr":
                     code = 0
                 elif op == "add":
-                    code = (code + b) & mask_n
+                    code = (code + increment) & mask_n
                 await ctx.tick()
 
         simulate(dut, testbench, name="capacity_register")
