@@ -80,7 +80,7 @@ class SeparateLineCore(wiring.Component):
         full = Signal()
         prepared_x = Signal(w)
         prepared_y = Signal(w)
-        empty = (prepared_x == 0) & (prepared_y == 0)
+        empty = Signal()                              # of length zero, decoded as it is taken
 
         run = trigger.q
         enable = permit(m, self.feed, armed=1, running=run, abort=self.abort)
@@ -91,12 +91,16 @@ class SeparateLineCore(wiring.Component):
         take = Signal()
         go = Signal()
         end = Signal()
+        # Whether an X step or a Y step would be the last, decoded from the counters a step
+        # ahead (at the start, and after each step from the contents before it), so that the
+        # decision to take the next segment starts from flip-flops.
+        last_if_x = Signal()                          # the counters hold (1, 0)
+        last_if_y = Signal()                          # ... (0, 1)
         m.d.comb += [
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
             y_step.eq(move & adder.sign),
-            last.eq((x_step & (counter_x.q == 1) & (counter_y.q == 0))
-                    | (y_step & (counter_x.q == 0) & (counter_y.q == 1))),
+            last.eq((x_step & last_if_x) | (y_step & last_if_y)),
             take.eq(full & (~run | (last & ~empty)) & ~self.abort),
             go.eq(take & ~empty),
             end.eq(last | self.abort),
@@ -104,9 +108,21 @@ class SeparateLineCore(wiring.Component):
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
             m.d.sync += [full.eq(1), prepared_x.eq(self.cmd.payload.x),
-                         prepared_y.eq(self.cmd.payload.y)]
+                         prepared_y.eq(self.cmd.payload.y),
+                         empty.eq((self.cmd.payload.x == 0) & (self.cmd.payload.y == 0))]
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
+
+        cx, cy = counter_x.q, counter_y.q
+        with m.If(go):
+            m.d.sync += [last_if_x.eq((prepared_x == 1) & (prepared_y == 0)),
+                         last_if_y.eq((prepared_x == 0) & (prepared_y == 1))]
+        with m.Elif(end):
+            m.d.sync += [last_if_x.eq(0), last_if_y.eq(0)]
+        with m.Elif(x_step):
+            m.d.sync += [last_if_x.eq((cx == 2) & (cy == 0)), last_if_y.eq((cx == 1) & (cy == 1))]
+        with m.Elif(y_step):
+            m.d.sync += [last_if_x.eq((cx == 1) & (cy == 1)), last_if_y.eq((cx == 0) & (cy == 2))]
 
         # The increments 2Y (X step) and 2X (Y step), held for the whole segment.
         reg_x = Signal(w)
@@ -205,11 +221,13 @@ class SeparateArcCore(wiring.Component):
         stopping = Signal()
         take = Signal()
         end = Signal()
+        x_zero = Signal()                             # counter X is zero, known a clock ahead
+        _zero_ahead(m, x_zero, counter_x, load=take, d=prepared_x, clr=end, down=x_step)
         m.d.comb += [
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
             y_step.eq(move & adder.sign),
-            stopping.eq(run & ((x_step & (counter_x.q == 0)) | self.stop)),
+            stopping.eq(run & ((x_step & x_zero) | self.stop)),
             take.eq(full & (~run | stopping) & ~self.abort),
             end.eq(stopping | self.abort),
             self.cmd.ready.eq(~full | take),
@@ -248,6 +266,19 @@ class SeparateArcCore(wiring.Component):
             self.busy.eq(full | run),
         ]
         return m
+
+
+def _zero_ahead(m, flag, counter, *, load, d, clr, down):
+    """Keep ``flag`` equal to ``counter.q == 0`` from the clock after each change, decoded from
+    what the counter is given (``d`` at ``load``, zero at ``clr``, ``q - 1`` at ``down``) in
+    the clock it changes: a decision that waits for the counter to run out starts from a
+    flip-flop, not from a wide comparison of its contents."""
+    with m.If(load):
+        m.d.sync += flag.eq(d == 0)
+    with m.Elif(clr):
+        m.d.sync += flag.eq(1)
+    with m.Elif(down):
+        m.d.sync += flag.eq(counter.q == 1)
 
 
 def _smear(value):
@@ -334,7 +365,7 @@ class DdaCore(wiring.Component):
         full = Signal()
         prepared_x = Signal(w)
         prepared_y = Signal(w)
-        empty = (prepared_x == 0) & (prepared_y == 0)
+        empty = Signal()                              # of length zero, decoded as it is taken
         payload = self.cmd.payload
         # The capacity of the prepared segment, formed as it is taken (so that the registers'
         # look-ahead sums and overflows at the start begin from flip-flops).
@@ -357,21 +388,25 @@ class DdaCore(wiring.Component):
         enable = permit(m, self.feed, armed=1, running=over, free=~over, abort=self.abort)
         iterate = Signal()
         last = Signal()
+        counted_out = Signal()                        # the counter is zero, known a clock ahead
         take = Signal()
         go = Signal()
         end = Signal()
         m.d.comb += [
             iterate.eq(run & enable),
-            last.eq(iterate & (counter.q == 0)),
+            last.eq(iterate & counted_out),
             take.eq(full & (~run | (last & ~empty)) & ~self.abort),
             go.eq(take & ~empty),
             end.eq(last | self.abort),
             self.cmd.ready.eq(~full | take),
         ]
         with m.If(self.cmd.valid & self.cmd.ready):
-            m.d.sync += [full.eq(1), prepared_x.eq(payload.x), prepared_y.eq(payload.y)]
+            m.d.sync += [full.eq(1), prepared_x.eq(payload.x), prepared_y.eq(payload.y),
+                         empty.eq((payload.x == 0) & (payload.y == 0))]
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
+
+        _zero_ahead(m, counted_out, counter, load=go, d=prepared_mask, clr=end, down=iterate)
 
         # The registers take their increments and the capacity at the start.
         preset = (prepared_mask ^ (prepared_mask >> 1)) if self._preset == "half" else 0
