@@ -4,7 +4,7 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from .elements import magnitude
+from .elements import carry_save, magnitude
 from .elements._checks import check_width
 from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
@@ -200,26 +200,11 @@ class ArcPlanner(wiring.Component):
         b = Mux(second, plan.end.y, plan.start.y)
         partial = Signal(w + 2)
         m.d.comb += partial.eq(upper + Mux(bits_a[0], a, 0) + Mux(bits_b[0], b, 0))
-
-        # The end point's check, -M < D <= M for D = r2 - S (S = x1² + y1², M = max(x1, y1)),
-        # split at bit w: with r2 = R·2**w + r and S = T·2**w + t (r, t < 2**w) and H = R - T,
-        # D + M > 0 is H + qa >= 0 for qa = (r - t + M - 1) // 2**w, and M - D >= 0 is
-        # H <= qb for qb = (t - r + M) // 2**w, both qa and qb in {-1, 0, 1}. The low halves
-        # go bit by bit as the second sum's bits come out of the adder, the first sum's low
-        # bits shifted out of `lower` beside them: r + ~t + M and t + ~r + M + 1 are two
-        # serial sums whose carries out (0 to 2) are qa + 1 and qb + 1. Only H is formed in
-        # parallel, and it passes only as -1 (carry above 2), 0 (neither carry 0) or 1
-        # (carry below 2).
-        x_longer = Signal()                          # x1 >= y1: M is x1
-        carry_above = Signal(2)                      # of r + ~t + M
-        carry_below = Signal(2)                      # of t + ~r + M + 1
-        r2_bit, s_bit = lower[0], partial[0]
-        m_bit = Mux(x_longer, bits_a[0], bits_b[0])
-        above_sum = r2_bit + ~s_bit + m_bit + carry_above
-        below_sum = s_bit + ~r2_bit + m_bit + carry_below
+        square_sum = Cat(lower, upper)
 
         r2 = Signal(2 * w + 2)                       # x0² + y0², then shifted out by the root
         on_circle = Signal()
+        big = Signal(w)                              # M = max(x1, y1), the end's bound
         root = Signal(w + 1)                         # ⌊sqrt(r2)⌋, a bit a clock
         remainder = Signal(w + 3)                    # r2 - root²
         count = Signal(range(w + 1))
@@ -242,40 +227,40 @@ class ArcPlanner(wiring.Component):
                         too_wide.eq(Cat(*overs).any()),
                         zero_radius.eq((frame.x0 == 0) & (frame.y0 == 0)),
                         upper.eq(0), lower.eq(0), second.eq(0), count.eq(0),
-                        carry_above.eq(0), carry_below.eq(1),
                         bits_a.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
                         bits_b.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
                     ]
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
-                    x_longer.eq(plan.end.x >= plan.end.y),
+                    big.eq(Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)),
                     upper.eq(partial[1:]), lower.eq(Cat(lower[1:], partial[0])),
                     bits_a.eq(bits_a >> 1), bits_b.eq(bits_b >> 1),
                     count.eq(count + 1),
                 ]
-                with m.If(second):
-                    m.d.sync += [carry_above.eq(above_sum[1:]), carry_below.eq(below_sum[1:])]
                 with m.If(count == w - 1):
-                    # The first sum's low half stays in `lower`, to come out beside the second's.
-                    m.d.sync += [upper.eq(0), count.eq(0)]
+                    m.d.sync += [upper.eq(0), lower.eq(0), count.eq(0)]
                     with m.If(~second):
                         m.d.sync += [
                             r2.eq(Cat(lower[1:], partial)), second.eq(1),
                             bits_a.eq(plan.end.x), bits_b.eq(plan.end.y),
                         ]
                     with m.Else():
-                        m.d.sync += upper.eq(partial[1:])
+                        m.d.sync += [upper.eq(partial[1:]), lower.eq(Cat(lower[1:],
+                                                                         partial[0]))]
                         m.next = "Check end"
             with m.State("Check end"):               # -M < r2 - (x1² + y1²) <= M
-                high = Signal(signed(w + 3))         # H = R - T (upper holds T)
-                m.d.comb += high.eq(r2[w:] - upper)
-                m.d.sync += [
-                    on_circle.eq(((high == -1) & (carry_above == 2))
-                                 | ((high == 0) & (carry_above != 0) & (carry_below != 0))
-                                 | ((high == 1) & (carry_below == 2))),
-                    root.eq(0), remainder.eq(0),
-                ]
+                # Both bounds as the sign of a three-operand sum, one carry chain each:
+                # r2 - S > -M is r2 + ~S + M >= 0, and r2 - S <= M is M + ~r2 + S + 1 >= 0 (the
+                # + 1 in the free lowest bit of the carries).
+                cw2 = 2 * w + 4
+                r2_, s_, big_ = Signal(cw2), Signal(cw2), Signal(cw2)
+                m.d.comb += [r2_.eq(r2), s_.eq(square_sum), big_.eq(big)]
+                above = carry_save(m, r2_, ~s_, big_)
+                below = carry_save(m, big_, ~r2_, s_)
+                m.d.sync += [on_circle.eq(~(above[0] + above[1])[cw2 - 1]
+                                          & ~(below[0] + (below[1] | 1))[cw2 - 1]),
+                             root.eq(0), remainder.eq(0)]
                 m.next = "Root"
             with m.State("Root"):                    # two radicand bits a clock, from the top
                 shifted = Cat(r2[-2:], remainder)

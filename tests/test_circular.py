@@ -184,8 +184,7 @@ class ArcEngineTestCase(unittest.TestCase):
 
     def test_end_point_bound(self):
         # End points on both sides of each bound of -M < r2 - x1² - y1² <= M: the planner's
-        # check (split at bit `width`, serial below it) refuses exactly the ones the model
-        # refuses.
+        # check (two three-operand sums) refuses exactly the ones the model refuses.
         frames = []
         for x0, y0 in ((9, 4), (-13, 7), (20, -3)):
             r2 = x0 * x0 + y0 * y0
