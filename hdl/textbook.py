@@ -58,8 +58,8 @@ class SeparateLineCore(wiring.Component):
     def __init__(self, *, width=16):
         check_width("Register width", width, minimum=2)
         self.adder = AccumulatingAdder(width + 2)
-        self.counter_x = ReversibleCounter(width + 1)
-        self.counter_y = ReversibleCounter(width + 1)
+        self.counter_x = ReversibleCounter(width + 1, parallel=True)
+        self.counter_y = ReversibleCounter(width + 1, parallel=True)
         self.commutator = Commutator(width + 1, width + 2, channels=2, shift=1)
         self.trigger = Trigger(priority="set")
         super().__init__(LineCoreSignature(width))
@@ -75,61 +75,90 @@ class SeparateLineCore(wiring.Component):
             m.submodules[name] = getattr(self, name)
         adder, counter_x, counter_y = self.adder, self.counter_x, self.counter_y
         commutator, trigger = self.commutator, self.trigger
+        payload = self.cmd.payload
 
-        # The prepared segment.
+        # The prepared segment, and what the start will need of it, decoded as it is taken.
         full = Signal()
         prepared_x = Signal(w)
         prepared_y = Signal(w)
-        empty = Signal()                              # of length zero, decoded as it is taken
+        empty = Signal()                              # of length zero
+        one = Signal()                                # of length one: its step is the last
 
+        # The running segment. The next step is the last when the counters hold one step in
+        # all, whichever axis it is on: the sign never chooses an exhausted axis, so with
+        # (1, 0) left it makes the X step and with (0, 1) the Y step.
         run = trigger.q
+        final = Signal()                              # one step left
+        # What the decisions of the next clock need, registered: a segment may be taken at
+        # the next step (idle, or the step left is the last) and is prepared (of length zero
+        # or not).
+        may_take = Signal()                           # full, and idle or final
+        may_go = Signal()                             # ... and not of length zero
+        idle_empty = Signal()                         # full of length zero, idle
+
         enable = permit(m, self.feed, armed=1, running=run, abort=self.abort)
+        advance = Signal()                            # a step is permitted now, or the core idles
         move = Signal()
         x_step = Signal()
         y_step = Signal()
-        last = Signal()
         take = Signal()
         go = Signal()
         end = Signal()
-        # Whether an X step or a Y step would be the last, decoded from the counters a step
-        # ahead (at the start, and after each step from the contents before it), so that the
-        # decision to take the next segment starts from flip-flops.
-        last_if_x = Signal()                          # the counters hold (1, 0)
-        last_if_y = Signal()                          # ... (0, 1)
         m.d.comb += [
+            advance.eq(self.feed.tick | ~run),
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
             y_step.eq(move & adder.sign),
-            last.eq((x_step & last_if_x) | (y_step & last_if_y)),
-            take.eq(full & (~run | (last & ~empty)) & ~self.abort),
-            go.eq(take & ~empty),
-            end.eq(last | self.abort),
+            take.eq(may_take & advance & ~self.abort),
+            go.eq(may_go & advance & ~self.abort),
+            end.eq((self.feed.tick & final) | self.abort),     # final only while running
             self.cmd.ready.eq(~full | take),
         ]
-        with m.If(self.cmd.valid & self.cmd.ready):
-            m.d.sync += [full.eq(1), prepared_x.eq(self.cmd.payload.x),
-                         prepared_y.eq(self.cmd.payload.y),
-                         empty.eq((self.cmd.payload.x == 0) & (self.cmd.payload.y == 0))]
-        with m.Elif(take | self.abort):
-            m.d.sync += full.eq(0)
 
+        # The next state of the flags above, from which the registered ones are formed.
+        transfer = Signal()
+        full_next = Signal()
+        empty_next = Signal()
+        run_next = Signal()
+        final_next = Signal()
         cx, cy = counter_x.q, counter_y.q
-        with m.If(go):
-            m.d.sync += [last_if_x.eq((prepared_x == 1) & (prepared_y == 0)),
-                         last_if_y.eq((prepared_x == 0) & (prepared_y == 1))]
-        with m.Elif(end):
-            m.d.sync += [last_if_x.eq(0), last_if_y.eq(0)]
-        with m.Elif(x_step):
-            m.d.sync += [last_if_x.eq((cx == 2) & (cy == 0)), last_if_y.eq((cx == 1) & (cy == 1))]
-        with m.Elif(y_step):
-            m.d.sync += [last_if_x.eq((cx == 1) & (cy == 1)), last_if_y.eq((cx == 0) & (cy == 2))]
+        two_left = Signal()                           # the counters hold two steps in all
+        m.d.comb += [
+            transfer.eq(self.cmd.valid & self.cmd.ready),
+            full_next.eq(transfer | (full & ~take & ~self.abort)),
+            empty_next.eq(Mux(transfer, (payload.x == 0) & (payload.y == 0), empty)),
+            run_next.eq(go | (run & ~end)),
+            two_left.eq((cx[2:] == 0) & (cy[2:] == 0)
+                        & (Cat(cx[:2], cy[:2]).matches("0010", "0101", "1000"))),
+            final_next.eq(Mux(go, one, Mux(end, 0, Mux(move, two_left, final)))),
+        ]
+        # The payload is taken whenever the core may take one (full tells whether it did).
+        with m.If(self.cmd.ready):
+            m.d.sync += [prepared_x.eq(payload.x), prepared_y.eq(payload.y),
+                         one.eq(((payload.x == 1) & (payload.y == 0))
+                                | ((payload.x == 0) & (payload.y == 1)))]
+        m.d.sync += [
+            full.eq(full_next),
+            empty.eq(empty_next),
+            final.eq(final_next),
+            may_take.eq(full_next & (~run_next | (final_next & ~empty_next))),
+            may_go.eq(full_next & ~empty_next & (~run_next | final_next)),
+            idle_empty.eq(full_next & empty_next & ~run_next),
+        ]
 
-        # The increments 2Y (X step) and 2X (Y step), held for the whole segment.
+        # The increments 2Y (X step) and 2X (Y step), held for the whole segment, and -2Y.
         reg_x = Signal(w)
         reg_y = Signal(w)
+        minus_2y = Signal(signed(w + 2))
         with m.If(go):
-            m.d.sync += [reg_x.eq(prepared_x), reg_y.eq(prepared_y)]
+            m.d.sync += [reg_x.eq(prepared_x), reg_y.eq(prepared_y),
+                         minus_2y.eq(-Cat(0, prepared_y))]
+        # The adder adds the increment its sign selects, as the bare accumulator does: the
+        # choice precedes the carry chain, and the step only enables the sum. The commutator
+        # shows the increment of the step made (its strobes are the steps).
+        operand = Signal(signed(w + 2))
         m.d.comb += [
+            operand.eq(Mux(adder.sign, Cat(0, reg_x), minus_2y)),
             commutator.b[0].eq(reg_y),
             commutator.a[0].eq(x_step),
             commutator.b[1].eq(reg_x),
@@ -137,23 +166,22 @@ class SeparateLineCore(wiring.Component):
             adder.d.eq(prepared_x - prepared_y),
             adder.load.eq(go),
             adder.clr.eq(end),
-            adder.b.eq(commutator.o),
-            adder.sub.eq(x_step),
-            adder.add.eq(y_step),
+            adder.b.eq(operand),
+            adder.add.eq(move),
             counter_x.d.eq(prepared_x),
             counter_x.load.eq(go),
-            counter_x.clr.eq(end),
+            counter_x.clr.eq(self.abort),
             counter_x.down.eq(x_step),
             counter_y.d.eq(prepared_y),
             counter_y.load.eq(go),
-            counter_y.clr.eq(end),
+            counter_y.clr.eq(self.abort),
             counter_y.down.eq(y_step),
             trigger.set.eq(go),
             trigger.reset.eq(end),
             self.feed.diagonal.eq(0),
             self.step.eq(Cat(x_step, y_step)),
             self.start.eq(take),
-            self.done.eq((run & end) | (take & empty)),
+            self.done.eq((run & end) | (~self.abort & idle_empty)),
             self.busy.eq(full | run),
         ]
         return m
