@@ -250,7 +250,7 @@ class SeparateArcCore(wiring.Component):
         take = Signal()
         end = Signal()
         x_zero = Signal()                             # counter X is zero, known a clock ahead
-        _zero_ahead(m, x_zero, counter_x, load=take, d=prepared_x, clr=end, down=x_step)
+        _zero_ahead(m, x_zero, counter_x.q, load=take, d=prepared_x, clr=end, down=x_step)
         m.d.comb += [
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
@@ -296,17 +296,18 @@ class SeparateArcCore(wiring.Component):
         return m
 
 
-def _zero_ahead(m, flag, counter, *, load, d, clr, down):
-    """Keep ``flag`` equal to ``counter.q == 0`` from the clock after each change, decoded from
-    what the counter is given (``d`` at ``load``, zero at ``clr``, ``q - 1`` at ``down``) in
-    the clock it changes: a decision that waits for the counter to run out starts from a
-    flip-flop, not from a wide comparison of its contents."""
+def _zero_ahead(m, flag, q, *, load, d, clr, down):
+    """Keep ``flag`` equal to ``q == 0`` (a counter's contents, or the bits of them that can be
+    set) from the clock after each change, decoded from what the counter is given (``d`` at
+    ``load``, zero at ``clr``, ``q - 1`` at ``down``) in the clock it changes: a decision that
+    waits for the counter to run out starts from a flip-flop, not from a wide comparison of
+    its contents."""
     with m.If(load):
         m.d.sync += flag.eq(d == 0)
     with m.Elif(clr):
         m.d.sync += flag.eq(1)
     with m.Elif(down):
-        m.d.sync += flag.eq(counter.q == 1)
+        m.d.sync += flag.eq(q == 1)
 
 
 def _smear(value):
@@ -366,7 +367,7 @@ class DdaCore(wiring.Component):
         self._capacity = capacity
         self.register_x = CapacityRegister(width)
         self.register_y = CapacityRegister(width)
-        self.counter = ReversibleCounter(width + 1)
+        self.counter = ReversibleCounter(width + 1, parallel=True)
         self.trigger = Trigger(priority="set")
         super().__init__(LineCoreSignature(width))
 
@@ -401,40 +402,80 @@ class DdaCore(wiring.Component):
         if self._capacity == "register":
             m.d.comb += prepared_mask.eq((1 << w) - 1)
         else:
-            with m.If(self.cmd.valid & self.cmd.ready):
+            with m.If(self.cmd.ready):
                 m.d.sync += prepared_mask.eq(_smear(payload.x | payload.y))
 
         run = trigger.q
         over_x = Signal()
         over_y = Signal()
-        over = Signal()
+        over = Signal()                               # either register overflows (0 while idle)
+        # Whether the prepared segment's first iteration steps, decoded as it is taken: with the
+        # registers at N/2 it does exactly when the longer projection reaches N/2 (with the
+        # capacity of the segment, always), from zero never.
+        prepared_over = Signal()
+        if self._preset == "half":
+            top = Const(1) if self._capacity == "segment" else (payload.x | payload.y)[w - 1]
+            with m.If(self.cmd.ready):
+                m.d.sync += prepared_over.eq(top & (payload.x | payload.y).any())
         m.d.comb += [
             over_x.eq(run & register_x.overflow),
             over_y.eq(run & register_y.overflow),
-            over.eq(over_x | over_y),
         ]
         enable = permit(m, self.feed, armed=1, running=over, free=~over, abort=self.abort)
+        # An iteration is made now if the core runs and the feed lets it (the permission, or
+        # no step): ``advance``, with ``over`` only while running.
+        advance = Signal()
         iterate = Signal()
-        last = Signal()
         counted_out = Signal()                        # the counter is zero, known a clock ahead
+        final = Signal()                              # ... while running: the last iteration
         take = Signal()
         go = Signal()
         end = Signal()
+        # What the decisions of the next clock need, registered: a segment may be taken at the
+        # next iteration (idle, or it is the last) and is prepared (of length zero or not).
+        may_take = Signal()
+        may_go = Signal()
         m.d.comb += [
+            advance.eq(self.feed.tick | ~over),
             iterate.eq(run & enable),
-            last.eq(iterate & counted_out),
-            take.eq(full & (~run | (last & ~empty)) & ~self.abort),
-            go.eq(take & ~empty),
-            end.eq(last | self.abort),
+            take.eq(may_take & advance & ~self.abort),
+            go.eq(may_go & advance & ~self.abort),
+            end.eq((final & advance) | self.abort),
             self.cmd.ready.eq(~full | take),
         ]
-        with m.If(self.cmd.valid & self.cmd.ready):
-            m.d.sync += [full.eq(1), prepared_x.eq(payload.x), prepared_y.eq(payload.y),
-                         empty.eq((payload.x == 0) & (payload.y == 0))]
-        with m.Elif(take | self.abort):
-            m.d.sync += full.eq(0)
-
-        _zero_ahead(m, counted_out, counter, load=go, d=prepared_mask, clr=end, down=iterate)
+        # The next state of the flags above.
+        transfer = Signal()
+        full_next = Signal()
+        empty_next = Signal()
+        run_next = Signal()
+        m.d.comb += [
+            transfer.eq(self.cmd.valid & self.cmd.ready),
+            full_next.eq(transfer | (full & ~take & ~self.abort)),
+            empty_next.eq(Mux(transfer, (payload.x == 0) & (payload.y == 0), empty)),
+            run_next.eq(go | (run & ~end)),
+        ]
+        # The payload is taken whenever the core may take one (full tells whether it did).
+        with m.If(self.cmd.ready):
+            m.d.sync += [prepared_x.eq(payload.x), prepared_y.eq(payload.y)]
+        # The counter never holds more than the mask, below 2**width: its top bit is not decoded.
+        zero_next = Signal()
+        with m.If(go):
+            m.d.comb += zero_next.eq(prepared_mask == 0)
+        with m.Elif(end):
+            m.d.comb += zero_next.eq(1)
+        with m.Elif(iterate):
+            m.d.comb += zero_next.eq(counter.q[:w] == 1)
+        with m.Else():
+            m.d.comb += zero_next.eq(counted_out)
+        m.d.sync += [
+            over.eq(Mux(go, prepared_over, register_x.overflow_next | register_y.overflow_next)),
+            full.eq(full_next),
+            empty.eq(empty_next),
+            counted_out.eq(zero_next),
+            final.eq(run_next & zero_next),
+            may_take.eq(full_next & (~run_next | (zero_next & ~empty_next))),
+            may_go.eq(full_next & ~empty_next & (~run_next | zero_next)),
+        ]
 
         # The registers take their increments and the capacity at the start.
         preset = (prepared_mask ^ (prepared_mask >> 1)) if self._preset == "half" else 0

@@ -22,11 +22,14 @@ class CapacityRegister(wiring.Component):
     Priority, highest first: :py:`load`, :py:`clr`, :py:`en`. The new contents appear one
     clock later.
 
-    The sum of the contents and the increment, and whether it reaches ``N``, are held in
-    registers of their own, formed a clock ahead (at the load, and in every clock that changes
-    the contents): :py:`overflow` is a flip-flop, not the end of the sum's carry chain, so the
-    decision of a DDA's iteration (which waits for the feed only when it steps) starts from
-    registers, as a bare accumulator's does, and the sum's chain has the clock to itself.
+    The contents after the next addition are held in a register of their own, formed a clock
+    ahead (at the load, and in every clock that changes the contents), with every bit above
+    the capacity set: adding the increment to it carries out of the top bit exactly when the
+    sum reaches ``N`` (the carry runs through the set bits), and the bits below ``N`` are the
+    sum less ``N``. So :py:`overflow` is a flip-flop loaded from the carry of one plain sum,
+    not from a comparison after it: the decision of a DDA's iteration (which waits for the
+    feed only when it steps) starts from registers, as a bare accumulator's does, and the
+    register's loop is the accumulator's (its contents plus the increment, the carry out).
 
     Parameters
     ----------
@@ -51,6 +54,8 @@ class CapacityRegister(wiring.Component):
         Contents.
     overflow : :py:`Out(1)`
         The sum of the contents and the increment reaches the capacity.
+    overflow_next : :py:`Out(1)`
+        What :py:`overflow` becomes at the next clock edge (under this clock's strobes).
 
     Raises
     ------
@@ -70,6 +75,7 @@ class CapacityRegister(wiring.Component):
             "en":       In(1),
             "q":        Out(width),
             "overflow": Out(1),
+            "overflow_next": Out(1),
         })
 
     @property
@@ -81,24 +87,41 @@ class CapacityRegister(wiring.Component):
         w = self._width
         increment = Signal(w)
         capacity = Signal(w)                         # the mask taken by the load
-        total = Signal(w + 1)                        # q + increment, always
-        wrapped = Signal(w)                          # total less N if it reaches N
-        m.d.comb += wrapped.eq(total & capacity)
+        ahead = Signal(w)                            # (q + increment) mod N, bits above N set
+        whole = Signal()                             # the increment is N (it always overflows)
 
-        def reaches(value, mask):
-            # Below 2N, a sum reaches N exactly when it has a bit outside the mask.
-            return (value & ~Cat(mask, Const(0, 1))).any()
+        def raised(value, mask):
+            # ``value`` (below N) with every bit above the capacity set.
+            return value | ~mask
 
-        loaded, cleared, added = Signal(w + 1), Signal(w + 1), Signal(w + 1)
-        m.d.comb += [loaded.eq(self.d + self.b), cleared.eq(increment),
-                     added.eq(wrapped + increment)]
+        # The sum for an addition, and the contents a load or a clear start from: the
+        # carry out of the top bit is the overflow.
+        added = Signal(w + 1)
+        loaded = Signal(w + 1)
+        m.d.comb += [
+            added.eq(ahead + increment),
+            loaded.eq(raised(self.d, self.mask) + self.b),
+        ]
+        ahead_next = Signal(w)
+        with m.If(self.load):
+            m.d.comb += [ahead_next.eq(raised(loaded[:w], self.mask)),
+                         self.overflow_next.eq(loaded[w])]
+        with m.Elif(self.clr):
+            # 0 + increment: the increment itself, or zero when it is N (which overflows).
+            m.d.comb += [ahead_next.eq(raised(Mux(whole, 0, increment), capacity)),
+                         self.overflow_next.eq(whole)]
+        with m.Elif(self.en):
+            m.d.comb += [ahead_next.eq(raised(added[:w], capacity)),
+                         self.overflow_next.eq(added[w])]
+        with m.Else():
+            m.d.comb += [ahead_next.eq(ahead), self.overflow_next.eq(self.overflow)]
+        m.d.sync += [ahead.eq(ahead_next), self.overflow.eq(self.overflow_next)]
+
         with m.If(self.load):
             m.d.sync += [self.q.eq(self.d), increment.eq(self.b), capacity.eq(self.mask),
-                         total.eq(loaded), self.overflow.eq(reaches(loaded, self.mask))]
+                         whole.eq((self.b & ~self.mask).any())]
         with m.Elif(self.clr):
-            m.d.sync += [self.q.eq(0), total.eq(cleared),
-                         self.overflow.eq(reaches(cleared, capacity))]
+            m.d.sync += self.q.eq(0)
         with m.Elif(self.en):
-            m.d.sync += [self.q.eq(wrapped), total.eq(added),
-                         self.overflow.eq(reaches(added, capacity))]
+            m.d.sync += self.q.eq(ahead & capacity)
         return m
