@@ -217,8 +217,8 @@ class SeparateArcCore(wiring.Component):
     def __init__(self, *, width=24):
         check_width("Register width", width, minimum=2)
         self.adder = AccumulatingAdder(width + 2)
-        self.counter_x = ReversibleCounter(width + 1)
-        self.counter_y = ReversibleCounter(width + 2)
+        self.counter_x = ReversibleCounter(width + 1, parallel=True)
+        self.counter_y = ReversibleCounter(width + 2, parallel=True)
         self.commutator = Commutator(width + 1, width + 2, channels=2, shift=1)
         self.trigger = Trigger(priority="set")
         super().__init__(ArcCoreSignature(width))
@@ -239,6 +239,7 @@ class SeparateArcCore(wiring.Component):
         prepared_g = Signal(signed(w + 2))
         prepared_x = Signal(signed(w + 1))        # x - 1
         prepared_y = Signal(signed(w + 2))        # y + 1
+        prepared_minus_x = Signal(signed(w + 1))  # 1 - x
         x, y, residue = self.cmd.payload.x, self.cmd.payload.y, self.cmd.payload.residue
 
         run = trigger.q
@@ -250,21 +251,46 @@ class SeparateArcCore(wiring.Component):
         take = Signal()
         end = Signal()
         x_zero = Signal()                             # counter X is zero, known a clock ahead
-        _zero_ahead(m, x_zero, counter_x.q, load=take, d=prepared_x, clr=end, down=x_step)
+        final = Signal()                              # ... while running: an X step ends the run
+        zero_next = Signal()
+        with m.If(take):
+            m.d.comb += zero_next.eq(prepared_x == 0)
+        with m.Elif(end):
+            m.d.comb += zero_next.eq(1)
+        with m.Elif(x_step):
+            m.d.comb += zero_next.eq(counter_x.q == 1)
+        with m.Else():
+            m.d.comb += zero_next.eq(x_zero)
+        m.d.sync += [x_zero.eq(zero_next), final.eq(zero_next & (take | (run & ~end)))]
         m.d.comb += [
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
             y_step.eq(move & adder.sign),
-            stopping.eq(run & ((x_step & x_zero) | self.stop)),
+            stopping.eq((x_step & final) | (run & self.stop)),
             take.eq(full & (~run | stopping) & ~self.abort),
             end.eq(stopping | self.abort),
             self.cmd.ready.eq(~full | take),
         ]
+        # The payload is taken whenever the core may take one (full tells whether it did).
+        with m.If(self.cmd.ready):
+            m.d.sync += [prepared_g.eq(y - x - residue), prepared_x.eq(x - 1),
+                         prepared_y.eq(y + 1), prepared_minus_x.eq(1 - x)]
         with m.If(self.cmd.valid & self.cmd.ready):
-            m.d.sync += [full.eq(1), prepared_g.eq(y - x - residue), prepared_x.eq(x - 1),
-                         prepared_y.eq(y + 1)]
+            m.d.sync += full.eq(1)
         with m.Elif(take | self.abort):
             m.d.sync += full.eq(0)
+
+        # -(x - 1), beside counter X: the increment of an X step, -2x', in a register, so that
+        # the adder adds the increment its sign selects, as the bare accumulator does (the
+        # choice precedes the carry chain; the step only enables the sum). The commutator shows
+        # the increment of the step made (its strobes are the steps).
+        minus_x = Signal(signed(w + 1))
+        with m.If(take):
+            m.d.sync += minus_x.eq(prepared_minus_x)
+        with m.Elif(x_step):
+            m.d.sync += minus_x.eq(minus_x + 1)
+        operand = Signal(signed(w + 2))
+        m.d.comb += operand.eq(Mux(adder.sign, Cat(0, counter_y.q[:w + 1]), Cat(0, minus_x)))
 
         m.d.comb += [
             commutator.b[0].eq(counter_x.q),               # 2(x - 1) = 2x'
@@ -274,9 +300,8 @@ class SeparateArcCore(wiring.Component):
             adder.d.eq(prepared_g),
             adder.load.eq(take),
             adder.clr.eq(end),
-            adder.b.eq(commutator.o),
-            adder.sub.eq(x_step),
-            adder.add.eq(y_step),
+            adder.b.eq(operand),
+            adder.add.eq(move),
             counter_x.d.eq(prepared_x),
             counter_x.load.eq(take),
             counter_x.clr.eq(end),
