@@ -35,9 +35,14 @@ class SeparateLineCore(wiring.Component):
     the midpoint of the two points the next step can reach. ``D >= 0`` (its sign flip-flop
     clear) makes an X step and ``D -= 2Y``; ``D < 0`` a Y step and ``D += 2X``; the increments
     come through a commutator from two registers holding X and Y, shifted one place (times two).
-    The counters hold the steps left on each axis; the last step is decoded from their present
-    contents and the step passing (``(1, 0)`` with an X step, ``(0, 1)`` with a Y step). An
-    exhausted axis is never chosen: at ``x = X`` D is negative, at ``y = Y`` it is not.
+    The counters hold the steps left on each axis. An exhausted axis is never chosen: at
+    ``x = X`` D is negative, at ``y = Y`` it is not; so the last step is the one made when the
+    counters hold one step in all, whichever axis it is on.
+
+    The sign selects the increment before the adder's carry chain (``2X``, or a register of
+    ``-2Y``) and the step only enables the sum, as in the bare accumulator; the other decisions
+    (the last step, whether the prepared segment may be taken) come from flip-flops formed a
+    clock ahead.
 
     A segment taken from :py:`cmd` is prepared and started as soon as the core is idle, or in
     the clock of the running segment's last step; a segment of length zero starts and ends in
