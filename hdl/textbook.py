@@ -257,16 +257,9 @@ class SeparateArcCore(wiring.Component):
         end = Signal()
         x_zero = Signal()                             # counter X is zero, known a clock ahead
         final = Signal()                              # ... while running: an X step ends the run
-        zero_next = Signal()
-        with m.If(take):
-            m.d.comb += zero_next.eq(prepared_x == 0)
-        with m.Elif(end):
-            m.d.comb += zero_next.eq(1)
-        with m.Elif(x_step):
-            m.d.comb += zero_next.eq(counter_x.q == 1)
-        with m.Else():
-            m.d.comb += zero_next.eq(x_zero)
-        m.d.sync += [x_zero.eq(zero_next), final.eq(zero_next & (take | (run & ~end)))]
+        zero_next = _zero_ahead(m, x_zero, counter_x.q, load=take, d=prepared_x, clr=end,
+                                down=x_step)
+        m.d.sync += final.eq(zero_next & (take | (run & ~end)))
         m.d.comb += [
             move.eq(run & enable),
             x_step.eq(move & adder.sign_n),
@@ -331,13 +324,18 @@ def _zero_ahead(m, flag, q, *, load, d, clr, down):
     set) from the clock after each change, decoded from what the counter is given (``d`` at
     ``load``, zero at ``clr``, ``q - 1`` at ``down``) in the clock it changes: a decision that
     waits for the counter to run out starts from a flip-flop, not from a wide comparison of
-    its contents."""
+    its contents. Returns the flag's next value (for flags formed from it)."""
+    zero_next = Signal()
     with m.If(load):
-        m.d.sync += flag.eq(d == 0)
+        m.d.comb += zero_next.eq(d == 0)
     with m.Elif(clr):
-        m.d.sync += flag.eq(1)
+        m.d.comb += zero_next.eq(1)
     with m.Elif(down):
-        m.d.sync += flag.eq(q == 1)
+        m.d.comb += zero_next.eq(q == 1)
+    with m.Else():
+        m.d.comb += zero_next.eq(flag)
+    m.d.sync += flag.eq(zero_next)
+    return zero_next
 
 
 def _smear(value):
@@ -488,20 +486,12 @@ class DdaCore(wiring.Component):
         with m.If(self.cmd.ready):
             m.d.sync += [prepared_x.eq(payload.x), prepared_y.eq(payload.y)]
         # The counter never holds more than the mask, below 2**width: its top bit is not decoded.
-        zero_next = Signal()
-        with m.If(go):
-            m.d.comb += zero_next.eq(prepared_mask == 0)
-        with m.Elif(end):
-            m.d.comb += zero_next.eq(1)
-        with m.Elif(iterate):
-            m.d.comb += zero_next.eq(counter.q[:w] == 1)
-        with m.Else():
-            m.d.comb += zero_next.eq(counted_out)
+        zero_next = _zero_ahead(m, counted_out, counter.q[:w], load=go, d=prepared_mask,
+                                clr=end, down=iterate)
         m.d.sync += [
             over.eq(Mux(go, prepared_over, register_x.overflow_next | register_y.overflow_next)),
             full.eq(full_next),
             empty.eq(empty_next),
-            counted_out.eq(zero_next),
             final.eq(run_next & zero_next),
             may_take.eq(full_next & (~run_next | (zero_next & ~empty_next))),
             may_go.eq(full_next & ~empty_next & (~run_next | zero_next)),
