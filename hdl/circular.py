@@ -370,17 +370,27 @@ class CircularInterpolatorFast(wiring.Component):
         Register width, as for :class:`CircularInterpolator`.
     period : :class:`int`
         Generator period in :py:`tick` clocks (1: a step every clock).
+    decoded : :class:`bool`
+        Take the decodes of inputs 30, 31 and 34 that a start needs from the ports
+        :py:`in31_near` and :py:`in30_zero` (an arc core registers them with the inputs, so
+        that they are not formed in the clock of the start); otherwise they are decoded here.
     {members}
+    in31_near : :py:`In(4)`
+        With ``decoded`` only: bit ``k - 1`` is ``~in34 & (in31 == k - 1)``, sector 1 and
+        ``X - Y = k`` at the start (``k = 1 .. 4``).
+    in30_zero : :py:`In(1)`
+        With ``decoded`` only: ``in30 == 0``.
     Raises
     ------
     :exc:`TypeError`
         If ``width`` is not an integer of at least 2 or ``period`` not a positive integer.
     """
 
-    def __init__(self, *, width=24, period=1):
+    def __init__(self, *, width=24, period=1, decoded=False):
         _check_fast(width, period)
         self._width = width
         self._period = period
+        self._decoded = bool(decoded)
         aw, cw = width + 4, width + 1
         self.adder1 = AccumulatingAdder(aw)
         self.trigger4 = Trigger(priority="set")
@@ -394,7 +404,10 @@ class CircularInterpolatorFast(wiring.Component):
         self.near = Signal(2)             # bit k - 1: sector 1 and X - Y = k (k = 1, 2)
         self.choices = Signal(_CHOICES)   # how each sign moves the operands on (_choices)
         self.last7 = Signal()             # counter 7 holds 0
-        super().__init__(_core_signature(width))
+        signature = _core_signature(width)
+        if self._decoded:
+            signature.update({"in31_near": In(4), "in30_zero": In(1)})
+        super().__init__(signature)
 
     @property
     def width(self):
@@ -403,6 +416,10 @@ class CircularInterpolatorFast(wiring.Component):
     @property
     def period(self):
         return self._period
+
+    @property
+    def decoded(self):
+        return self._decoded
 
     def elaborate(self, platform):
         m = Module()
@@ -504,21 +521,37 @@ class CircularInterpolatorFast(wiring.Component):
         ]
 
         # The operands and flags of a starting run, from inputs 30, 31 and 34 (counter 7: Y
-        # or X - 1; counter 8: d - 1 or X - Y), one carry chain for each operand.
+        # or X - 1; counter 8: d - 1 or X - Y). The carry chains start from the inputs (input
+        # 34 at most selects ahead of one), and the decoded d = 1, 2 only select after them:
+        # 2·in30 - 1 is 2X - 3 in sector 2 and, its bit 0 cleared, 2Y - 2 at d = 1; 2Y + 1 at
+        # d = 2 is 2·in30 with bit 0 set; 2·in31 - 3 is 2d - 5 in sector 1.
         in30, in31, in34 = self.in30, self.in31, self.in34
-        first_d1 = ~in34 & (in31 == 0)
-        first_d2 = ~in34 & (in31 == 1)
+        aw = self._width + 4
+        if self._decoded:
+            first_near, first_zero7 = self.in31_near, self.in30_zero
+        else:
+            first_near = Cat(*(~in34 & (in31 == k) for k in range(4)))
+            first_zero7 = in30 == 0
+        first_d1, first_d2 = first_near[0], first_near[1]
+        twice30 = Signal(signed(aw))      # 2·in30 - 1
+        twice31 = Signal(signed(aw))      # 2·in31 - 3
+        first_pos = Signal(signed(aw))    # 2(X - Y) - 5 in sector 2, -(2Y + 3) in sector 1
+        m.d.comb += [
+            twice30.eq(2 * in30 - 1),
+            twice31.eq(2 * in31 - 3),
+            first_pos.eq(2 * Mux(in34, in31, ~in30) + Mux(in34, -5, -1)),
+        ]
         with m.If(start):
             m.d.sync += [
                 # 2X - 3, 2Y - 2, 2Y + 1, 2d - 5 (the table above)
-                op_neg.eq(Mux(in34 | first_d1 | first_d2, 2 * in30, 2 * in31)
-                          + Mux(in34, -1, Mux(first_d1, -2, Mux(first_d2, 1, -3)))),
-                # 2(X - Y) - 5, -1, -(2Y + 3) = ~2Y - 2
-                op_pos.eq(Mux(in34, 2 * in31, Mux(first_d1, 0, ~(2 * in30)))
-                          + Mux(in34, -5, Mux(first_d1, -1, -2))),
+                op_neg.eq(Mux(in34, twice30,
+                              Mux(first_d1, Cat(C(0, 1), twice30[1:]).as_signed(),
+                                  Mux(first_d2, Cat(C(1, 1), in30).as_signed(), twice31)))),
+                # 2(X - Y) - 5, -1, -(2Y + 3)
+                op_pos.eq(Mux(first_d1, -1, first_pos)),
                 near.eq(Cat(first_d1, first_d2)),
-                choices.eq(_choices(m, in34, [in31 == k - 1 for k in range(1, 5)])),
-                last7.eq(in30 == 0),
+                choices.eq(_choices(m, in34, list(first_near))),
+                last7.eq(first_zero7),
             ]
         with m.Elif(move):
             m.d.sync += [
@@ -536,18 +569,37 @@ CircularInterpolatorFast.__doc__ = CircularInterpolatorFast.__doc__.replace("{me
                                                                             _CORE_MEMBERS)
 
 
+def _sum_small(m, a, b):
+    """Bit ``k`` of the result: ``a + b == k`` modulo ``2**len(a)``, for ``k = 0 .. 3``,
+    without a carry chain. Where the sum's bits 3 and up are zero, every carry into them is
+    known from the bit below (``a | b``, as for a sum of zero), so each bit is checked on its
+    own and the checks are ANDed; the low three bits are summed apart."""
+    width = len(a)
+    high = Signal(name="sum_high_zero")
+    low = Signal(3, name="sum_low")
+    a, b = a.as_unsigned(), b.as_unsigned()
+    m.d.comb += [
+        high.eq(~((a[3:] ^ b[3:]) ^ (a[2:width - 1] | b[2:width - 1])).any()),
+        low.eq(a[:3] + b[:3]),
+    ]
+    return Cat(*(high & (low == k) for k in range(4)))
+
+
 class _QuadrantCore(wiring.Component):
     """A SU 1665343 interpolator as an arc core (:class:`~hdl.arc.ArcCoreSignature`).
 
     A quadrant run taken from :py:`cmd`, the native start ``(x, y)`` and ``residue = r2 - x² -
-    y²``, is prepared in a register holding the patent's inputs 29, 30, 31 and 34 (``⌊F⌋ =
-    residue + x - 2y - 2`` in sector 1, ``residue + 2x - y - 2`` in sector 2, since the start's
-    own circle has ``r2 = x² + y² + residue``), and started by input 33 as soon as the
-    interpolator is ready: in the next clock when it is idle, in the clock the running quadrant
-    stops otherwise. :py:`stop` is input 32. The step permission drives generator 5
-    (:func:`~hdl.engine.permit`); the next step is diagonal when F is negative in sector 1 and
-    not negative in sector 2. :py:`abort` stops the run through input 32 with no step in that
-    clock and drops the prepared run.
+    y²``, is prepared in a register holding the patent's inputs 30, 31 and 34 and ``residue -
+    1``, from which input 29 (``⌊F⌋ = residue + x - 2y - 2`` in sector 1, ``residue + 2x - y -
+    2`` in sector 2, since the start's own circle has ``r2 = x² + y² + residue``) is formed as
+    the interpolator loads it (one carry chain each side of the register, not two sums and a
+    choice before it); for an interpolator that takes them (``decoded``), the register holds
+    the decodes of inputs 30 and 31 its start needs too. The run is started by input 33 as
+    soon as the interpolator is ready: in the next clock when it is idle, in the clock the
+    running quadrant stops otherwise. :py:`stop` is input 32. The step permission drives
+    generator 5 (:func:`~hdl.engine.permit`); the next step is diagonal when F is negative in
+    sector 1 and not negative in sector 2. :py:`abort` stops the run through input 32 with no
+    step in that clock and drops the prepared run.
     """
 
     def __init__(self, interpolator):
@@ -568,36 +620,54 @@ class _QuadrantCore(wiring.Component):
         m.submodules.interpolator = ip = self.interpolator
 
         x, y, residue = self.cmd.payload.x, self.cmd.payload.y, self.cmd.payload.residue
-        sector2 = y >= x
+        cw, aw = w + 1, w + 4
         full = Signal()
-        in29 = Signal(signed(w + 4))
-        in30 = Signal(signed(w + 1))
-        in31 = Signal(signed(w + 1))
+        in30 = Signal(signed(cw))
+        in31 = Signal(signed(cw))
         in34 = Signal()
+        residue_1 = Signal(signed(w + 2))     # residue - 1, for input 29 (below)
         take = Signal()
         m.d.comb += [
             take.eq(full & ip.ready & ~self.abort),
             self.cmd.ready.eq(~full | take),
         ]
-        # ⌊F⌋ in one carry chain per sector: both three-operand sums are first reduced to two
-        # by carry-save (the numbers are taken modulo 2**(width + 4)).
-        aw = w + 4
-        r, one_x, two_x = Signal(aw), Signal(aw), Signal(aw)
-        two_y_1, y_ = Signal(aw), Signal(aw)
-        m.d.comb += [r.eq(residue), one_x.eq(x), two_x.eq(2 * x), two_y_1.eq(2 * y + 1),
-                     y_.eq(y)]
-        s1_sum, s1_carry = carry_save(m, r, one_x, ~two_y_1)      # r + x - 2y - 2
-        s2_sum, s2_carry = carry_save(m, r, two_x, ~y_)           # r + 2x - y - 1
-        s2_sum, s2_carry = carry_save(m, s2_sum, s2_carry, Const(-1, aw))   # ... - 1
+        # Inputs 30, 31 and 34 from one carry chain each: x - y - 1 is counter 8 in sector 1,
+        # and its sign is sector 2 (Y >= X).
+        x_, y_ = Signal(signed(cw)), Signal(signed(cw))
+        below = Signal(signed(cw))            # x - y - 1
+        sector2 = below[-1]
+        m.d.comb += [x_.eq(x), y_.eq(y), below.eq(x_ + ~y_)]
         # The register takes the payload whenever it may (:py:`cmd.valid` only sets full), so
         # that the handover's valid is not on the path to every bit's enable.
         with m.If(self.cmd.ready):
             m.d.sync += [
-                in29.eq(Mux(sector2, s2_sum + s2_carry, s1_sum + s1_carry)),
-                in30.eq(Mux(sector2, x - 1, y)),
-                in31.eq(Mux(sector2, x - y, x - y - 1)),
+                in30.eq(Mux(sector2, x_ - 1, y_)),
+                in31.eq(Mux(sector2, x_ - y_, below)),
                 in34.eq(sector2),
+                residue_1.eq(residue - 1),
             ]
+        if getattr(ip, "decoded", False):
+            # The decodes the fast interpolator's start needs, registered with its inputs:
+            # x - y - 1 = k >= 0 for k = 0 .. 3 (it is sector 1 then), and counter 7's zero,
+            # X - 1 = 0 in sector 2 (x = 1 and y >= 1) or Y = 0 in sector 1 (y = 0 and x >= 1),
+            # both decoded from the payload beside the carry chain, not after it.
+            in31_near = Signal(4)
+            in30_zero = Signal()
+            with m.If(self.cmd.ready):
+                m.d.sync += [
+                    in31_near.eq(_sum_small(m, x_, ~y_)),
+                    in30_zero.eq(((x == 1) & (y != 0)) | ((y == 0) & (x != 0))),
+                ]
+            m.d.comb += [ip.in31_near.eq(in31_near), ip.in30_zero.eq(in30_zero)]
+        # Input 29, ⌊F⌋ = residue + x - 2y - 2 (sector 1) or residue + 2x - y - 2 (sector 2),
+        # formed from the registers as it is loaded, in one carry chain after a carry-save
+        # reduction: (residue - 1) + in31 + (in30 or ~in30) + (1 in sector 1), the last in the
+        # reduction's free carry bit 0 (numbers modulo 2**(width + 4)).
+        in29 = Signal(signed(aw))
+        r_1, c8, c7 = Signal(aw), Signal(aw), Signal(aw)
+        m.d.comb += [r_1.eq(residue_1), c8.eq(in31), c7.eq(Mux(in34, in30, ~in30))]
+        total, carries = carry_save(m, r_1, c8, c7)
+        m.d.comb += in29.eq(total + (carries | ~in34))
         with m.If(self.cmd.valid & self.cmd.ready):
             m.d.sync += full.eq(1)
         with m.Elif(take | self.abort):
@@ -659,7 +729,7 @@ class FastArcCore(_QuadrantCore):
 
     def __init__(self, *, width=24, period=1):
         _check_fast(width, period)               # before the interpolator is made
-        super().__init__(CircularInterpolatorFast(width=width, period=period))
+        super().__init__(CircularInterpolatorFast(width=width, period=period, decoded=True))
 
     @property
     def period(self):
