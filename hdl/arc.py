@@ -162,8 +162,9 @@ class ArcPlanner(wiring.Component):
         self._width = width
         self._coord_width = frame_coord_width(width, coord_width)
         super().__init__({
-            "i": In(stream.Signature(_arc_frame(self._coord_width))),
-            "o": Out(stream.Signature(self.Plan(width))),
+            "i":    In(stream.Signature(_arc_frame(self._coord_width))),
+            "o":    Out(stream.Signature(self.Plan(width))),
+            "keep": In(1),
         })
 
     @property
@@ -274,7 +275,7 @@ class ArcPlanner(wiring.Component):
                 ]
                 with m.If(count == w):
                     m.next = "Plan"
-            with m.State("Plan"):
+            with m.State("Plan"):                    # once the plan before is let go
                 round_up = remainder > root          # sqrt(r2) >= root + 1/2
                 rn = Signal(w + 1)
                 m.d.comb += rn.eq(root + round_up)
@@ -284,13 +285,14 @@ class ArcPlanner(wiring.Component):
                 turns = Mux(plan.cw, plan.quadrant - end_quadrant,
                             end_quadrant - plan.quadrant)[:2]
                 quadrants = Mux((turns == 0) & ~ahead, 4, turns)
-                m.d.sync += [
-                    plan.refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
-                    plan.runs.eq(quadrants + 1 - (end.y == 0)),
-                    plan.radius.eq(rn[:w]),
-                    plan.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
-                ]
-                m.next = "Hold"
+                with m.If(~self.keep):
+                    m.d.sync += [
+                        plan.refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
+                        plan.runs.eq(quadrants + 1 - (end.y == 0)),
+                        plan.radius.eq(rn[:w]),
+                        plan.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
+                    ]
+                    m.next = "Hold"
             with m.State("Hold"):
                 m.d.comb += self.o.valid.eq(1)
                 with m.If(self.o.ready):
@@ -403,10 +405,8 @@ class ArcEngine(wiring.Component):
         first_offered = Signal()          # the next plan's first run is prepared in the core
         clockwise = Signal()
         quadrant = Signal(2)              # of the running run
-        radius = Signal(w)
-        residue = Signal(signed(w + 1))
-        end = Signal(ArcPlanner.Plan(w)["end"].shape)
-        dx = Signal(signed(w + 2))        # native X - end X in the running run
+        off_axis = Signal()               # the arc ends off the axis (native end Y > 0)
+        dx = Signal(signed(w + 2))        # native X - end X in the arc's last run
         dy = Signal(signed(w + 2))        # end Y - native Y
         near = Signal(4)                  # dx = 0, dx = 1, dy = 0, dy = 1
         swap = Signal()
@@ -422,7 +422,7 @@ class ArcEngine(wiring.Component):
         m.d.comb += [
             # The step lands on the end (X falls by native[0], Y rises by native[1]): the
             # distances are compared from registers, not through the step's own sums.
-            reached.eq(last_run & (end.y != 0) & native.any()
+            reached.eq(last_run & off_axis & native.any()
                        & Mux(native[0], near[1], near[0]) & Mux(native[1], near[3], near[2])),
             core.stop.eq(reached),
             arc_done.eq(last_run & core.done & ~self.abort),
@@ -447,11 +447,12 @@ class ArcEngine(wiring.Component):
             offer_axis.eq(own_axis | (begin & (next_plan.runs > 1))),
             offer_first.eq(~own_axis & ~first_offered & planner_o.valid & ~next_plan.refused),
             core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
-            core.cmd.payload.x.eq(Mux(own_axis, radius,
-                                      Mux(plan_axis, next_plan.radius, next_plan.start.x))),
+            # The radius and residue of an axis run are the plan's, own or next: the planner
+            # keeps them until the last of this arc's axis runs is handed over.
+            core.cmd.payload.x.eq(Mux(own_axis | plan_axis, next_plan.radius, next_plan.start.x)),
             core.cmd.payload.y.eq(Mux(own_axis | plan_axis, 0, next_plan.start.y)),
-            core.cmd.payload.residue.eq(Mux(own_axis, residue,
-                                            Mux(plan_axis, next_plan.residue, 0))),
+            core.cmd.payload.residue.eq(Mux(own_axis | plan_axis, next_plan.residue, 0)),
+            self.planner.keep.eq(own_axis),
         ]
         offered = core.cmd.valid & core.cmd.ready
         with m.If(begin):
@@ -472,27 +473,30 @@ class ArcEngine(wiring.Component):
                     direction.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
                                      Mux(x_falls, y_negative, ~y_negative)))]
 
+        # The distances to the end are those of the arc's last run, loaded as the arc begins:
+        # from the start when it is its only run, else from the axis point (Rn, 0). They count
+        # only in the last run.
+        single = next_plan.runs == 1
         with m.If(begin):
             m.d.sync += [
                 active.eq(1), later_runs.eq(next_plan.runs - 1),
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
-                radius.eq(next_plan.radius), residue.eq(next_plan.residue),
-                end.eq(next_plan.end),
-                *_distances(m, dx, dy, near, next_plan.start.x - next_plan.end.x,
-                            next_plan.end.y - next_plan.start.y),
+                off_axis.eq(next_plan.end.y != 0),
+                *_distances(m, dx, dy, near,
+                            Mux(single, next_plan.start.x, next_plan.radius) - next_plan.end.x,
+                            next_plan.end.y - Mux(single, next_plan.start.y, 0)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
             q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
                 later_runs.eq(later_runs - 1), quadrant.eq(q_next),
-                *_distances(m, dx, dy, near, radius - end.x, end.y),
                 *enter(q_next, clockwise),
             ]
         with m.Else():
             with m.If(arc_done):
                 m.d.sync += active.eq(0)
-            with m.If(active):
+            with m.If(last_run):
                 m.d.sync += [
                     dx.eq(dx - native[0]), dy.eq(dy - native[1]),
                     near.eq(Cat(Mux(native[0], near[1], near[0]),

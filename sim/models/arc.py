@@ -193,7 +193,9 @@ def arc_plan(payload, width):
 
 class ArcPlannerModel:
     """Clock-by-clock model of :class:`hdl.arc.ArcPlanner`: takes an arc while it holds no
-    plan, offers its plan :func:`setup_latency` clocks later, until it is transferred."""
+    plan, offers its plan :func:`setup_latency` clocks later, until it is transferred. While
+    ``keep`` is set the plan before it is still in use (its radius and residue), and the
+    planner waits in the clock before the offer."""
 
     def __init__(self, width):
         self.width = width
@@ -211,7 +213,7 @@ class ArcPlannerModel:
     def valid(self):
         return int(self.left == 0)
 
-    def cycle(self, *, valid, payload, o_ready):
+    def cycle(self, *, valid, payload, o_ready, keep=0):
         if self.left is None:
             if valid:
                 self.plan = arc_plan(payload, self.width)
@@ -219,7 +221,7 @@ class ArcPlannerModel:
         elif self.left == 0:
             if o_ready:
                 self.left, self.plan = None, None
-        else:
+        elif not (self.left == 1 and keep):
             self.left -= 1
 
 
@@ -287,6 +289,7 @@ class ArcEngineModel:
         plan_ready = begin or refuse
 
         # Runs handed to the core: this arc's later quadrants, then the next plan's first run.
+        keep = self.to_offer != 0         # the planner keeps this arc's radius and residue
         offer_axis = (plan["runs"] > 1) if begin else self.to_offer != 0
         offer_first = (not offer_axis and not begin and plan is not None
                        and not plan["refused"] and not self.first_offered)
@@ -345,6 +348,7 @@ class ArcEngineModel:
         if abort:
             planner.reset()
         else:
-            planner.cycle(valid=bool(valid) and accepting, payload=payload, o_ready=plan_ready)
+            planner.cycle(valid=bool(valid) and accepting, payload=payload, o_ready=plan_ready,
+                          keep=keep)
         status.advance(accept=accept, flush=abort)
         return outputs, state
