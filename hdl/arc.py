@@ -4,7 +4,6 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from .elements import carry_save, magnitude
 from .elements._checks import check_width
 from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
@@ -91,28 +90,60 @@ def _arc_frame(coord_width):
                               "cw": 1})
 
 
-def _quadrant(x, y, clockwise):
-    """Quadrant 0-3 of a point; an axis point belongs to the quadrant the motion enters."""
-    ccw = Mux((x > 0) & (y >= 0), 0, Mux((x <= 0) & (y > 0), 1, Mux((x < 0) & (y <= 0), 2, 3)))
-    cwq = Mux((x >= 0) & (y > 0), 0, Mux((x < 0) & (y >= 0), 1, Mux((x <= 0) & (y < 0), 2, 3)))
+def _quadrant(positive_x, negative_x, positive_y, negative_y, clockwise):
+    """Quadrant 0-3 of a point from its coordinates' signs; an axis point belongs to the
+    quadrant the motion enters."""
+    px, nx, py, ny = positive_x, negative_x, positive_y, negative_y
+    ccw = Mux(px & ~ny, 0, Mux(~px & py, 1, Mux(nx & ~py, 2, 3)))
+    cwq = Mux(~nx & py, 0, Mux(nx & ~ny, 1, Mux(~px & ny, 2, 3)))
     return Mux(clockwise, cwq, ccw)
 
 
-def _x_falls(quadrant, clockwise):
-    """Whether |x| falls in ``quadrant`` (native X = |x|): even quadrants counter-clockwise."""
-    return ~quadrant[0] ^ clockwise
+def _swapped(quadrant, clockwise):
+    """Whether ``quadrant`` is run with X and Y swapped (native X = |y|): where |x| rises,
+    the odd quadrants counter-clockwise and the even ones clockwise."""
+    return quadrant[0] ^ clockwise
+
+
+class _Coordinate:
+    """What the planner reads off a frame coordinate as it takes the arc: its sign, whether it
+    is zero or positive, and whether its magnitude is too wide for ``width`` bits. (Too wide a
+    coordinate refuses the arc, so the other flags may then be anything.)"""
+
+    def __init__(self, value, width):
+        self.value = value
+        self.sign = value[-1]
+        low_zero = value[:width] == 0
+        self.zero = low_zero & ~self.sign
+        self.positive = ~low_zero & ~self.sign
+        high = value[width:]
+        # In range: the high bits all equal the sign, and -2**width (all ones over zeros) is
+        # one too far.
+        self.over = ~((high == 0) | high.all()) | (self.sign & low_zero)
 
 
 class ArcPlanner(wiring.Component):
     """Check an arc and plan its quadrant runs, with serial arithmetic; hold one plan.
 
-    Takes an arc on :py:`i` (the frame of :class:`ArcEngine`) while it holds no plan. It maps
-    the start and the end onto the native quadrant of the quadrant they lie in (the start's
-    quadrant is the first run's, the end's the last's), forms ``r2 = x0² + y0²`` and
-    ``x1² + y1²`` (``width`` clocks each, one multiplier bit a clock), checks the end point
-    (one clock), takes the rounded square root of ``r2`` with its remainder (``width + 1``
-    clocks), and forms the plan (one clock): it is offered on :py:`o` ``3·width + 4`` clocks
-    after the arc was taken, and held there until it is transferred.
+    Takes an arc on :py:`i` (the frame of :class:`ArcEngine`) while it holds no plan. It forms
+    ``r2 = x0² + y0²`` and then ``S = x1² + y1²`` (``width`` clocks each, one multiplier bit a
+    clock), checks the end point (one clock), takes the rounded square root of ``r2`` with its
+    remainder (``width + 1`` clocks), and forms the plan (one clock): it is offered on :py:`o`
+    ``3·width + 4`` clocks after the arc was taken, and held there until it is transferred.
+    The radius and the residue stay after the transfer while :py:`keep` is set (the engine still
+    hands the arc's later quadrant runs to its core); the next plan waits for them in its last
+    clock.
+
+    One serial datapath: the frame's coordinates are taken as they are, in two's complement;
+    each pass shifts the multiplier bits of two of them out at the bottom of their registers,
+    turns them into the bits of their magnitudes on the way (a negation a bit at a time) and
+    shifts those in at the top, each into the register of its native coordinate (X and Y
+    swapped where |x| rises, see :class:`ArcEngine`), so that after the passes the registers
+    hold the native start and end. The multiplicands are the two coordinates of the pass,
+    negated in the adder where negative. The bits of the end point's check and of the order of
+    start and end within a quadrant are formed a bit at a time during the second pass (the low
+    half of ``r2 - S`` as ``S``'s bits leave the adder); only the high halves of ``r2`` and
+    ``S`` meet in one subtraction.
 
     A plan is refused (:py:`refused` set; nothing else in it counts) for a coordinate magnitude
     above ``2**width - 1``, a start point at the centre (R = 0), a radius that rounds above
@@ -133,6 +164,8 @@ class ArcPlanner(wiring.Component):
         Arcs.
     o : :py:`Out(stream.Signature(ArcPlanner.Plan(width)))`
         Their plans, in order.
+    keep : :py:`In(1)`
+        The plan transferred last is still in use: keep its radius and residue.
 
     Raises
     ------
@@ -179,96 +212,161 @@ class ArcPlanner(wiring.Component):
         m = Module()
         w = self._width
         frame = self.i.payload
-        plan = Signal(self.Plan(w))                  # the one plan, built in place
-        m.d.comb += self.o.payload.eq(plan)
+        x0, y0, x1, y1 = (_Coordinate(v, w) for v in (frame.x0, frame.y0, frame.x1, frame.y1))
 
-        magnitudes, overs = zip(*[magnitude(m, v, w)
-                                  for v in (frame.x0, frame.y0, frame.x1, frame.y1)])
-        start_quadrant = _quadrant(frame.x0, frame.y0, frame.cw)
-        end_quadrant = Signal(2)                     # the quadrant of the last run
+        # ---- the plan (registers the engine reads) -----------------------------------------
+        cw = Signal()
+        start_quadrant = Signal(2)
+        end_quadrant = Signal(2)
+        start_x, start_y = Signal(w), Signal(w)      # the start's coordinates, then native |.|
+        end_x, end_y = Signal(w), Signal(w)          # the end's
+        refused = Signal()
+        runs = Signal(3)
+        radius = Signal(w)
+        residue = Signal(signed(w + 1))
+        m.d.comb += [
+            self.o.payload.refused.eq(refused), self.o.payload.cw.eq(cw),
+            self.o.payload.quadrant.eq(start_quadrant), self.o.payload.runs.eq(runs),
+            self.o.payload.start.x.eq(start_x), self.o.payload.start.y.eq(start_y),
+            self.o.payload.end.x.eq(end_x), self.o.payload.end.y.eq(end_y),
+            self.o.payload.radius.eq(radius), self.o.payload.residue.eq(residue),
+        ]
+
+        # ---- what the frame tells at once --------------------------------------------------
+        start_swapped = Signal()                     # native X = |y0|
+        end_swapped = Signal()                       # native X = |y1|
+        end_on_axis = Signal()                       # native end Y = 0
+        end_signs = Signal(2)                        # of x1, y1
         too_wide = Signal()
         zero_radius = Signal()
 
-        # Serial sum of squares a² + b², one multiplier bit a clock: each clock adds the
-        # multiplicands whose multiplier bit is set to the upper half, then shifts the whole
-        # sum down one place; after `w` clocks it holds a² + b² (2w + 1 bits).
-        upper = Signal(w + 1)
-        lower = Signal(w)
-        bits_a = Signal(w)                           # multiplier bits, shifted out at the bottom
-        bits_b = Signal(w)
+        # ---- the serial datapath -----------------------------------------------------------
         second = Signal()                            # 0: x0² + y0², 1: x1² + y1²
-        a = Mux(second, plan.end.x, plan.start.x)
-        b = Mux(second, plan.end.y, plan.start.y)
-        partial = Signal(w + 2)
-        m.d.comb += partial.eq(upper + Mux(bits_a[0], a, 0) + Mux(bits_b[0], b, 0))
-        square_sum = Cat(lower, upper)
-
-        r2 = Signal(2 * w + 2)                       # x0² + y0², then shifted out by the root
-        on_circle = Signal()
-        big = Signal(w)                              # M = max(x1, y1), the end's bound
-        root = Signal(w + 1)                         # ⌊sqrt(r2)⌋, a bit a clock
-        remainder = Signal(w + 3)                    # r2 - root²
         count = Signal(range(w + 1))
+        mult_x = Signal(signed(w + 1))               # multiplicands: x0, y0, then x1, y1
+        mult_y = Signal(signed(w + 1))
+        seen_x = Signal()                            # a one has left (the negation's state)
+        seen_y = Signal()
+        upper = Signal(w + 1)                        # the sum's high half; then the root
+        lower = Signal(w)                            # r2's low half
+        r2_high = Signal(w + 2)                      # r2's high half
+        remainder = Signal(w + 3)                    # r2 - root²
 
+        # The multiplier bits of this pass, and the magnitudes' bits they make: -v keeps the
+        # bits of v up to its lowest one and inverts the rest.
+        out_x = Mux(second, end_x[0], start_x[0])
+        out_y = Mux(second, end_y[0], start_y[0])
+        bit_x = out_x ^ (mult_x[-1] & seen_x)
+        bit_y = out_y ^ (mult_y[-1] & seen_y)
+        swapped = Mux(second, end_swapped, start_swapped)
+        native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
+        native_y = Mux(swapped, bit_x, bit_y)
+
+        # Each clock adds the magnitudes whose multiplier bit is set, |v| = (v ^ s) + s, to
+        # the upper half and shifts the whole sum down one place; after `w` clocks it holds
+        # the sum of the two squares.
+        def operand(bit, v):
+            return Mux(bit, v[:w] ^ v[-1].replicate(w), 0)
+        partial = Signal(w + 2)
+        m.d.comb += partial.eq(upper + operand(bit_x, mult_x) + operand(bit_y, mult_y)
+                               + (bit_x & mult_x[-1]) + (bit_y & mult_y[-1]))
+
+        # The end point's check, -M < D <= M for D = r2 - S (M = max(x1, y1)), split at bit w:
+        # with r2 = R·2**w + r and S = T·2**w + t (r, t < 2**w) and H = R - T, D + M > 0 is
+        # H + qa >= 0 for qa = (r - t + M - 1) // 2**w, and M - D >= 0 is H <= qb for
+        # qb = (t - r + M) // 2**w, both qa and qb in {-1, 0, 1}. The low halves go a bit at a
+        # time as S's bits leave the adder and r2's low half turns in `lower`: r + ~t + M and
+        # t + ~r + M + 1 are serial sums whose carries out (0 to 2) are qa + 1 and qb + 1,
+        # for either coordinate as M. Only H is formed in parallel, and it passes only as -1
+        # (carry above 2), 0 (neither carry 0) or 1 (carry below 2).
+        r_bit, t_bit = lower[0], partial[0]
+        above = Array(Signal(2, name=f"above_{a}") for a in "xy")   # carries of r + ~t + M
+        below = Array(Signal(2, name=f"below_{a}") for a in "xy")   # of t + ~r + M + 1
+        x_longer = Signal()                          # |x1| >= |y1|: M is |x1|
+        # Start and end in one quadrant: whether the end is ahead, native end Y > start Y, or
+        # equal and end X < start X (the start's bits turn in their registers beside).
+        y_above, y_equal, x_below = Signal(), Signal(), Signal()
+
+        on_circle = Signal()
         with m.FSM(name="planner"):
             with m.State("Idle"):
                 m.d.comb += self.i.ready.eq(1)
                 with m.If(self.i.valid):
-                    x_falls_0 = _x_falls(start_quadrant, frame.cw)
-                    end_q = _quadrant(frame.x1, frame.y1, frame.cw)
-                    x_falls_1 = _x_falls(end_q, frame.cw)
+                    q0 = _quadrant(x0.positive, x0.sign, y0.positive, y0.sign, frame.cw)
+                    q1 = _quadrant(x1.positive, x1.sign, y1.positive, y1.sign, frame.cw)
+                    swapped_1 = _swapped(q1, frame.cw)
                     m.d.sync += [
-                        plan.cw.eq(frame.cw),
-                        plan.quadrant.eq(start_quadrant),
-                        end_quadrant.eq(end_q),
-                        plan.start.x.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
-                        plan.start.y.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
-                        plan.end.x.eq(Mux(x_falls_1, magnitudes[2], magnitudes[3])),
-                        plan.end.y.eq(Mux(x_falls_1, magnitudes[3], magnitudes[2])),
-                        too_wide.eq(Cat(*overs).any()),
-                        zero_radius.eq((frame.x0 == 0) & (frame.y0 == 0)),
-                        upper.eq(0), lower.eq(0), second.eq(0), count.eq(0),
-                        bits_a.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
-                        bits_b.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
+                        cw.eq(frame.cw), start_quadrant.eq(q0), end_quadrant.eq(q1),
+                        start_swapped.eq(_swapped(q0, frame.cw)), end_swapped.eq(swapped_1),
+                        end_on_axis.eq(Mux(swapped_1, x1.zero, y1.zero)),
+                        end_signs.eq(Cat(x1.sign, y1.sign)),
+                        too_wide.eq(x0.over | y0.over | x1.over | y1.over),
+                        zero_radius.eq(x0.zero & y0.zero),
+                        start_x.eq(frame.x0[:w]), start_y.eq(frame.y0[:w]),
+                        end_x.eq(frame.x1[:w]), end_y.eq(frame.y1[:w]),
+                        mult_x.eq(frame.x0[:w + 1]), mult_y.eq(frame.y0[:w + 1]),
+                        upper.eq(0), second.eq(0), count.eq(0), seen_x.eq(0), seen_y.eq(0),
+                        above[0].eq(0), above[1].eq(0), below[0].eq(1), below[1].eq(1),
+                        x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
                     ]
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
-                    big.eq(Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)),
-                    upper.eq(partial[1:]), lower.eq(Cat(lower[1:], partial[0])),
-                    bits_a.eq(bits_a >> 1), bits_b.eq(bits_b >> 1),
+                    upper.eq(partial[1:]),
+                    seen_x.eq(seen_x | out_x), seen_y.eq(seen_y | out_y),
                     count.eq(count + 1),
                 ]
+                with m.If(~second):
+                    m.d.sync += [
+                        lower.eq(Cat(lower[1:], partial[0])),
+                        start_x.eq(Cat(start_x[1:], native_x)),
+                        start_y.eq(Cat(start_y[1:], native_y)),
+                    ]
+                with m.Else():
+                    ex, ey, sx, sy = native_x, native_y, start_x[0], start_y[0]
+                    for k, bit in enumerate((bit_x, bit_y)):
+                        m.d.sync += [
+                            above[k].eq((r_bit + ~t_bit + bit + above[k])[1:]),
+                            below[k].eq((t_bit + ~r_bit + bit + below[k])[1:]),
+                        ]
+                    m.d.sync += [
+                        lower.eq(Cat(lower[1:], lower[0])),
+                        start_x.eq(Cat(start_x[1:], sx)), start_y.eq(Cat(start_y[1:], sy)),
+                        end_x.eq(Cat(end_x[1:], ex)), end_y.eq(Cat(end_y[1:], ey)),
+                        x_longer.eq(Mux(bit_x != bit_y, bit_x, x_longer)),
+                        y_above.eq(Mux(ey != sy, ey, y_above)),
+                        y_equal.eq(y_equal & (ey == sy)),
+                        x_below.eq(Mux(ex != sx, sx, x_below)),
+                    ]
                 with m.If(count == w - 1):
-                    m.d.sync += [upper.eq(0), lower.eq(0), count.eq(0)]
+                    m.d.sync += [count.eq(0), seen_x.eq(0), seen_y.eq(0)]
                     with m.If(~second):
                         m.d.sync += [
-                            r2.eq(Cat(lower[1:], partial)), second.eq(1),
-                            bits_a.eq(plan.end.x), bits_b.eq(plan.end.y),
+                            r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
+                            mult_x.eq(Cat(end_x, end_signs[0])),
+                            mult_y.eq(Cat(end_y, end_signs[1])),
                         ]
                     with m.Else():
-                        m.d.sync += [upper.eq(partial[1:]), lower.eq(Cat(lower[1:],
-                                                                         partial[0]))]
                         m.next = "Check end"
-            with m.State("Check end"):               # -M < r2 - (x1² + y1²) <= M
-                # Both bounds as the sign of a three-operand sum, one carry chain each:
-                # r2 - S > -M is r2 + ~S + M >= 0, and r2 - S <= M is M + ~r2 + S + 1 >= 0 (the
-                # + 1 in the free lowest bit of the carries).
-                cw2 = 2 * w + 4
-                r2_, s_, big_ = Signal(cw2), Signal(cw2), Signal(cw2)
-                m.d.comb += [r2_.eq(r2), s_.eq(square_sum), big_.eq(big)]
-                above = carry_save(m, r2_, ~s_, big_)
-                below = carry_save(m, big_, ~r2_, s_)
-                m.d.sync += [on_circle.eq(~(above[0] + above[1])[cw2 - 1]
-                                          & ~(below[0] + (below[1] | 1))[cw2 - 1]),
-                             root.eq(0), remainder.eq(0)]
+            with m.State("Check end"):
+                high = Signal(signed(w + 3))         # H = R - T (upper holds T)
+                m.d.comb += high.eq(r2_high - upper)
+                carry_above = above[~x_longer]
+                carry_below = below[~x_longer]
+                m.d.sync += [
+                    on_circle.eq(((high == -1) & (carry_above == 2))
+                                 | ((high == 0) & (carry_above != 0) & (carry_below != 0))
+                                 | ((high == 1) & (carry_below == 2))),
+                    upper.eq(0), remainder.eq(0),
+                ]
                 m.next = "Root"
             with m.State("Root"):                    # two radicand bits a clock, from the top
-                shifted = Cat(r2[-2:], remainder)
+                root = upper
+                shifted = Cat(r2_high[-2:], remainder)
                 trial = Cat(Const(1, 2), root)
                 fits = shifted >= trial
                 m.d.sync += [
-                    r2.eq(r2 << 2),
+                    Cat(lower, r2_high).eq(Cat(lower, r2_high) << 2),
                     remainder.eq(Mux(fits, shifted - trial, shifted)),
                     root.eq(Cat(fits, root)),
                     count.eq(count + 1),
@@ -276,21 +374,19 @@ class ArcPlanner(wiring.Component):
                 with m.If(count == w):
                     m.next = "Plan"
             with m.State("Plan"):                    # once the plan before is let go
+                root = upper
                 round_up = remainder > root          # sqrt(r2) >= root + 1/2
                 rn = Signal(w + 1)
                 m.d.comb += rn.eq(root + round_up)
-                start, end = plan.start, plan.end
-                ahead = ((end_quadrant == plan.quadrant)
-                         & ((end.y > start.y) | ((end.y == start.y) & (end.x < start.x))))
-                turns = Mux(plan.cw, plan.quadrant - end_quadrant,
-                            end_quadrant - plan.quadrant)[:2]
+                ahead = (end_quadrant == start_quadrant) & (y_above | (y_equal & x_below))
+                turns = Mux(cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
                 quadrants = Mux((turns == 0) & ~ahead, 4, turns)
                 with m.If(~self.keep):
                     m.d.sync += [
-                        plan.refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
-                        plan.runs.eq(quadrants + 1 - (end.y == 0)),
-                        plan.radius.eq(rn[:w]),
-                        plan.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
+                        refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
+                        runs.eq(quadrants + 1 - end_on_axis),
+                        radius.eq(rn[:w]),
+                        residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
                     ]
                     m.next = "Hold"
             with m.State("Hold"):
@@ -466,7 +562,7 @@ class ArcEngine(wiring.Component):
 
         def enter(q, rot):
             """Swap and direction registers for a run in quadrant ``q``."""
-            x_falls = _x_falls(q, rot)
+            x_falls = ~_swapped(q, rot)
             x_negative = (q == 1) | (q == 2)
             y_negative = (q == 2) | (q == 3)
             return [swap.eq(~x_falls),
