@@ -90,7 +90,7 @@ def _arc_frame(coord_width):
                               "cw": 1})
 
 
-def _quadrant(positive_x, negative_x, positive_y, negative_y, clockwise):
+def _quadrant_of_signs(positive_x, negative_x, positive_y, negative_y, clockwise):
     """Quadrant 0-3 of a point from its coordinates' signs; an axis point belongs to the
     quadrant the motion enters."""
     px, nx, py, ny = positive_x, negative_x, positive_y, negative_y
@@ -99,9 +99,18 @@ def _quadrant(positive_x, negative_x, positive_y, negative_y, clockwise):
     return Mux(clockwise, cwq, ccw)
 
 
+def _quadrant(x, y, clockwise):
+    """Quadrant 0-3 of a point; an axis point belongs to the quadrant the motion enters."""
+    return _quadrant_of_signs(x > 0, x < 0, y > 0, y < 0, clockwise)
+
+
+def _x_falls(quadrant, clockwise):
+    """Whether |x| falls in ``quadrant`` (native X = |x|): even quadrants counter-clockwise."""
+    return ~quadrant[0] ^ clockwise
+
+
 def _swapped(quadrant, clockwise):
-    """Whether ``quadrant`` is run with X and Y swapped (native X = |y|): where |x| rises,
-    the odd quadrants counter-clockwise and the even ones clockwise."""
+    """Whether ``quadrant`` is run with X and Y swapped (native X = |y|), where |x| rises."""
     return quadrant[0] ^ clockwise
 
 
@@ -292,8 +301,10 @@ class ArcPlanner(wiring.Component):
             with m.State("Idle"):
                 m.d.comb += self.i.ready.eq(1)
                 with m.If(self.i.valid):
-                    q0 = _quadrant(x0.positive, x0.sign, y0.positive, y0.sign, frame.cw)
-                    q1 = _quadrant(x1.positive, x1.sign, y1.positive, y1.sign, frame.cw)
+                    q0 = _quadrant_of_signs(x0.positive, x0.sign, y0.positive, y0.sign,
+                                            frame.cw)
+                    q1 = _quadrant_of_signs(x1.positive, x1.sign, y1.positive, y1.sign,
+                                            frame.cw)
                     swapped_1 = _swapped(q1, frame.cw)
                     m.d.sync += [
                         cw.eq(frame.cw), start_quadrant.eq(q0), end_quadrant.eq(q1),
@@ -562,7 +573,7 @@ class ArcEngine(wiring.Component):
 
         def enter(q, rot):
             """Swap and direction registers for a run in quadrant ``q``."""
-            x_falls = ~_swapped(q, rot)
+            x_falls = _x_falls(q, rot)
             x_negative = (q == 1) | (q == 2)
             y_negative = (q == 2) | (q == 3)
             return [swap.eq(~x_falls),
