@@ -433,9 +433,15 @@ class ArcEngine(wiring.Component):
     another with no pause (each plan being ready in time). An arc offered to an idle engine at
     clock ``k`` makes its first step at ``k + 3·width + 6`` at the earliest.
 
+    The plan is held once, in the planner: the sequencer keeps only what the running run needs
+    (its quadrant, the distances to the end for the last run, loaded as the arc begins), and
+    reads the radius and residue of the later runs from the plan, which the planner keeps
+    (:py:`keep`) until the last of them is handed over; the next plan is offered after that.
+
     A refused arc (see :class:`ArcPlanner`) ends :attr:`~hdl.engine.Outcome.REFUSED` before
-    any step, once the arc before it has ended and its outcome has been taken. Everything else is the common interface
-    (:class:`~hdl.engine.EngineSignature`); status positions are ``width + 2`` bits.
+    any step, once the arc before it has ended and its outcome has been taken. Everything else
+    is the common interface (:class:`~hdl.engine.EngineSignature`); status positions are
+    ``width + 2`` bits.
 
     Parameters
     ----------
