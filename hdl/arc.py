@@ -194,7 +194,9 @@ class ArcPlanner(wiring.Component):
             "quadrant": 2,                    # quadrant of the first run (0-3: I-IV)
             "runs":     3,                    # number of quadrant runs, 1 to 5
             "start":    point,                # native start of the first run
-            "end":      point,                # native end in the last run (y = 0: its axis)
+            "off_axis": 1,                    # the arc ends off the axis (native end Y > 0)
+            "distance": unsigned(width + 1),  # steps along X and Y from the last run's start
+                                              # to the end (X - end X + end Y - Y)
             "radius":   unsigned(width),      # Rn = round(sqrt(r2)): later runs start at (Rn, 0)
             "residue":  signed(width + 1),    # r2 - Rn²
         })
@@ -228,23 +230,26 @@ class ArcPlanner(wiring.Component):
         start_quadrant = Signal(2)
         end_quadrant = Signal(2)
         start_x, start_y = Signal(w), Signal(w)      # the start's coordinates, then native |.|
-        end_x, end_y = Signal(w), Signal(w)          # the end's
+        # The end's coordinates; after the second pass the bits of F = start X - start Y and
+        # E = end Y - end X; then the plan's distance, F + E from the start if the last run is
+        # the first, else Rn + E from the axis point.
+        end_x, end_y = Signal(w + 1), Signal(w)
         refused = Signal()
         runs = Signal(3)
+        end_on_axis = Signal()                       # native end Y = 0
         radius = Signal(w)
         residue = Signal(signed(w + 1))
         m.d.comb += [
             self.o.payload.refused.eq(refused), self.o.payload.cw.eq(cw),
             self.o.payload.quadrant.eq(start_quadrant), self.o.payload.runs.eq(runs),
             self.o.payload.start.x.eq(start_x), self.o.payload.start.y.eq(start_y),
-            self.o.payload.end.x.eq(end_x), self.o.payload.end.y.eq(end_y),
+            self.o.payload.off_axis.eq(~end_on_axis), self.o.payload.distance.eq(end_x),
             self.o.payload.radius.eq(radius), self.o.payload.residue.eq(residue),
         ]
 
         # ---- what the frame tells at once --------------------------------------------------
         start_swapped = Signal()                     # native X = |y0|
         end_swapped = Signal()                       # native X = |y1|
-        end_on_axis = Signal()                       # native end Y = 0
         end_signs = Signal(2)                        # of x1, y1
         too_wide = Signal()
         zero_radius = Signal()
@@ -295,6 +300,10 @@ class ArcPlanner(wiring.Component):
         # Start and end in one quadrant: whether the end is ahead, native end Y > start Y, or
         # equal and end X < start X (the start's bits turn in their registers beside).
         y_above, y_equal, x_below = Signal(), Signal(), Signal()
+        # The differences of the distance, a bit at a time: E = ey - ex as ey + ~ex + 1, F =
+        # sx - sy as sx + ~sy + 1 (each negative where its carry out is 0).
+        e_carry = Signal()
+        f_carry = Signal()
 
         on_circle = Signal()
         with m.FSM(name="planner"):
@@ -319,6 +328,7 @@ class ArcPlanner(wiring.Component):
                         upper.eq(0), second.eq(0), count.eq(0), seen_x.eq(0), seen_y.eq(0),
                         above[0].eq(0), above[1].eq(0), below[0].eq(1), below[1].eq(1),
                         x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
+                        e_carry.eq(1), f_carry.eq(1),
                     ]
                     m.next = "Square"
             with m.State("Square"):
@@ -335,6 +345,8 @@ class ArcPlanner(wiring.Component):
                     ]
                 with m.Else():
                     ex, ey, sx, sy = native_x, native_y, start_x[0], start_y[0]
+                    e_sum = ey + ~ex + e_carry
+                    f_sum = sx + ~sy + f_carry
                     for k, bit in enumerate((bit_x, bit_y)):
                         m.d.sync += [
                             above[k].eq((r_bit + ~t_bit + bit + above[k])[1:]),
@@ -343,7 +355,8 @@ class ArcPlanner(wiring.Component):
                     m.d.sync += [
                         lower.eq(Cat(lower[1:], lower[0])),
                         start_x.eq(Cat(start_x[1:], sx)), start_y.eq(Cat(start_y[1:], sy)),
-                        end_x.eq(Cat(end_x[1:], ex)), end_y.eq(Cat(end_y[1:], ey)),
+                        end_x.eq(Cat(end_x[1:w], f_sum[0])), end_y.eq(Cat(end_y[1:], e_sum[0])),
+                        e_carry.eq(e_sum[1]), f_carry.eq(f_sum[1]),
                         x_longer.eq(Mux(bit_x != bit_y, bit_x, x_longer)),
                         y_above.eq(Mux(ey != sy, ey, y_above)),
                         y_equal.eq(y_equal & (ey == sy)),
@@ -354,7 +367,7 @@ class ArcPlanner(wiring.Component):
                     with m.If(~second):
                         m.d.sync += [
                             r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
-                            mult_x.eq(Cat(end_x, end_signs[0])),
+                            mult_x.eq(Cat(end_x[:w], end_signs[0])),
                             mult_y.eq(Cat(end_y, end_signs[1])),
                         ]
                     with m.Else():
@@ -392,10 +405,16 @@ class ArcPlanner(wiring.Component):
                 ahead = (end_quadrant == start_quadrant) & (y_above | (y_equal & x_below))
                 turns = Mux(cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
                 quadrants = Mux((turns == 0) & ~ahead, 4, turns)
+                single = Mux(end_on_axis, quadrants == 1, quadrants == 0)
+                e = Signal(signed(w + 1))            # E = end Y - end X
+                f = Signal(signed(w + 1))            # F = start X - start Y
+                m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry))]
                 with m.If(~self.keep):
                     m.d.sync += [
                         refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
                         runs.eq(quadrants + 1 - end_on_axis),
+                        # from the start (sx - sy + E), else from the axis point (Rn + E)
+                        end_x.eq(Mux(single, f, root) + (round_up & ~single) + e),
                         radius.eq(rn[:w]),
                         residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
                     ]
@@ -405,13 +424,6 @@ class ArcPlanner(wiring.Component):
                 with m.If(self.o.ready):
                     m.next = "Idle"
         return m
-
-
-def _distances(m, dx, dy, near, x_distance, y_distance):
-    """Assignments loading the sequencer's distances to the end and their flags."""
-    dx_, dy_ = Signal.like(dx), Signal.like(dy)
-    m.d.comb += [dx_.eq(x_distance), dy_.eq(y_distance)]
-    return [dx.eq(dx_), dy.eq(dy_), near.eq(Cat(dx_ == 0, dx_ == 1, dy_ == 0, dy_ == 1))]
 
 
 class ArcEngine(wiring.Component):
@@ -519,9 +531,11 @@ class ArcEngine(wiring.Component):
         clockwise = Signal()
         quadrant = Signal(2)              # of the running run
         off_axis = Signal()               # the arc ends off the axis (native end Y > 0)
-        dx = Signal(signed(w + 2))        # native X - end X in the arc's last run
-        dy = Signal(signed(w + 2))        # end Y - native Y
-        near = Signal(4)                  # dx = 0, dx = 1, dy = 0, dy = 1
+        # The distance to the end in the arc's last run, along both axes (X - end X + end Y -
+        # Y): a step lowers it by one, a diagonal by two, and it is zero on the path only at the
+        # end (the path is monotonic and passes through it).
+        distance = Signal(w + 1)
+        near = Signal(2)                  # distance = 1, distance = 2
         swap = Signal()
         direction = Signal(2)
 
@@ -536,7 +550,7 @@ class ArcEngine(wiring.Component):
             # The step lands on the end (X falls by native[0], Y rises by native[1]): the
             # distances are compared from registers, not through the step's own sums.
             reached.eq(last_run & off_axis & native.any()
-                       & Mux(native[0], near[1], near[0]) & Mux(native[1], near[3], near[2])),
+                       & Mux(native[0] & native[1], near[1], near[0])),
             core.stop.eq(reached),
             arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
@@ -586,18 +600,15 @@ class ArcEngine(wiring.Component):
                     direction.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
                                      Mux(x_falls, y_negative, ~y_negative)))]
 
-        # The distances to the end are those of the arc's last run, loaded as the arc begins:
-        # from the start when it is its only run, else from the axis point (Rn, 0). They count
-        # only in the last run.
-        single = next_plan.runs == 1
+        # The distance is that of the arc's last run, loaded as the arc begins; it counts only
+        # in the last run.
         with m.If(begin):
             m.d.sync += [
                 active.eq(1), later_runs.eq(next_plan.runs - 1),
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
-                off_axis.eq(next_plan.end.y != 0),
-                *_distances(m, dx, dy, near,
-                            Mux(single, next_plan.start.x, next_plan.radius) - next_plan.end.x,
-                            next_plan.end.y - Mux(single, next_plan.start.y, 0)),
+                off_axis.eq(next_plan.off_axis),
+                distance.eq(next_plan.distance),
+                near.eq(Cat(next_plan.distance == 1, next_plan.distance == 2)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
@@ -609,13 +620,12 @@ class ArcEngine(wiring.Component):
         with m.Else():
             with m.If(arc_done):
                 m.d.sync += active.eq(0)
-            with m.If(last_run):
+            with m.If(last_run & native.any()):
+                diagonal = native[0] & native[1]
                 m.d.sync += [
-                    dx.eq(dx - native[0]), dy.eq(dy - native[1]),
-                    near.eq(Cat(Mux(native[0], near[1], near[0]),
-                                Mux(native[0], dx == 2, near[1]),
-                                Mux(native[1], near[3], near[2]),
-                                Mux(native[1], dy == 2, near[3]))),
+                    distance.eq(distance - 1 - diagonal),
+                    near.eq(Mux(diagonal, Cat(distance == 3, distance == 4),
+                                Cat(distance == 2, distance == 3))),
                 ]
 
         with m.If(self.abort):

@@ -180,14 +180,20 @@ def setup_latency(width):
 def arc_plan(payload, width):
     """The plan :class:`hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
     ``refused``, and for an arc not refused ``cw``, ``quadrant``, ``runs``, ``start``,
-    ``end``, ``radius``, ``residue``."""
+    ``end`` (native, in the last run's quadrant), ``off_axis`` (the end is not the axis point
+    the last run starts on), ``distance`` (steps along X and Y from the last run's start to the
+    end, ``X - end X + end Y - Y``), ``radius``, ``residue``."""
     try:
         plan = plan_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
                         payload["cw"], width)
     except InputError:
         return {"refused": 1}
+    last = plan["runs"][-1]["start"]
+    end = plan["end"]
     return {"refused": 0, "cw": plan["cw"], "quadrant": plan["runs"][0]["q"],
-            "runs": len(plan["runs"]), "start": plan["start"], "end": plan["end"],
+            "runs": len(plan["runs"]), "start": plan["start"], "end": end,
+            "off_axis": int(end[1] != 0),
+            "distance": last[0] - end[0] + end[1] - last[1],
             "radius": plan["rn"], "residue": plan["r2"] - plan["rn"] ** 2}
 
 
