@@ -4,7 +4,6 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from .elements import carry_save, magnitude
 from .elements._checks import check_width
 from .engine import EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width
 
@@ -91,11 +90,18 @@ def _arc_frame(coord_width):
                               "cw": 1})
 
 
+def _quadrant_of_signs(positive_x, negative_x, positive_y, negative_y, clockwise):
+    """Quadrant 0-3 of a point from its coordinates' signs; an axis point belongs to the
+    quadrant the motion enters."""
+    px, nx, py, ny = positive_x, negative_x, positive_y, negative_y
+    ccw = Mux(px & ~ny, 0, Mux(~px & py, 1, Mux(nx & ~py, 2, 3)))
+    cwq = Mux(~nx & py, 0, Mux(nx & ~ny, 1, Mux(~px & ny, 2, 3)))
+    return Mux(clockwise, cwq, ccw)
+
+
 def _quadrant(x, y, clockwise):
     """Quadrant 0-3 of a point; an axis point belongs to the quadrant the motion enters."""
-    ccw = Mux((x > 0) & (y >= 0), 0, Mux((x <= 0) & (y > 0), 1, Mux((x < 0) & (y <= 0), 2, 3)))
-    cwq = Mux((x >= 0) & (y > 0), 0, Mux((x < 0) & (y >= 0), 1, Mux((x <= 0) & (y < 0), 2, 3)))
-    return Mux(clockwise, cwq, ccw)
+    return _quadrant_of_signs(x > 0, x < 0, y > 0, y < 0, clockwise)
 
 
 def _x_falls(quadrant, clockwise):
@@ -103,16 +109,50 @@ def _x_falls(quadrant, clockwise):
     return ~quadrant[0] ^ clockwise
 
 
+def _swapped(quadrant, clockwise):
+    """Whether ``quadrant`` is run with X and Y swapped (native X = |y|), where |x| rises."""
+    return quadrant[0] ^ clockwise
+
+
+class _Coordinate:
+    """What the planner reads off a frame coordinate as it takes the arc: its sign, whether it
+    is zero or positive, and whether its magnitude is too wide for ``width`` bits. (Too wide a
+    coordinate refuses the arc, so the other flags may then be anything.)"""
+
+    def __init__(self, value, width):
+        self.value = value
+        self.sign = value[-1]
+        low_zero = value[:width] == 0
+        self.zero = low_zero & ~self.sign
+        self.positive = ~low_zero & ~self.sign
+        high = value[width:]
+        # In range: the high bits all equal the sign, and -2**width (all ones over zeros) is
+        # one too far.
+        self.over = ~((high == 0) | high.all()) | (self.sign & low_zero)
+
+
 class ArcPlanner(wiring.Component):
     """Check an arc and plan its quadrant runs, with serial arithmetic; hold one plan.
 
-    Takes an arc on :py:`i` (the frame of :class:`ArcEngine`) while it holds no plan. It maps
-    the start and the end onto the native quadrant of the quadrant they lie in (the start's
-    quadrant is the first run's, the end's the last's), forms ``r2 = x0² + y0²`` and
-    ``x1² + y1²`` (``width`` clocks each, one multiplier bit a clock), checks the end point
-    (one clock), takes the rounded square root of ``r2`` with its remainder (``width + 1``
-    clocks), and forms the plan (one clock): it is offered on :py:`o` ``3·width + 4`` clocks
-    after the arc was taken, and held there until it is transferred.
+    Takes an arc on :py:`i` (the frame of :class:`ArcEngine`) while it holds no plan. It forms
+    ``r2 = x0² + y0²`` and then ``S = x1² + y1²`` (``width`` clocks each, one multiplier bit a
+    clock), checks the end point (one clock), takes the rounded square root of ``r2`` with its
+    remainder (``width + 1`` clocks), and forms the plan (one clock): it is offered on :py:`o`
+    ``3·width + 4`` clocks after the arc was taken, and held there until it is transferred.
+    The radius and the residue stay after the transfer while :py:`keep` is set (the engine still
+    hands the arc's later quadrant runs to its core); the next plan waits for them in its last
+    clock.
+
+    One serial datapath: the frame's coordinates are taken as they are, in two's complement;
+    each pass shifts the multiplier bits of two of them out at the bottom of their registers,
+    turns them into the bits of their magnitudes on the way (a negation a bit at a time) and
+    shifts those in at the top, each into the register of its native coordinate (X and Y
+    swapped where |x| rises, see :class:`ArcEngine`), so that after the passes the registers
+    hold the native start and end. The multiplicands are the two coordinates of the pass,
+    negated in the adder where negative. The bits of the end point's check and of the order of
+    start and end within a quadrant are formed a bit at a time during the second pass (the low
+    half of ``r2 - S`` as ``S``'s bits leave the adder); only the high halves of ``r2`` and
+    ``S`` meet in one subtraction.
 
     A plan is refused (:py:`refused` set; nothing else in it counts) for a coordinate magnitude
     above ``2**width - 1``, a start point at the centre (R = 0), a radius that rounds above
@@ -133,6 +173,8 @@ class ArcPlanner(wiring.Component):
         Arcs.
     o : :py:`Out(stream.Signature(ArcPlanner.Plan(width)))`
         Their plans, in order.
+    keep : :py:`In(1)`
+        The plan transferred last is still in use: keep its radius and residue.
 
     Raises
     ------
@@ -152,7 +194,9 @@ class ArcPlanner(wiring.Component):
             "quadrant": 2,                    # quadrant of the first run (0-3: I-IV)
             "runs":     3,                    # number of quadrant runs, 1 to 5
             "start":    point,                # native start of the first run
-            "end":      point,                # native end in the last run (y = 0: its axis)
+            "off_axis": 1,                    # the arc ends off the axis (native end Y > 0)
+            "distance": unsigned(width + 1),  # steps along X and Y from the last run's start
+                                              # to the end (X - end X + end Y - Y)
             "radius":   unsigned(width),      # Rn = round(sqrt(r2)): later runs start at (Rn, 0)
             "residue":  signed(width + 1),    # r2 - Rn²
         })
@@ -162,8 +206,9 @@ class ArcPlanner(wiring.Component):
         self._width = width
         self._coord_width = frame_coord_width(width, coord_width)
         super().__init__({
-            "i": In(stream.Signature(_arc_frame(self._coord_width))),
-            "o": Out(stream.Signature(self.Plan(width))),
+            "i":    In(stream.Signature(_arc_frame(self._coord_width))),
+            "o":    Out(stream.Signature(self.Plan(width))),
+            "keep": In(1),
         })
 
     @property
@@ -178,131 +223,207 @@ class ArcPlanner(wiring.Component):
         m = Module()
         w = self._width
         frame = self.i.payload
-        plan = Signal(self.Plan(w))                  # the one plan, built in place
-        m.d.comb += self.o.payload.eq(plan)
+        x0, y0, x1, y1 = (_Coordinate(v, w) for v in (frame.x0, frame.y0, frame.x1, frame.y1))
 
-        magnitudes, overs = zip(*[magnitude(m, v, w)
-                                  for v in (frame.x0, frame.y0, frame.x1, frame.y1)])
-        start_quadrant = _quadrant(frame.x0, frame.y0, frame.cw)
-        end_quadrant = Signal(2)                     # the quadrant of the last run
+        # ---- the plan (registers the engine reads) -----------------------------------------
+        cw = Signal()
+        start_quadrant = Signal(2)
+        end_quadrant = Signal(2)
+        start_x, start_y = Signal(w), Signal(w)      # the start's coordinates, then native |.|
+        # The end's coordinates; after the second pass the bits of F = start X - start Y and
+        # E = end Y - end X; then the plan's distance, F + E from the start if the last run is
+        # the first, else Rn + E from the axis point.
+        end_x, end_y = Signal(w + 1), Signal(w)
+        refused = Signal()
+        runs = Signal(3)
+        end_on_axis = Signal()                       # native end Y = 0
+        radius = Signal(w)
+        residue = Signal(signed(w + 1))
+        m.d.comb += [
+            self.o.payload.refused.eq(refused), self.o.payload.cw.eq(cw),
+            self.o.payload.quadrant.eq(start_quadrant), self.o.payload.runs.eq(runs),
+            self.o.payload.start.x.eq(start_x), self.o.payload.start.y.eq(start_y),
+            self.o.payload.off_axis.eq(~end_on_axis), self.o.payload.distance.eq(end_x),
+            self.o.payload.radius.eq(radius), self.o.payload.residue.eq(residue),
+        ]
+
+        # ---- what the frame tells at once --------------------------------------------------
+        start_swapped = Signal()                     # native X = |y0|
+        end_swapped = Signal()                       # native X = |y1|
+        end_signs = Signal(2)                        # of x1, y1
         too_wide = Signal()
         zero_radius = Signal()
 
-        # Serial sum of squares a² + b², one multiplier bit a clock: each clock adds the
-        # multiplicands whose multiplier bit is set to the upper half, then shifts the whole
-        # sum down one place; after `w` clocks it holds a² + b² (2w + 1 bits).
-        upper = Signal(w + 1)
-        lower = Signal(w)
-        bits_a = Signal(w)                           # multiplier bits, shifted out at the bottom
-        bits_b = Signal(w)
+        # ---- the serial datapath -----------------------------------------------------------
         second = Signal()                            # 0: x0² + y0², 1: x1² + y1²
-        a = Mux(second, plan.end.x, plan.start.x)
-        b = Mux(second, plan.end.y, plan.start.y)
-        partial = Signal(w + 2)
-        m.d.comb += partial.eq(upper + Mux(bits_a[0], a, 0) + Mux(bits_b[0], b, 0))
-        square_sum = Cat(lower, upper)
-
-        r2 = Signal(2 * w + 2)                       # x0² + y0², then shifted out by the root
-        on_circle = Signal()
-        big = Signal(w)                              # M = max(x1, y1), the end's bound
-        root = Signal(w + 1)                         # ⌊sqrt(r2)⌋, a bit a clock
-        remainder = Signal(w + 3)                    # r2 - root²
         count = Signal(range(w + 1))
+        mult_x = Signal(signed(w + 1))               # multiplicands: x0, y0, then x1, y1
+        mult_y = Signal(signed(w + 1))
+        seen_x = Signal()                            # a one has left (the negation's state)
+        seen_y = Signal()
+        upper = Signal(w + 1)                        # the sum's high half; then the root
+        lower = Signal(w)                            # r2's low half
+        r2_high = Signal(w + 2)                      # r2's high half
+        remainder = Signal(w + 3)                    # r2 - root²
 
+        # The multiplier bits of this pass, and the magnitudes' bits they make: -v keeps the
+        # bits of v up to its lowest one and inverts the rest.
+        out_x = Mux(second, end_x[0], start_x[0])
+        out_y = Mux(second, end_y[0], start_y[0])
+        bit_x = out_x ^ (mult_x[-1] & seen_x)
+        bit_y = out_y ^ (mult_y[-1] & seen_y)
+        swapped = Mux(second, end_swapped, start_swapped)
+        native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
+        native_y = Mux(swapped, bit_x, bit_y)
+
+        # Each clock adds the magnitudes whose multiplier bit is set, |v| = (v ^ s) + s, to
+        # the upper half and shifts the whole sum down one place; after `w` clocks it holds
+        # the sum of the two squares.
+        def operand(bit, v):
+            return Mux(bit, v[:w] ^ v[-1].replicate(w), 0)
+        partial = Signal(w + 2)
+        m.d.comb += partial.eq(upper + operand(bit_x, mult_x) + operand(bit_y, mult_y)
+                               + (bit_x & mult_x[-1]) + (bit_y & mult_y[-1]))
+
+        # The end point's check, -M < D <= M for D = r2 - S (M = max(x1, y1)), split at bit w:
+        # with r2 = R·2**w + r and S = T·2**w + t (r, t < 2**w) and H = R - T, D + M > 0 is
+        # H + qa >= 0 for qa = (r - t + M - 1) // 2**w, and M - D >= 0 is H <= qb for
+        # qb = (t - r + M) // 2**w, both qa and qb in {-1, 0, 1}. The low halves go a bit at a
+        # time as S's bits leave the adder and r2's low half turns in `lower`: r + ~t + M and
+        # t + ~r + M + 1 are serial sums whose carries out (0 to 2) are qa + 1 and qb + 1,
+        # for either coordinate as M. Only H is formed in parallel, and it passes only as -1
+        # (carry above 2), 0 (neither carry 0) or 1 (carry below 2).
+        r_bit, t_bit = lower[0], partial[0]
+        above = Array(Signal(2, name=f"above_{a}") for a in "xy")   # carries of r + ~t + M
+        below = Array(Signal(2, name=f"below_{a}") for a in "xy")   # of t + ~r + M + 1
+        x_longer = Signal()                          # |x1| >= |y1|: M is |x1|
+        # Start and end in one quadrant: whether the end is ahead, native end Y > start Y, or
+        # equal and end X < start X (the start's bits turn in their registers beside).
+        y_above, y_equal, x_below = Signal(), Signal(), Signal()
+        # The differences of the distance, a bit at a time: E = ey - ex as ey + ~ex + 1, F =
+        # sx - sy as sx + ~sy + 1 (each negative where its carry out is 0).
+        e_carry = Signal()
+        f_carry = Signal()
+
+        on_circle = Signal()
         with m.FSM(name="planner"):
             with m.State("Idle"):
                 m.d.comb += self.i.ready.eq(1)
                 with m.If(self.i.valid):
-                    x_falls_0 = _x_falls(start_quadrant, frame.cw)
-                    end_q = _quadrant(frame.x1, frame.y1, frame.cw)
-                    x_falls_1 = _x_falls(end_q, frame.cw)
+                    q0 = _quadrant_of_signs(x0.positive, x0.sign, y0.positive, y0.sign,
+                                            frame.cw)
+                    q1 = _quadrant_of_signs(x1.positive, x1.sign, y1.positive, y1.sign,
+                                            frame.cw)
+                    swapped_1 = _swapped(q1, frame.cw)
                     m.d.sync += [
-                        plan.cw.eq(frame.cw),
-                        plan.quadrant.eq(start_quadrant),
-                        end_quadrant.eq(end_q),
-                        plan.start.x.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
-                        plan.start.y.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
-                        plan.end.x.eq(Mux(x_falls_1, magnitudes[2], magnitudes[3])),
-                        plan.end.y.eq(Mux(x_falls_1, magnitudes[3], magnitudes[2])),
-                        too_wide.eq(Cat(*overs).any()),
-                        zero_radius.eq((frame.x0 == 0) & (frame.y0 == 0)),
-                        upper.eq(0), lower.eq(0), second.eq(0), count.eq(0),
-                        bits_a.eq(Mux(x_falls_0, magnitudes[0], magnitudes[1])),
-                        bits_b.eq(Mux(x_falls_0, magnitudes[1], magnitudes[0])),
+                        cw.eq(frame.cw), start_quadrant.eq(q0), end_quadrant.eq(q1),
+                        start_swapped.eq(_swapped(q0, frame.cw)), end_swapped.eq(swapped_1),
+                        end_on_axis.eq(Mux(swapped_1, x1.zero, y1.zero)),
+                        end_signs.eq(Cat(x1.sign, y1.sign)),
+                        too_wide.eq(x0.over | y0.over | x1.over | y1.over),
+                        zero_radius.eq(x0.zero & y0.zero),
+                        start_x.eq(frame.x0[:w]), start_y.eq(frame.y0[:w]),
+                        end_x.eq(frame.x1[:w]), end_y.eq(frame.y1[:w]),
+                        mult_x.eq(frame.x0[:w + 1]), mult_y.eq(frame.y0[:w + 1]),
+                        upper.eq(0), second.eq(0), count.eq(0), seen_x.eq(0), seen_y.eq(0),
+                        above[0].eq(0), above[1].eq(0), below[0].eq(1), below[1].eq(1),
+                        x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
+                        e_carry.eq(1), f_carry.eq(1),
                     ]
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
-                    big.eq(Mux(plan.end.x >= plan.end.y, plan.end.x, plan.end.y)),
-                    upper.eq(partial[1:]), lower.eq(Cat(lower[1:], partial[0])),
-                    bits_a.eq(bits_a >> 1), bits_b.eq(bits_b >> 1),
+                    upper.eq(partial[1:]),
+                    seen_x.eq(seen_x | out_x), seen_y.eq(seen_y | out_y),
                     count.eq(count + 1),
                 ]
+                with m.If(~second):
+                    m.d.sync += [
+                        lower.eq(Cat(lower[1:], partial[0])),
+                        start_x.eq(Cat(start_x[1:], native_x)),
+                        start_y.eq(Cat(start_y[1:], native_y)),
+                    ]
+                with m.Else():
+                    ex, ey, sx, sy = native_x, native_y, start_x[0], start_y[0]
+                    e_sum = ey + ~ex + e_carry
+                    f_sum = sx + ~sy + f_carry
+                    for k, bit in enumerate((bit_x, bit_y)):
+                        m.d.sync += [
+                            above[k].eq((r_bit + ~t_bit + bit + above[k])[1:]),
+                            below[k].eq((t_bit + ~r_bit + bit + below[k])[1:]),
+                        ]
+                    m.d.sync += [
+                        lower.eq(Cat(lower[1:], lower[0])),
+                        start_x.eq(Cat(start_x[1:], sx)), start_y.eq(Cat(start_y[1:], sy)),
+                        end_x.eq(Cat(end_x[1:w], f_sum[0])), end_y.eq(Cat(end_y[1:], e_sum[0])),
+                        e_carry.eq(e_sum[1]), f_carry.eq(f_sum[1]),
+                        x_longer.eq(Mux(bit_x != bit_y, bit_x, x_longer)),
+                        y_above.eq(Mux(ey != sy, ey, y_above)),
+                        y_equal.eq(y_equal & (ey == sy)),
+                        x_below.eq(Mux(ex != sx, sx, x_below)),
+                    ]
                 with m.If(count == w - 1):
-                    m.d.sync += [upper.eq(0), lower.eq(0), count.eq(0)]
+                    m.d.sync += [count.eq(0), seen_x.eq(0), seen_y.eq(0)]
                     with m.If(~second):
                         m.d.sync += [
-                            r2.eq(Cat(lower[1:], partial)), second.eq(1),
-                            bits_a.eq(plan.end.x), bits_b.eq(plan.end.y),
+                            r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
+                            mult_x.eq(Cat(end_x[:w], end_signs[0])),
+                            mult_y.eq(Cat(end_y, end_signs[1])),
                         ]
                     with m.Else():
-                        m.d.sync += [upper.eq(partial[1:]), lower.eq(Cat(lower[1:],
-                                                                         partial[0]))]
                         m.next = "Check end"
-            with m.State("Check end"):               # -M < r2 - (x1² + y1²) <= M
-                # Both bounds as the sign of a three-operand sum, one carry chain each:
-                # r2 - S > -M is r2 + ~S + M >= 0, and r2 - S <= M is M + ~r2 + S + 1 >= 0 (the
-                # + 1 in the free lowest bit of the carries).
-                cw2 = 2 * w + 4
-                r2_, s_, big_ = Signal(cw2), Signal(cw2), Signal(cw2)
-                m.d.comb += [r2_.eq(r2), s_.eq(square_sum), big_.eq(big)]
-                above = carry_save(m, r2_, ~s_, big_)
-                below = carry_save(m, big_, ~r2_, s_)
-                m.d.sync += [on_circle.eq(~(above[0] + above[1])[cw2 - 1]
-                                          & ~(below[0] + (below[1] | 1))[cw2 - 1]),
-                             root.eq(0), remainder.eq(0)]
+            with m.State("Check end"):
+                high = Signal(signed(w + 3))         # H = R - T (upper holds T)
+                m.d.comb += high.eq(r2_high - upper)
+                carry_above = above[~x_longer]
+                carry_below = below[~x_longer]
+                m.d.sync += [
+                    on_circle.eq(((high == -1) & (carry_above == 2))
+                                 | ((high == 0) & (carry_above != 0) & (carry_below != 0))
+                                 | ((high == 1) & (carry_below == 2))),
+                    upper.eq(0), remainder.eq(0),
+                ]
                 m.next = "Root"
             with m.State("Root"):                    # two radicand bits a clock, from the top
-                shifted = Cat(r2[-2:], remainder)
+                root = upper
+                shifted = Cat(r2_high[-2:], remainder)
                 trial = Cat(Const(1, 2), root)
                 fits = shifted >= trial
                 m.d.sync += [
-                    r2.eq(r2 << 2),
+                    Cat(lower, r2_high).eq(Cat(lower, r2_high) << 2),
                     remainder.eq(Mux(fits, shifted - trial, shifted)),
                     root.eq(Cat(fits, root)),
                     count.eq(count + 1),
                 ]
                 with m.If(count == w):
                     m.next = "Plan"
-            with m.State("Plan"):
+            with m.State("Plan"):                    # once the plan before is let go
+                root = upper
                 round_up = remainder > root          # sqrt(r2) >= root + 1/2
                 rn = Signal(w + 1)
                 m.d.comb += rn.eq(root + round_up)
-                start, end = plan.start, plan.end
-                ahead = ((end_quadrant == plan.quadrant)
-                         & ((end.y > start.y) | ((end.y == start.y) & (end.x < start.x))))
-                turns = Mux(plan.cw, plan.quadrant - end_quadrant,
-                            end_quadrant - plan.quadrant)[:2]
+                ahead = (end_quadrant == start_quadrant) & (y_above | (y_equal & x_below))
+                turns = Mux(cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
                 quadrants = Mux((turns == 0) & ~ahead, 4, turns)
-                m.d.sync += [
-                    plan.refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
-                    plan.runs.eq(quadrants + 1 - (end.y == 0)),
-                    plan.radius.eq(rn[:w]),
-                    plan.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
-                ]
-                m.next = "Hold"
+                single = Mux(end_on_axis, quadrants == 1, quadrants == 0)
+                e = Signal(signed(w + 1))            # E = end Y - end X
+                f = Signal(signed(w + 1))            # F = start X - start Y
+                m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry))]
+                with m.If(~self.keep):
+                    m.d.sync += [
+                        refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
+                        runs.eq(quadrants + 1 - end_on_axis),
+                        # from the start (sx - sy + E), else from the axis point (Rn + E)
+                        end_x.eq(Mux(single, f, root) + (round_up & ~single) + e),
+                        radius.eq(rn[:w]),
+                        residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
+                    ]
+                    m.next = "Hold"
             with m.State("Hold"):
                 m.d.comb += self.o.valid.eq(1)
                 with m.If(self.o.ready):
                     m.next = "Idle"
         return m
-
-
-def _distances(m, dx, dy, near, x_distance, y_distance):
-    """Assignments loading the sequencer's distances to the end and their flags."""
-    dx_, dy_ = Signal.like(dx), Signal.like(dy)
-    m.d.comb += [dx_.eq(x_distance), dy_.eq(y_distance)]
-    return [dx.eq(dx_), dy.eq(dy_), near.eq(Cat(dx_ == 0, dx_ == 1, dy_ == 0, dy_ == 1))]
 
 
 class ArcEngine(wiring.Component):
@@ -324,9 +445,15 @@ class ArcEngine(wiring.Component):
     another with no pause (each plan being ready in time). An arc offered to an idle engine at
     clock ``k`` makes its first step at ``k + 3·width + 6`` at the earliest.
 
+    The plan is held once, in the planner: the sequencer keeps only what the running run needs
+    (its quadrant, the distances to the end for the last run, loaded as the arc begins), and
+    reads the radius and residue of the later runs from the plan, which the planner keeps
+    (:py:`keep`) until the last of them is handed over; the next plan is offered after that.
+
     A refused arc (see :class:`ArcPlanner`) ends :attr:`~hdl.engine.Outcome.REFUSED` before
-    any step, once the arc before it has ended and its outcome has been taken. Everything else is the common interface
-    (:class:`~hdl.engine.EngineSignature`); status positions are ``width + 2`` bits.
+    any step, once the arc before it has ended and its outcome has been taken. Everything else
+    is the common interface (:class:`~hdl.engine.EngineSignature`); status positions are
+    ``width + 2`` bits.
 
     Parameters
     ----------
@@ -403,12 +530,12 @@ class ArcEngine(wiring.Component):
         first_offered = Signal()          # the next plan's first run is prepared in the core
         clockwise = Signal()
         quadrant = Signal(2)              # of the running run
-        radius = Signal(w)
-        residue = Signal(signed(w + 1))
-        end = Signal(ArcPlanner.Plan(w)["end"].shape)
-        dx = Signal(signed(w + 2))        # native X - end X in the running run
-        dy = Signal(signed(w + 2))        # end Y - native Y
-        near = Signal(4)                  # dx = 0, dx = 1, dy = 0, dy = 1
+        off_axis = Signal()               # the arc ends off the axis (native end Y > 0)
+        # The distance to the end in the arc's last run, along both axes (X - end X + end Y -
+        # Y): a step lowers it by one, a diagonal by two, and it is zero on the path only at the
+        # end (the path is monotonic and passes through it).
+        distance = Signal(w + 1)
+        near = Signal(2)                  # distance = 1, distance = 2
         swap = Signal()
         direction = Signal(2)
 
@@ -422,8 +549,8 @@ class ArcEngine(wiring.Component):
         m.d.comb += [
             # The step lands on the end (X falls by native[0], Y rises by native[1]): the
             # distances are compared from registers, not through the step's own sums.
-            reached.eq(last_run & (end.y != 0) & native.any()
-                       & Mux(native[0], near[1], near[0]) & Mux(native[1], near[3], near[2])),
+            reached.eq(last_run & off_axis & native.any()
+                       & Mux(native[0] & native[1], near[1], near[0])),
             core.stop.eq(reached),
             arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
@@ -447,11 +574,12 @@ class ArcEngine(wiring.Component):
             offer_axis.eq(own_axis | (begin & (next_plan.runs > 1))),
             offer_first.eq(~own_axis & ~first_offered & planner_o.valid & ~next_plan.refused),
             core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
-            core.cmd.payload.x.eq(Mux(own_axis, radius,
-                                      Mux(plan_axis, next_plan.radius, next_plan.start.x))),
+            # The radius and residue of an axis run are the plan's, own or next: the planner
+            # keeps them until the last of this arc's axis runs is handed over.
+            core.cmd.payload.x.eq(Mux(own_axis | plan_axis, next_plan.radius, next_plan.start.x)),
             core.cmd.payload.y.eq(Mux(own_axis | plan_axis, 0, next_plan.start.y)),
-            core.cmd.payload.residue.eq(Mux(own_axis, residue,
-                                            Mux(plan_axis, next_plan.residue, 0))),
+            core.cmd.payload.residue.eq(Mux(own_axis | plan_axis, next_plan.residue, 0)),
+            self.planner.keep.eq(own_axis),
         ]
         offered = core.cmd.valid & core.cmd.ready
         with m.If(begin):
@@ -472,33 +600,32 @@ class ArcEngine(wiring.Component):
                     direction.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
                                      Mux(x_falls, y_negative, ~y_negative)))]
 
+        # The distance is that of the arc's last run, loaded as the arc begins; it counts only
+        # in the last run.
         with m.If(begin):
             m.d.sync += [
                 active.eq(1), later_runs.eq(next_plan.runs - 1),
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
-                radius.eq(next_plan.radius), residue.eq(next_plan.residue),
-                end.eq(next_plan.end),
-                *_distances(m, dx, dy, near, next_plan.start.x - next_plan.end.x,
-                            next_plan.end.y - next_plan.start.y),
+                off_axis.eq(next_plan.off_axis),
+                distance.eq(next_plan.distance),
+                near.eq(Cat(next_plan.distance == 1, next_plan.distance == 2)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
             q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
                 later_runs.eq(later_runs - 1), quadrant.eq(q_next),
-                *_distances(m, dx, dy, near, radius - end.x, end.y),
                 *enter(q_next, clockwise),
             ]
         with m.Else():
             with m.If(arc_done):
                 m.d.sync += active.eq(0)
-            with m.If(active):
+            with m.If(last_run & native.any()):
+                diagonal = native[0] & native[1]
                 m.d.sync += [
-                    dx.eq(dx - native[0]), dy.eq(dy - native[1]),
-                    near.eq(Cat(Mux(native[0], near[1], near[0]),
-                                Mux(native[0], dx == 2, near[1]),
-                                Mux(native[1], near[3], near[2]),
-                                Mux(native[1], dy == 2, near[3]))),
+                    distance.eq(distance - 1 - diagonal),
+                    near.eq(Mux(diagonal, Cat(distance == 3, distance == 4),
+                                Cat(distance == 2, distance == 3))),
                 ]
 
         with m.If(self.abort):

@@ -180,20 +180,28 @@ def setup_latency(width):
 def arc_plan(payload, width):
     """The plan :class:`hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
     ``refused``, and for an arc not refused ``cw``, ``quadrant``, ``runs``, ``start``,
-    ``end``, ``radius``, ``residue``."""
+    ``end`` (native, in the last run's quadrant), ``off_axis`` (the end is not the axis point
+    the last run starts on), ``distance`` (steps along X and Y from the last run's start to the
+    end, ``X - end X + end Y - Y``), ``radius``, ``residue``."""
     try:
         plan = plan_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
                         payload["cw"], width)
     except InputError:
         return {"refused": 1}
+    last = plan["runs"][-1]["start"]
+    end = plan["end"]
     return {"refused": 0, "cw": plan["cw"], "quadrant": plan["runs"][0]["q"],
-            "runs": len(plan["runs"]), "start": plan["start"], "end": plan["end"],
+            "runs": len(plan["runs"]), "start": plan["start"], "end": end,
+            "off_axis": int(end[1] != 0),
+            "distance": last[0] - end[0] + end[1] - last[1],
             "radius": plan["rn"], "residue": plan["r2"] - plan["rn"] ** 2}
 
 
 class ArcPlannerModel:
     """Clock-by-clock model of :class:`hdl.arc.ArcPlanner`: takes an arc while it holds no
-    plan, offers its plan :func:`setup_latency` clocks later, until it is transferred."""
+    plan, offers its plan :func:`setup_latency` clocks later, until it is transferred. While
+    ``keep`` is set the plan before it is still in use (its radius and residue), and the
+    planner waits in the clock before the offer."""
 
     def __init__(self, width):
         self.width = width
@@ -211,7 +219,7 @@ class ArcPlannerModel:
     def valid(self):
         return int(self.left == 0)
 
-    def cycle(self, *, valid, payload, o_ready):
+    def cycle(self, *, valid, payload, o_ready, keep=0):
         if self.left is None:
             if valid:
                 self.plan = arc_plan(payload, self.width)
@@ -219,7 +227,7 @@ class ArcPlannerModel:
         elif self.left == 0:
             if o_ready:
                 self.left, self.plan = None, None
-        else:
+        elif not (self.left == 1 and keep):
             self.left -= 1
 
 
@@ -287,6 +295,7 @@ class ArcEngineModel:
         plan_ready = begin or refuse
 
         # Runs handed to the core: this arc's later quadrants, then the next plan's first run.
+        keep = self.to_offer != 0         # the planner keeps this arc's radius and residue
         offer_axis = (plan["runs"] > 1) if begin else self.to_offer != 0
         offer_first = (not offer_axis and not begin and plan is not None
                        and not plan["refused"] and not self.first_offered)
@@ -345,6 +354,7 @@ class ArcEngineModel:
         if abort:
             planner.reset()
         else:
-            planner.cycle(valid=bool(valid) and accepting, payload=payload, o_ready=plan_ready)
+            planner.cycle(valid=bool(valid) and accepting, payload=payload, o_ready=plan_ready,
+                          keep=keep)
         status.advance(accept=accept, flush=abort)
         return outputs, state
