@@ -196,7 +196,8 @@ class ArcPlanner(wiring.Component):
             "start":    point,                # native start of the first run
             "off_axis": 1,                    # the arc ends off the axis (native end Y > 0)
             "distance": unsigned(width + 1),  # steps along X and Y from the last run's start
-                                              # to the end (X - end X + end Y - Y)
+                                              # to the end (X - end X + end Y - Y); valid from
+                                              # the clock after the plan is first offered
             "radius":   unsigned(width),      # Rn = round(sqrt(r2)): later runs start at (Rn, 0)
             "residue":  signed(width + 1),    # r2 - Rn²
         })
@@ -401,23 +402,32 @@ class ArcPlanner(wiring.Component):
                 root = upper
                 round_up = remainder > root          # sqrt(r2) >= root + 1/2
                 rn = Signal(w + 1)
-                m.d.comb += rn.eq(root + round_up)
+                # (the increment beside the comparison, not after it: one carry chain deep)
+                m.d.comb += rn.eq(Mux(round_up, root + 1, root))
                 ahead = (end_quadrant == start_quadrant) & (y_above | (y_equal & x_below))
                 turns = Mux(cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
                 quadrants = Mux((turns == 0) & ~ahead, 4, turns)
-                single = Mux(end_on_axis, quadrants == 1, quadrants == 0)
-                e = Signal(signed(w + 1))            # E = end Y - end X
-                f = Signal(signed(w + 1))            # F = start X - start Y
-                m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry))]
                 with m.If(~self.keep):
                     m.d.sync += [
                         refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
                         runs.eq(quadrants + 1 - end_on_axis),
-                        # from the start (sx - sy + E), else from the axis point (Rn + E)
-                        end_x.eq(Mux(single, f, root) + (round_up & ~single) + e),
                         radius.eq(rn[:w]),
                         residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
                     ]
+                    m.next = "Offer"
+            with m.State("Offer"):
+                # The plan is offered; its distance is formed in this clock, which the engine
+                # reads only as the plan begins, a clock after its first run is taken at the
+                # earliest: from the start (F + E) if the last run is the first, else from the
+                # axis point (Rn + E).
+                e = Signal(signed(w + 1))            # E = end Y - end X
+                f = Signal(signed(w + 1))            # F = start X - start Y
+                m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry)),
+                             self.o.valid.eq(1)]
+                m.d.sync += end_x.eq(Mux(runs == 1, f, radius) + e)
+                with m.If(self.o.ready):
+                    m.next = "Idle"
+                with m.Else():
                     m.next = "Hold"
             with m.State("Hold"):
                 m.d.comb += self.o.valid.eq(1)
@@ -535,7 +545,9 @@ class ArcEngine(wiring.Component):
         # Y): a step lowers it by one, a diagonal by two, and it is zero on the path only at the
         # end (the path is monotonic and passes through it).
         distance = Signal(w + 1)
-        near = Signal(2)                  # distance = 1, distance = 2
+        # The step that lands on the end, known from registers: in the last run of an arc
+        # that ends off the axis, distance = 1 (reach[0]: any step) or 2 (reach[1]: a diagonal).
+        reach = Signal(2)
         swap = Signal()
         direction = Signal(2)
 
@@ -547,10 +559,9 @@ class ArcEngine(wiring.Component):
         following = Signal()              # a later quadrant of this arc starts
         refuse = Signal()
         m.d.comb += [
-            # The step lands on the end (X falls by native[0], Y rises by native[1]): the
-            # distances are compared from registers, not through the step's own sums.
-            reached.eq(last_run & off_axis & native.any()
-                       & Mux(native[0] & native[1], near[1], near[0])),
+            # The step lands on the end (X falls by native[0], Y rises by native[1]): one LUT
+            # after the step, the rest from registers.
+            reached.eq(Mux(native[0] & native[1], reach[1], native.any() & reach[0])),
             core.stop.eq(reached),
             arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
@@ -561,17 +572,18 @@ class ArcEngine(wiring.Component):
         ]
 
         # Runs handed to the core, in order: this arc's later quadrants (each from the axis),
-        # then the next plan's first run. In the clock a plan is taken its own later runs come
-        # first, from the plan itself. Which run is offered is known from registers (no run of
-        # this arc left to offer; the next plan's first run already offered): the clock's
-        # start only validates the offer, so the core's preparation of the run does not wait
-        # for the handover.
+        # then the next plan's first run. Once that is prepared in the core, the plan's own
+        # first axis run is offered from the plan itself: the core takes it in the clock it
+        # starts the first run, when the plan begins. Which run is offered, and whether, is
+        # known from registers (no run of this arc left to offer; the next plan's first run
+        # already offered): the offer never waits for the clock's start, so neither does the
+        # core's preparation of the run.
         offer_axis = Signal()
         offer_first = Signal()
         own_axis = to_offer != 0          # this arc's later quadrants (never in a begin clock)
         plan_axis = ~own_axis & first_offered       # the next plan's, in the clock it begins
         m.d.comb += [
-            offer_axis.eq(own_axis | (begin & (next_plan.runs > 1))),
+            offer_axis.eq(own_axis | (first_offered & (next_plan.runs > 1))),
             offer_first.eq(~own_axis & ~first_offered & planner_o.valid & ~next_plan.refused),
             core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
             # The radius and residue of an axis run are the plan's, own or next: the planner
@@ -608,29 +620,33 @@ class ArcEngine(wiring.Component):
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
                 off_axis.eq(next_plan.off_axis),
                 distance.eq(next_plan.distance),
-                near.eq(Cat(next_plan.distance == 1, next_plan.distance == 2)),
+                reach.eq(Cat(next_plan.distance == 1, next_plan.distance == 2)
+                         & (next_plan.off_axis & (next_plan.runs == 1)).replicate(2)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
             q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
                 later_runs.eq(later_runs - 1), quadrant.eq(q_next),
+                reach.eq(Cat(distance == 1, distance == 2)
+                         & (off_axis & (later_runs == 1)).replicate(2)),
                 *enter(q_next, clockwise),
             ]
         with m.Else():
             with m.If(arc_done):
-                m.d.sync += active.eq(0)
-            with m.If(last_run & native.any()):
+                m.d.sync += [active.eq(0), reach.eq(0)]
+            with m.Elif(last_run & native.any()):
                 diagonal = native[0] & native[1]
                 m.d.sync += [
                     distance.eq(distance - 1 - diagonal),
-                    near.eq(Mux(diagonal, Cat(distance == 3, distance == 4),
-                                Cat(distance == 2, distance == 3))),
+                    reach.eq(Mux(diagonal, Cat(distance == 3, distance == 4),
+                                 Cat(distance == 2, distance == 3))
+                             & off_axis.replicate(2)),
                 ]
 
         with m.If(self.abort):
             m.d.sync += [active.eq(0), later_runs.eq(0), to_offer.eq(0),
-                         first_offered.eq(0)]
+                         first_offered.eq(0), reach.eq(0)]
 
         step = Signal(2)
         m.d.comb += [

@@ -73,7 +73,8 @@ def near_bound_arcs(rng, count, width):
 
 class ArcPlannerTestCase(unittest.TestCase):
     """The planner alone: every plan as :func:`~sim.models.arc.arc_plan` forms it, offered
-    :func:`~sim.models.arc.setup_latency` clocks after the arc is taken."""
+    :func:`~sim.models.arc.setup_latency` clocks after the arc is taken (its distance a clock
+    later)."""
 
     def check(self, frames, width):
         dut = ArcPlanner(width=width)
@@ -92,7 +93,9 @@ class ArcPlannerTestCase(unittest.TestCase):
                     await ctx.tick()
                     clocks += 1
                 plan = ctx.get(dut.o.payload)
-                seen.append((frame, clocks, plan))
+                await ctx.tick()                     # the distance: a clock after the offer
+                self.assertEqual(ctx.get(dut.o.valid), 1)
+                seen.append((frame, clocks, plan, ctx.get(dut.o.payload.distance)))
                 ctx.set(dut.o.ready, 1)
                 await ctx.tick()
                 ctx.set(dut.o.ready, 0)
@@ -100,7 +103,7 @@ class ArcPlannerTestCase(unittest.TestCase):
         simulate(dut, testbench, name=f"arc_planner_{width}")
         self.assertEqual(len(seen), len(frames))
         refused = 0
-        for frame, clocks, plan in seen:
+        for frame, clocks, plan, distance in seen:
             with self.subTest(frame=frame):
                 self.assertEqual(clocks, setup_latency(width))
                 expected = arc_plan(frame, width)
@@ -112,7 +115,7 @@ class ArcPlannerTestCase(unittest.TestCase):
                            "off_axis": plan.off_axis, "radius": plan.radius,
                            "residue": plan.residue}
                     if plan.off_axis:                # (the distance counts only then)
-                        got["distance"] = plan.distance
+                        got["distance"] = distance
                     self.assertEqual(got, {k: expected[k] for k in got})
         return refused
 

@@ -296,12 +296,15 @@ class ArcEngineModel:
 
         # Runs handed to the core: this arc's later quadrants, then the next plan's first run.
         keep = self.to_offer != 0         # the planner keeps this arc's radius and residue
-        offer_axis = (plan["runs"] > 1) if begin else self.to_offer != 0
+        # (the next plan's first axis run is offered once its first run is prepared; the core
+        # takes it as that run starts, when the plan begins)
+        offer_axis = (self.to_offer != 0
+                      or bool(self.first_offered and plan is not None and plan["runs"] > 1))
         offer_first = (not offer_axis and not begin and plan is not None
                        and not plan["refused"] and not self.first_offered)
         core_valid = int((offer_axis or offer_first) and not abort)
         if offer_axis:
-            radius, residue = ((plan["radius"], plan["residue"]) if begin
+            radius, residue = ((plan["radius"], plan["residue"]) if self.to_offer == 0
                                else (self.radius, self.residue))
             run = {"x": radius, "y": 0, "residue": residue}
         elif offer_first:
