@@ -223,26 +223,29 @@ def parse_utilisation(text):
 # ---- tool runs -----------------------------------------------------------------------------
 
 # Yosys 0.70 can fail in ABC9 on Amaranth's netlists with "Assert `count_id(wire->name) ==
-# 0' failed" (YosysHQ/yosys#4349); splitting the nets before the LUT mapping avoids it, as the
-# Yosys developers suggest there. synth_ice40 runs in two parts with `splitnets` between.
+# 0' failed" (YosysHQ/yosys#4349), and synth_ecp5 with "Assert `GetSize(conn.first) ==
+# GetSize(conn.second)' failed" in ABC9's reintegration (the ULX3S controller, seen after the
+# issue 8 reworks); splitting the nets before the LUT mapping avoids both, as the Yosys
+# developers suggest in #4349. The synthesis runs in two parts with `splitnets` between.
 _SYNTH_FIRST = "-run :map_luts"
 
 
-def _synth_rest(name, opts=""):
-    return f"splitnets\nsynth_ice40 -top {name} {opts} -run map_luts:"
+def _synth_rest(name, opts="", *, ecp5=False):
+    command = "synth_ecp5" if ecp5 else "synth_ice40"
+    return f"splitnets\n{command} -top {name} {opts} -run map_luts:"
 
 
 def _synth_options(name, *, ecp5, opts=""):
-    """``platform.build``'s synthesis options: ``opts``, and on the iCE40 the yosys#4349
-    workaround (``synth_ice40`` in two parts, ``splitnets`` between)."""
-    if ecp5:
-        return {"synth_opts": opts}
+    """``platform.build``'s synthesis options: ``opts`` and the ABC9 workaround (the
+    synthesis in two parts, ``splitnets`` between)."""
     return {"synth_opts": f"{opts} {_SYNTH_FIRST}".strip(),
-            "script_after_synth": _synth_rest(name, opts)}
+            "script_after_synth": _synth_rest(name, opts, ecp5=ecp5)}
 
 
-def _synth(name):
-    return f"synth_ice40 -top {name} {_SYNTH_FIRST}; {_synth_rest(name).replace(chr(10), '; ')}"
+def _synth(name, *, ecp5=False):
+    command = "synth_ecp5" if ecp5 else "synth_ice40"
+    rest = _synth_rest(name, ecp5=ecp5).replace(chr(10), "; ")
+    return f"{command} -top {name} {_SYNTH_FIRST}; {rest}"
 
 
 def measure_area(component, name, build_dir, *, device="ice40"):
@@ -291,7 +294,7 @@ def _measure_area_ecp5(component, name, build_dir):
     build_dir.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     (build_dir / f"{name}.il").write_text(rtlil.convert(component, name=name))
-    script = (f"read_rtlil {name}.il; synth_ecp5 -top {name}; "
+    script = (f"read_rtlil {name}.il; {_synth(name, ecp5=True)}; "
               f"tee -q -o {name}.stat stat; tee -q -o {name}.stat.json stat -json")
     _run([tool_path("yosys"), "-q", "-l", f"{name}.yosys.log", "-p", script],
          cwd=build_dir, what=f"yosys synth_ecp5 of {name}")
