@@ -446,12 +446,13 @@ register(Variant("arc", "separate", "textbook: estimating function, separate ste
 register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
                  *_textbook("SerialArcCore", "SerialArcCoreModel"),
                  _separate_arc_steps, clocks=_serial_arc_clocks))
-# The iCEBreaker's controller: both engines at 16 bits (moves and radii up to 65 535 steps, 819
-# mm at 80 steps/mm) fill 87 % of the UP5K; the 24-bit arc engine would not fit beside the rest.
-# Its longest path (the feed's permission through the arc engine's quadrant handover) closes
-# at 9 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
+# The iCEBreaker's controller: the line engine at 16 bits (moves up to 65 535 steps, 819 mm at
+# 80 steps/mm) and the arc engine at its default 24 bits (radii up to 2**23 steps) fill 90 % of
+# the UP5K (since issue 8 made the arc engine smaller; before, only a 16-bit one fitted). Its
+# longest path (the feed generator's step count through the turn queue) closes at 11 MHz, not
+# at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
-               _icebreaker_demo, clock_hz=6e6, arc=("fast", 16), divide=2))
+               _icebreaker_demo, clock_hz=6e6, arc=("fast", 24), divide=2))
 # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
 # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and 7-8
 # through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the controller
