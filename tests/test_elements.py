@@ -400,6 +400,9 @@ class CapacityRegisterTestCase(unittest.TestCase):
                     code = 0
                 elif op == "add":
                     code = (code + increment) & mask_n
+                # overflow_next: the overflow after this clock's edge, under its strobes.
+                self.assertEqual(ctx.get(dut.overflow_next), int(code + increment > mask_n),
+                                 f"clock {clock}")
                 await ctx.tick()
 
         simulate(dut, testbench, name="capacity_register")
