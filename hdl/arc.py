@@ -194,10 +194,10 @@ class ArcPlanner(wiring.Component):
             "quadrant": 2,                    # quadrant of the first run (0-3: I-IV)
             "runs":     3,                    # number of quadrant runs, 1 to 5
             "start":    point,                # native start of the first run
+            "off_axis": 1,                    # the arc ends off the axis (native end Y > 0)
             "distance": unsigned(width + 1),  # steps along X and Y from the last run's start
-                                              # to its end (X - end X + end Y - Y; an end on
-                                              # the axis is (0, Rn) there); valid from the
-                                              # clock after the plan is first offered
+                                              # to the end (X - end X + end Y - Y); valid from
+                                              # the clock after the plan is first offered
             "radius":   unsigned(width),      # Rn = round(sqrt(r2)): later runs start at (Rn, 0)
             "residue":  signed(width + 1),    # r2 - Rn²
         })
@@ -244,7 +244,7 @@ class ArcPlanner(wiring.Component):
             self.o.payload.refused.eq(refused), self.o.payload.cw.eq(cw),
             self.o.payload.quadrant.eq(start_quadrant), self.o.payload.runs.eq(runs),
             self.o.payload.start.x.eq(start_x), self.o.payload.start.y.eq(start_y),
-            self.o.payload.distance.eq(end_x),
+            self.o.payload.off_axis.eq(~end_on_axis), self.o.payload.distance.eq(end_x),
             self.o.payload.radius.eq(radius), self.o.payload.residue.eq(residue),
         ]
 
@@ -268,15 +268,11 @@ class ArcPlanner(wiring.Component):
         remainder = Signal(w + 3)                    # r2 - root²
 
         # The multiplier bits of this pass, and the magnitudes' bits they make: -v keeps the
-        # bits of v up to its lowest one and inverts the rest. Each is formed a clock ahead, in
-        # a flip-flop, from the bit that comes next (so that the adder starts from registers).
+        # bits of v up to its lowest one and inverts the rest.
         out_x = Mux(second, end_x[0], start_x[0])
         out_y = Mux(second, end_y[0], start_y[0])
-        bit_x, bit_y = Signal(), Signal()
-        next_x = Mux(second, end_x[1], start_x[1])
-        next_y = Mux(second, end_y[1], start_y[1])
-        m.d.sync += [bit_x.eq(next_x ^ (mult_x[-1] & (seen_x | out_x))),
-                     bit_y.eq(next_y ^ (mult_y[-1] & (seen_y | out_y)))]
+        bit_x = out_x ^ (mult_x[-1] & seen_x)
+        bit_y = out_y ^ (mult_y[-1] & seen_y)
         swapped = Mux(second, end_swapped, start_swapped)
         native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
         native_y = Mux(swapped, bit_x, bit_y)
@@ -335,7 +331,6 @@ class ArcPlanner(wiring.Component):
                         x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
                         e_carry.eq(1), f_carry.eq(1),
                     ]
-                    m.d.sync += [bit_x.eq(frame.x0[0]), bit_y.eq(frame.y0[0])]
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
@@ -351,9 +346,7 @@ class ArcPlanner(wiring.Component):
                     ]
                 with m.Else():
                     ex, ey, sx, sy = native_x, native_y, start_x[0], start_y[0]
-                    # (an end on the axis is (Rn, 0) in its own quadrant, (0, Rn) in the last
-                    # run's: ex - ey there)
-                    e_sum = Mux(end_on_axis, ex + ~ey, ey + ~ex) + e_carry
+                    e_sum = ey + ~ex + e_carry
                     f_sum = sx + ~sy + f_carry
                     for k, bit in enumerate((bit_x, bit_y)):
                         m.d.sync += [
@@ -377,7 +370,6 @@ class ArcPlanner(wiring.Component):
                             r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
                             mult_x.eq(Cat(end_x[:w], end_signs[0])),
                             mult_y.eq(Cat(end_y, end_signs[1])),
-                            bit_x.eq(end_x[0]), bit_y.eq(end_y[0]),
                         ]
                     with m.Else():
                         m.next = "Check end"
@@ -428,7 +420,7 @@ class ArcPlanner(wiring.Component):
                 # reads only as the plan begins, a clock after its first run is taken at the
                 # earliest: from the start (F + E) if the last run is the first, else from the
                 # axis point (Rn + E).
-                e = Signal(signed(w + 1))            # E = end Y - end X (in the last run)
+                e = Signal(signed(w + 1))            # E = end Y - end X
                 f = Signal(signed(w + 1))            # F = start X - start Y
                 m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry)),
                              self.o.valid.eq(1)]
@@ -548,13 +540,13 @@ class ArcEngine(wiring.Component):
         first_offered = Signal()          # the next plan's first run is prepared in the core
         clockwise = Signal()
         quadrant = Signal(2)              # of the running run
+        off_axis = Signal()               # the arc ends off the axis (native end Y > 0)
         # The distance to the end in the arc's last run, along both axes (X - end X + end Y -
         # Y): a step lowers it by one, a diagonal by two, and it is zero on the path only at the
         # end (the path is monotonic and passes through it).
         distance = Signal(w + 1)
-        # The step that lands on the end, known from registers: in the arc's last run,
-        # distance = 1 (reach[0]: any step) or 2 (reach[1]: a diagonal). (An end on the axis is
-        # where the core ends its run anyway; it is found the same way.)
+        # The step that lands on the end, known from registers: in the last run of an arc
+        # that ends off the axis, distance = 1 (reach[0]: any step) or 2 (reach[1]: a diagonal).
         reach = Signal(2)
         swap = Signal()
         direction = Signal(2)
@@ -571,7 +563,7 @@ class ArcEngine(wiring.Component):
             # after the step, the rest from registers.
             reached.eq(Mux(native[0] & native[1], reach[1], native.any() & reach[0])),
             core.stop.eq(reached),
-            arc_done.eq(reached & ~self.abort),
+            arc_done.eq(last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
             following.eq(core.start & active & (later_runs != 0)),
             refuse.eq(planner_o.valid & next_plan.refused & ~core.busy & ~status.hold
@@ -626,9 +618,10 @@ class ArcEngine(wiring.Component):
             m.d.sync += [
                 active.eq(1), later_runs.eq(next_plan.runs - 1),
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
+                off_axis.eq(next_plan.off_axis),
                 distance.eq(next_plan.distance),
                 reach.eq(Cat(next_plan.distance == 1, next_plan.distance == 2)
-                         & (next_plan.runs == 1).replicate(2)),
+                         & (next_plan.off_axis & (next_plan.runs == 1)).replicate(2)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
         with m.Elif(following):
@@ -636,7 +629,7 @@ class ArcEngine(wiring.Component):
             m.d.sync += [
                 later_runs.eq(later_runs - 1), quadrant.eq(q_next),
                 reach.eq(Cat(distance == 1, distance == 2)
-                         & (later_runs == 1).replicate(2)),
+                         & (off_axis & (later_runs == 1)).replicate(2)),
                 *enter(q_next, clockwise),
             ]
         with m.Else():
@@ -647,7 +640,8 @@ class ArcEngine(wiring.Component):
                 m.d.sync += [
                     distance.eq(distance - 1 - diagonal),
                     reach.eq(Mux(diagonal, Cat(distance == 3, distance == 4),
-                                 Cat(distance == 2, distance == 3))),
+                                 Cat(distance == 2, distance == 3))
+                             & off_axis.replicate(2)),
                 ]
 
         with m.If(self.abort):

@@ -180,19 +180,20 @@ def setup_latency(width):
 def arc_plan(payload, width):
     """The plan :class:`hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
     ``refused``, and for an arc not refused ``cw``, ``quadrant``, ``runs``, ``start``,
-    ``end`` (native, in its own quadrant), ``distance`` (steps along X and Y from the last
-    run's start to its end, ``X - end X + end Y - Y``, the end on the axis being ``(0, Rn)``
-    there), ``radius``, ``residue``."""
+    ``end`` (native, in the last run's quadrant), ``off_axis`` (the end is not the axis point
+    the last run starts on), ``distance`` (steps along X and Y from the last run's start to the
+    end, ``X - end X + end Y - Y``), ``radius``, ``residue``."""
     try:
         plan = plan_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
                         payload["cw"], width)
     except InputError:
         return {"refused": 1}
-    last = plan["runs"][-1]
-    (x, y), end = last["start"], last["end"] or (0, plan["rn"])     # (0, Rn): on the axis
+    last = plan["runs"][-1]["start"]
+    end = plan["end"]
     return {"refused": 0, "cw": plan["cw"], "quadrant": plan["runs"][0]["q"],
-            "runs": len(plan["runs"]), "start": plan["start"], "end": plan["end"],
-            "distance": x - end[0] + end[1] - y,
+            "runs": len(plan["runs"]), "start": plan["start"], "end": end,
+            "off_axis": int(end[1] != 0),
+            "distance": last[0] - end[0] + end[1] - last[1],
             "radius": plan["rn"], "residue": plan["r2"] - plan["rn"] ** 2}
 
 
@@ -281,12 +282,10 @@ class ArcEngineModel:
         x, y = self.position
         after = (x - (step & 1), y + (step >> 1 & 1))
         last_run = self.active and self.later_runs == 0
-        # (an end on the axis is (0, Rn) in the last run, where the core ends it anyway)
-        target = self.end if self.end[1] != 0 else (0, self.radius)
-        reached = int(bool(last_run) and step != 0 and after == target)
+        reached = int(bool(last_run) and self.end[1] != 0 and step != 0 and after == self.end)
         out = core.evaluate(tick=tick, stop=reached, abort=abort)
         assert out["step"] == step
-        if last_run and out["done"] and not reached and not abort:
+        if last_run and out["done"] and not reached and not abort and self.end[1] != 0:
             raise AssertionError("the core stopped before the arc reached its end point")
         arc_done = int(bool(last_run) and bool(out["done"]) and not abort)
         begin = int(bool(out["start"]) and not (self.active and self.later_runs != 0))
