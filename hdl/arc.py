@@ -268,11 +268,15 @@ class ArcPlanner(wiring.Component):
         remainder = Signal(w + 3)                    # r2 - root²
 
         # The multiplier bits of this pass, and the magnitudes' bits they make: -v keeps the
-        # bits of v up to its lowest one and inverts the rest.
+        # bits of v up to its lowest one and inverts the rest. Each is formed a clock ahead, in
+        # a flip-flop, from the bit that comes next (so that the adder starts from registers).
         out_x = Mux(second, end_x[0], start_x[0])
         out_y = Mux(second, end_y[0], start_y[0])
-        bit_x = out_x ^ (mult_x[-1] & seen_x)
-        bit_y = out_y ^ (mult_y[-1] & seen_y)
+        bit_x, bit_y = Signal(), Signal()
+        next_x = Mux(second, end_x[1], start_x[1])
+        next_y = Mux(second, end_y[1], start_y[1])
+        m.d.sync += [bit_x.eq(next_x ^ (mult_x[-1] & (seen_x | out_x))),
+                     bit_y.eq(next_y ^ (mult_y[-1] & (seen_y | out_y)))]
         swapped = Mux(second, end_swapped, start_swapped)
         native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
         native_y = Mux(swapped, bit_x, bit_y)
@@ -331,6 +335,7 @@ class ArcPlanner(wiring.Component):
                         x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
                         e_carry.eq(1), f_carry.eq(1),
                     ]
+                    m.d.sync += [bit_x.eq(frame.x0[0]), bit_y.eq(frame.y0[0])]
                     m.next = "Square"
             with m.State("Square"):
                 m.d.sync += [
@@ -370,6 +375,7 @@ class ArcPlanner(wiring.Component):
                             r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
                             mult_x.eq(Cat(end_x[:w], end_signs[0])),
                             mult_y.eq(Cat(end_y, end_signs[1])),
+                            bit_x.eq(end_x[0]), bit_y.eq(end_y[0]),
                         ]
                     with m.Else():
                         m.next = "Check end"
