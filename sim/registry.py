@@ -448,9 +448,9 @@ register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node
                  _separate_arc_steps, clocks=_serial_arc_clocks))
 # The iCEBreaker's controller: the line engine at 16 bits (moves up to 65 535 steps, 819 mm at
 # 80 steps/mm) and the arc engine at its default 24 bits (radii up to 2**23 steps) fill 90 % of
-# the UP5K (since issue 8 made the arc engine smaller; before, only a 16-bit one fitted). Its
-# longest path (the feed generator's step count through the turn queue) closes at 11 MHz, not
-# at the board's 12 MHz: the controller runs at 6 MHz.
+# the UP5K (4753 LC, since issue 8 made the arc engine smaller; before, only a 16-bit one
+# fitted). Its longest path (the turn queue's read into the feed generator's rate) closes at
+# 11.58 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
 register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
                _icebreaker_demo, clock_hz=6e6, arc=("fast", 24), divide=2))
 # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
