@@ -41,7 +41,7 @@ formal: setup            # the SymbiYosys proofs and the broken cores' failures 
 test-fast: setup         # Amaranth simulator and models only, no cocotb, no proofs
 	PYTHONWARNINGS=error $(BIN)/python -m pytest -n $(JOBS) tests -m "not cocotb and not formal"
 
-bench: setup            # writes BENCHMARKS.md from one run (about an hour on 2 shared cores)
+bench: setup            # writes BENCHMARKS.md from one run (half an hour on 2 idle cores)
 	PYTHONWARNINGS=error $(BIN)/python -m constraints.bench report --out BENCHMARKS.md
 
 bitstream: setup         # the machine controller for BOARD (icebreaker or ulx3s); never programs
