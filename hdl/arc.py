@@ -275,8 +275,10 @@ class ArcPlanner(wiring.Component):
         bit_x, bit_y = Signal(), Signal()
         next_x = Mux(second, end_x[1], start_x[1])
         next_y = Mux(second, end_y[1], start_y[1])
-        m.d.sync += [bit_x.eq(next_x ^ (mult_x[-1] & (seen_x | out_x))),
-                     bit_y.eq(next_y ^ (mult_y[-1] & (seen_y | out_y)))]
+        seen_after_x = seen_x | out_x                # the negation's state after this bit
+        seen_after_y = seen_y | out_y
+        m.d.sync += [bit_x.eq(next_x ^ (mult_x[-1] & seen_after_x)),
+                     bit_y.eq(next_y ^ (mult_y[-1] & seen_after_y))]
         swapped = Mux(second, end_swapped, start_swapped)
         native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
         native_y = Mux(swapped, bit_x, bit_y)
@@ -340,7 +342,7 @@ class ArcPlanner(wiring.Component):
             with m.State("Square"):
                 m.d.sync += [
                     upper.eq(partial[1:]),
-                    seen_x.eq(seen_x | out_x), seen_y.eq(seen_y | out_y),
+                    seen_x.eq(seen_after_x), seen_y.eq(seen_after_y),
                     count.eq(count + 1),
                 ]
                 with m.If(~second):
