@@ -331,14 +331,18 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
                                + (" --timing-allow-fail" if timing_allow_fail else "")}
     options.update(_synth_options(name, ecp5=ecp5))
     with toolchain_env():
-        # Amaranth's plan, its script run as execute_local would, but in a process group of
-        # its own (sim.processes): an interrupt ends Yosys and nextpnr with the command.
-        plan = platform.build(top, name=name, do_build=False, **options)
-        where = plan.extract(str(build_dir))
-        code = processes.run(["sh", f"{plan.script}.sh"], cwd=where, env=os.environ).returncode
-        if code != 0:
-            raise ToolchainError(f"the build of {name} failed (exit status {code}); see the "
-                                 f"logs in {build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
+        try:
+            # Amaranth's plan, its script run as execute_local runs it but in a process group
+            # of its own (sim.processes): an interrupt ends Yosys and nextpnr with the command.
+            plan = platform.build(top, name=name, do_build=False, **options)
+            where = plan.extract(str(build_dir))
+            script = ["sh", f"{plan.script}.sh"]
+            code = processes.run(script, cwd=where, env=os.environ).returncode
+            if code != 0:
+                raise subprocess.CalledProcessError(code, script)
+        except subprocess.CalledProcessError as error:
+            raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
+                                 f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {

@@ -5,9 +5,10 @@
    :mod:`constraints.flow`) is started by :func:`popen` (or :func:`run`, or :func:`child`), in
    a process group of its own, so that everything it starts (a compiler under ``make``, say)
    is in that group too.
-2. A group is *live* from its start until :func:`child` ends it; :func:`stop` ends one group
-   and :func:`stop_all` every live one: ``SIGTERM`` to the whole group, up to
-   :data:`GRACE` seconds for it to go, then ``SIGKILL``, and the leader waited for.
+2. A group is *live* from its start until it is ended: :func:`stop` ends one group (the
+   :func:`child` block does when it is left, however) and :func:`stop_all` every live one:
+   ``SIGTERM`` to the whole group, up to :data:`GRACE` seconds for it to go, then ``SIGKILL``,
+   and the leader waited for.
 3. :func:`signals_handled` (``kontur``'s ``main`` holds it for the command's life) turns
    ``SIGTERM`` and ``SIGHUP`` into :exc:`Interrupted`, a :exc:`KeyboardInterrupt`, as Python
    turns ``SIGINT`` into one: each of the three takes the same path out, and every live group
@@ -25,7 +26,7 @@ import subprocess
 import time
 
 __all__ = ["Interrupted", "GRACE", "popen", "run", "child", "stop", "stop_all", "live",
-           "signals_handled"]
+           "hold", "signals_handled"]
 
 GRACE = 2.0
 """Seconds a group has to end after ``SIGTERM`` before it gets ``SIGKILL``."""
@@ -84,7 +85,7 @@ def stop(process):
     its leader. A signal that arrives meanwhile is held until the group is gone, then raised
     (:exc:`Interrupted`)."""
     _end(process)
-    if _pending:
+    if _pending and not _stopping:
         signum = _pending[0]
         _pending.clear()
         raise Interrupted(signum)
@@ -95,6 +96,12 @@ def stop_all():
     command is ending)."""
     for process in list(_live.values()):
         _end(process)
+
+
+def hold():
+    """From now until :func:`signals_handled` ends, hold every signal (the command is ending)."""
+    global _stopping
+    _stopping = True
 
 
 def _end(process):
@@ -152,6 +159,8 @@ def signals_handled():
     that arrives while groups are being ended is held until they are), and every group still
     live when the block ends is ended. The previous handlers are restored after. Outside the
     main thread (where Python allows no handlers) only the ending is done."""
+    global _stopping
+
     def handler(signum, frame):
         if _stopping:
             _pending.append(signum)
@@ -159,6 +168,7 @@ def signals_handled():
         raise Interrupted(signum)
 
     saved = {}
+    entered = _stopping
     try:
         for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             previous = signal.getsignal(signum)
@@ -170,9 +180,11 @@ def signals_handled():
     try:
         yield
     finally:
+        _stopping = True
         try:
             stop_all()
         finally:
+            _stopping = entered
             _pending.clear()
             for signum, previous in saved.items():
                 signal.signal(signum, previous)

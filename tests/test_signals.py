@@ -126,3 +126,59 @@ def test_sigterm_during_an_icarus_run(tmp_path):
     assert run.returncode == 143, stderr
     assert stderr.strip().splitlines() == ["kontur: stopped by SIGTERM"]
     assert left == {}
+
+
+def test_a_group_deaf_to_sigterm_is_killed_with_all_it_started():
+    # A shell and two children, all ignoring SIGTERM; the block left by an error: every one
+    # of them ends, after the grace.
+    from sim import processes
+    started = time.monotonic()
+    with pytest.raises(LookupError):
+        with processes.child(["sh", "-c", "trap '' TERM; sleep 60 & sleep 60 & wait"]) as shell:
+            deadline = time.monotonic() + 10
+            while len(_descendants(os.getpid())) < 3:
+                assert time.monotonic() < deadline
+                time.sleep(0.02)
+            noted = _descendants(os.getpid())
+            raise LookupError
+    seconds = time.monotonic() - started
+    assert sorted(comm for comm, _ in noted.values()) == ["sh", "sleep", "sleep"]
+    assert _running(noted) == {}
+    assert shell.returncode == -signal.SIGKILL
+    assert processes.GRACE <= seconds < processes.GRACE + 5
+    assert processes.live() == []
+
+
+def test_sigterm_and_sighup_raise_keyboard_interrupt_and_handlers_come_back():
+    from sim import processes
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+        with pytest.raises(KeyboardInterrupt) as caught:
+            with processes.signals_handled():
+                os.kill(os.getpid(), signum)
+                time.sleep(5)
+        assert caught.value.signum == signum
+    assert {s: signal.getsignal(s) for s in before} == before
+
+
+def test_a_signal_while_a_group_ends_is_held_then_raised():
+    # SIGTERM arrives while a finished child's group is being ended (the shell gone, its
+    # `sleep`, deaf to SIGTERM, left in the group until SIGKILL after the grace): the ending
+    # is not cut short, and the signal is raised after it.
+    import threading
+    from sim import processes
+    with processes.signals_handled():
+        with pytest.raises(KeyboardInterrupt) as caught:
+            with processes.child(["sh", "-c", "trap '' TERM; sleep 60 >/dev/null & echo $!"],
+                                 stdout=subprocess.PIPE, text=True) as shell:
+                sleeper = int(shell.communicate()[0])
+                noted = {sleeper: (_processes()[sleeper][1], _processes()[sleeper][3])}
+                timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGTERM))
+                started = time.monotonic()
+                timer.start()
+        seconds = time.monotonic() - started
+        timer.join()
+    assert caught.value.signum == signal.SIGTERM
+    assert seconds >= processes.GRACE
+    assert [comm for comm, _ in noted.values()] == ["sleep"] and _running(noted) == {}
+    assert processes.live() == []

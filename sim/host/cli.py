@@ -329,7 +329,15 @@ def main(argv=None):
     """
     from .. import processes
     with processes.signals_handled():
-        return _main(argv)
+        try:
+            return _main(argv)
+        except KeyboardInterrupt as error:       # SIGINT, or sim.processes.Interrupted
+            processes.hold()                     # ending: a further signal changes nothing
+            processes.stop_all()
+            signum = getattr(error, "signum", signal.SIGINT)
+            sys.stderr.write("kontur: interrupted\n" if signum == signal.SIGINT
+                             else f"kontur: stopped by {signum.name}\n")
+            return 128 + signum
 
 
 def _main(argv):
@@ -358,13 +366,6 @@ def _main(argv):
         return _build(args, sys.stdout)
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2
-    except KeyboardInterrupt as error:           # SIGINT, or sim.processes.Interrupted
-        from ..processes import stop_all
-        stop_all()
-        signum = getattr(error, "signum", signal.SIGINT)
-        sys.stderr.write("kontur: interrupted\n" if signum == signal.SIGINT
-                         else f"kontur: stopped by {signum.name}\n")
-        return 128 + signum
     except Exception as error:
         from ..models.errors import InputError
         from .planner import ProgramError
