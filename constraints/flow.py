@@ -22,6 +22,8 @@ import sys
 import time
 from pathlib import Path
 
+from sim import processes
+
 __all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
            "parse_critical_path", "DEVICES",
            "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
@@ -105,8 +107,8 @@ def toolchain_env():
 
 
 def _run(args, cwd, what):
-    result = subprocess.run(args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+    result = processes.run(args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           text=True)
     if result.returncode != 0:
         tail = "\n".join(result.stdout.splitlines()[-20:])
         raise ToolchainError(f"{what} failed (exit status {result.returncode}) in {cwd}:\n{tail}")
@@ -330,8 +332,14 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
     options.update(_synth_options(name, ecp5=ecp5))
     with toolchain_env():
         try:
-            platform.build(top, name=name, build_dir=str(build_dir), do_program=False,
-                           **options)
+            # Amaranth's plan, its script run as execute_local runs it but in a process group
+            # of its own (sim.processes): an interrupt ends Yosys and nextpnr with the command.
+            plan = platform.build(top, name=name, do_build=False, **options)
+            where = plan.extract(str(build_dir))
+            script = ["sh", f"{plan.script}.sh"]
+            code = processes.run(script, cwd=where, env=os.environ).returncode
+            if code != 0:
+                raise subprocess.CalledProcessError(code, script)
         except subprocess.CalledProcessError as error:
             raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
                                  f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")

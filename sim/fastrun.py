@@ -10,13 +10,13 @@ lock, one directory per design digest, like :class:`sim.runners.CocotbBuild`'s.
 """
 
 import hashlib
-import os
 import shutil
 import subprocess
 import tempfile
 import time
 from pathlib import Path
 
+from . import processes
 from .runners import SimulatorError, _locked, verilator_environment
 from .testbench.host import Run, parse_events, write_frames
 
@@ -68,8 +68,9 @@ class FastRun:
                    *(["--trace"] if self.waves else []), "top.v", str(HARNESS)]
         log = self.build_dir / "build.log"
         with open(log, "w") as handle:
-            result = subprocess.run(command, cwd=self.build_dir, stdout=handle,
-                                    stderr=subprocess.STDOUT, start_new_session=True)
+            # verilator runs make, make the compiler: one group, ended as one.
+            result = processes.run(command, cwd=self.build_dir, stdout=handle,
+                                   stderr=subprocess.STDOUT)
         if result.returncode != 0:
             raise SimulatorError(f"the Verilator build of the controller failed; see {log}")
 
@@ -96,13 +97,8 @@ class FastRun:
             if vcd_clocks is not None:
                 command.append(str(vcd_clocks))
         started = time.monotonic()
-        process = subprocess.Popen(command, cwd=run_dir, start_new_session=True)
-        try:
+        with processes.child(command, cwd=run_dir) as process:
             code = self._wait(process, run_dir / "events.txt", progress)
-        except BaseException:
-            os.killpg(process.pid, 9)
-            process.wait()
-            raise
         seconds = time.monotonic() - started
         if code not in (0, 3):
             raise SimulatorError(f"the controller run failed (status {code}); see {run_dir}")

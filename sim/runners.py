@@ -11,7 +11,6 @@ import json
 import logging
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -21,6 +20,7 @@ from pathlib import Path
 
 from amaranth import Module, ResetInserter, Shape, Signal
 
+from . import processes
 from .stimulus import Driver, check_outcomes, entry, eventful
 
 __all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
@@ -374,20 +374,15 @@ def _waves_env(waves):
 
 
 def _execute_in_group(runner, cmds, cwd, stdout=None):
-    """The runner's commands, each in a process group of its own: an interrupt or any error
-    stops the command and everything it started (a compiler under make, say)."""
+    """The runner's commands, each in a process group of its own (:func:`sim.processes.child`):
+    an interrupt or any error ends the command and everything it started (a compiler under
+    make, say)."""
     for cmd in cmds:
         runner.log.info("Running command %s in directory %s", " ".join(map(str, cmd)), cwd)
         stderr = None if stdout is None else subprocess.STDOUT
-        process = subprocess.Popen(cmd, cwd=cwd, env=runner.env, stdout=stdout, stderr=stderr,
-                                   start_new_session=True)
-        try:
+        with processes.child(cmd, cwd=cwd, env=runner.env, stdout=stdout,
+                             stderr=stderr) as process:
             code = process.wait()
-        except BaseException:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-            raise
         if code != 0:
             raise RuntimeError(f"Command failed with return code: {code}")
 

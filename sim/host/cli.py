@@ -322,7 +322,25 @@ def _build(args, out):
 
 
 def main(argv=None):
-    """Run the command line; return the exit status."""
+    """Run the command line; return the exit status.
+
+    ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` end the command the same way (every child process's
+    group ended, :mod:`sim.processes`) with status ``128 +`` the signal's number and one line.
+    """
+    from .. import processes
+    with processes.signals_handled():
+        try:
+            return _main(argv)
+        except KeyboardInterrupt as error:       # SIGINT, or sim.processes.Interrupted
+            processes.hold()                     # ending: a further signal changes nothing
+            processes.stop_all()
+            signum = getattr(error, "signum", signal.SIGINT)
+            sys.stderr.write("kontur: interrupted\n" if signum == signal.SIGINT
+                             else f"kontur: stopped by {signum.name}\n")
+            return 128 + signum
+
+
+def _main(argv):
     import logging
     logging.getLogger().setLevel(logging.ERROR)    # the simulator runners' chatter off stderr
     args = None
@@ -348,9 +366,6 @@ def main(argv=None):
         return _build(args, sys.stdout)
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2
-    except KeyboardInterrupt:
-        sys.stderr.write("kontur: interrupted\n")
-        return 128 + signal.SIGINT
     except Exception as error:
         from ..models.errors import InputError
         from .planner import ProgramError
