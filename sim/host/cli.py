@@ -156,6 +156,11 @@ def _parser():
                        help="the machine controller (default), or the program played in a "
                             "loop with no host")
     build.add_argument("--build-dir", default=None, help="default: build/<board>-<top>")
+    build.add_argument("--machine", metavar="FILE.toml", default=None,
+                       help="the machine file (docs/controller.md) whose baud, queue_frames "
+                            "and step/dir timing the controller is built with (default: the "
+                            "defaults); kontur send checks the queue in its handshake, so "
+                            "send with the same file")
     _add_machining(commands)
     return parser
 
@@ -338,7 +343,8 @@ def _bench(args, out):
 def _build(args, out):
     from constraints.build import main as build
     return build(["--board", args.board, "--top", args.top]
-                 + (["--build-dir", args.build_dir] if args.build_dir else []))
+                 + (["--build-dir", args.build_dir] if args.build_dir else [])
+                 + (["--machine", args.machine] if args.machine else []))
 
 
 def main(argv=None):
