@@ -378,6 +378,23 @@ def test_handshake_refuses_a_board_before_any_frame(case):
     assert port.queries == 1
 
 
+def test_the_gateware_reports_its_queue_length_when_idle():
+    # What the handshake relies on, on the RTL (Amaranth's simulator, a QUERY right after
+    # reset): STATUS.free is the frames the queue holds, queue_frames itself, not its block
+    # RAM's bytes (a power of two); not moving, at (0, 0).
+    from hdl.motion.controller import MotionController
+    from sim.testbench.host import run_amaranth
+    clock, baud = 1e6, 125_000                              # 8 clocks a bit
+    for frames in (12, 5):
+        controller = MotionController(line=registry.make_engine("line", width=12),
+                                      arc=registry.make_engine("arc", "fast", width=12),
+                                      clock_hz=clock, baud=baud, dir_setup=1, step_width=2,
+                                      queue_frames=frames)
+        run = run_amaranth(controller, [protocol.query()], divisor=8, window=frames,
+                           max_clocks=5000)
+        assert [reply.fields for _, reply in run.replies] == [(0, 0, frames, 0)]
+
+
 # ---- a misbehaving machine -------------------------------------------------------------------
 
 #: After two answers (the CONFIG's and the first FEED's) the machine misbehaves so; the
