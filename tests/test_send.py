@@ -363,8 +363,8 @@ HANDSHAKES = {
     "moved": (dict(at=(80, -3)), r"^the board is at \(80, -3\) steps, not at the program's start "
                                  r"\(0, 0\): its coordinates count from where the board was "
                                  r"reset"),
-    "no controller": (dict(flags=0x40), r"^the board sent a STATUS with flags 0x40, which no controller "
-                               r"sets"),
+    "no controller": (dict(flags=0x40), r"^the board sent a STATUS with flags 0x40, which no "
+                                        r"controller sets"),
 }
 
 
@@ -483,6 +483,36 @@ def test_interrupted_send_stops_the_machine():
                                  f"(1.0000, 0.0000) mm (the program had reached line 3)")
 
 
+def test_interrupted_before_the_first_frame():
+    port = FakeMachine(4)
+    with pytest.raises(SendInterrupted, match=r"^interrupted \(SIGTERM\): ABORT sent, 0 frames "
+                                              r"aborted; the machine stopped at \(0, 0\) steps = "
+                                              r"\(0.0000, 0.0000\) mm \(before the program's "
+                                              r"first frame\)$"):
+        within(10, send, quick_job(), port, timeout=0.3, stop=lambda: signal.SIGTERM)
+    assert port.count == 0 and port.aborted
+
+
+def test_stop_catches_the_signals_and_gives_them_back():
+    from sim.host.send import Stop
+    before = {number: signal.getsignal(number) for number in Stop.SIGNALS}
+    signal.signal(signal.SIGINT, signal.default_int_handler)   # as from a terminal (a test
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)              # worker may ignore SIGINT)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)               # as under nohup
+    try:
+        with Stop() as stop:
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            assert stop() is None
+            signal.raise_signal(signal.SIGTERM)                 # recorded, not the end
+            signal.raise_signal(signal.SIGINT)
+            assert stop() == signal.SIGTERM and stop.count == 2
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        for number, handler in before.items():
+            signal.signal(number, handler)
+
+
 # ---- the command line --------------------------------------------------------------------
 
 
@@ -538,8 +568,9 @@ def test_command_line_handshake(tmp_path, capsys):
         command = _send_command(tmp_path, board, "--machine",
                                 _machine_file(tmp_path, queue_frames=16))
         assert within(15, main, command) == 0
-    out = capsys.readouterr().out                          # 4 moves: CONFIG, FEED + move, STOP
-    assert out.startswith(f"sent {1 + 2 * 4 + 1} frames of quick.ngc; the machine ended at (0, 0) steps")
+    out = capsys.readouterr().out                  # 4 moves: CONFIG, a FEED and a move each, STOP
+    assert out.startswith(f"sent {1 + 2 * 4 + 1} frames of quick.ngc; the machine ended at "
+                          f"(0, 0) steps")
 
 
 def test_command_line_timeout_refused(tmp_path, capsys):

@@ -370,7 +370,9 @@ class _Sender:
             spm = self.job.machine.steps_per_mm
             verb = "is still moving, at" if flags & MOVING else "stopped at"
             message += f"; the machine {verb} ({x}, {y}) steps = {_mm((x, y), spm)}"
-        if self.answered < len(self.lines):
+        if self.sent == 0:
+            message += " (before the program's first frame)"
+        elif self.answered < len(self.lines):
             message += f" (the program had reached {_where(self.lines, self.answered)})"
         raise SendInterrupted(message, signum)
 
