@@ -297,11 +297,11 @@ class SendTestCase(unittest.TestCase):
         # is not answered within the timeout.
         port = FakeMachine(4, silent_after=1)
         started = time.monotonic()
-        with self.assertRaisesRegex(SendError, r"^no answer in 0\.\d s to 4 frames, the first "
+        with self.assertRaisesRegex(SendError, r"^no answer in \d+\.\d s to 4 frames, the first "
                                                r"from line 2 \(planned to take 0.00 s\): the "
                                                r"machine sent nothing$"):
             send(job, port, timeout=0.2)
-        self.assertLess(time.monotonic() - started, 1.0)
+        self.assertLess(time.monotonic() - started, 2.0)
         self.assertTrue(port.aborted)
 
     def test_wrong_end(self):
@@ -401,20 +401,20 @@ def test_the_gateware_reports_its_queue_length_when_idle():
 #: message (one line) and whether the ABORT can reach it.
 MISBEHAVIOURS = {
     "silent": (dict(misbehave="silent", after=2),
-               r"^no answer in 0.\d s to 4 frames, the first from line 2 \(planned to take "
+               r"^no answer in \d+\.\d s to 4 frames, the first from line 2 \(planned to take "
                r"0.\d\d s\): the machine sent nothing$", True),
     "status only": (dict(misbehave="status", after=2),
-                    r"^no answer in 0.\d s to 4 frames, the first from line 2 .*: the machine "
+                    r"^no answer in \d+\.\d s to 4 frames, the first from line 2 .*: the machine "
                     r"sent only \d+ STATUS replies$", True),
     "garbage": (dict(misbehave="garbage", after=2),
-                r"^no answer in 0.\d s to 4 frames, the first from line 2 .*: the machine sent "
+                r"^no answer in \d+\.\d s to 4 frames, the first from line 2 .*: the machine sent "
                 r"only \d+ bytes that were no frame \(bad CRCs or noise: is the bitstream's "
                 r"baud 115200\?\)$", True),
     "bad crc": (dict(misbehave="crc", after=2),
-                r"^no answer in 0.\d s to 4 frames, the first from line 2 .*: the machine sent "
+                r"^no answer in \d+\.\d s to 4 frames, the first from line 2 .*: the machine sent "
                 r"only \d+ bytes that were no frame", True),
     "reads nothing": (dict(misbehave="eof", after=2),
-                      r"^no answer in 0.\d s to 4 frames, the first from line 2 .*: the machine "
+                      r"^no answer in \d+\.\d s to 4 frames, the first from line 2 .*: the machine "
                       r"sent nothing$", True),
     "closed": (dict(misbehave="close", after=2),
                r"^reading from the port failed \(device reports readiness to read but returned "
@@ -619,7 +619,8 @@ def test_signal_stops_the_machine(signum, tmp_path):
     name = signal.Signals(signum).name
     assert stdout == ""
     assert re.fullmatch(rf"kontur: interrupted \({name}\): ABORT sent, "
-                        rf"{machine.aborted_frames} frames aborted; the machine stopped at "
+                        rf"{machine.aborted_frames} frames aborted(, 1 done before it)?; the "
+                        rf"machine stopped at "
                         rf"\({x}, {y}\) steps = \({x / 80:.4f}, {y / 80:.4f}\) mm \(the "
                         rf"program had reached line \d+\)\n", stderr), stderr
 
