@@ -375,7 +375,7 @@ def test_handshake_refuses_a_board_before_any_frame(case):
     with pytest.raises(SendError, match=message):
         within(10, send, quick_job(), port, timeout=0.3)
     assert port.count == 0                                  # no frame reached the board
-    assert port.queries == 1
+    assert port.queries == 1 and not port.aborted          # nor an ABORT
 
 
 def test_the_gateware_reports_its_queue_length_when_idle():

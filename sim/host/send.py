@@ -18,8 +18,9 @@ Every reply is untrusted: an outcome or error code the host does not know, a fra
 of turn, a ``STATUS`` with flags or a free count no controller gives, are failures like the
 others. The machine must make progress: the oldest unanswered frame must be answered within
 its planned time (times :data:`PACE`) and the timeout, whatever else arrives (``STATUS``
-replies, bytes that are no frame). After every failure once connected an ``ABORT`` is sent, so
-nothing queued moves on. A signal (:class:`Stop`: ``SIGINT``, ``SIGTERM``, ``SIGHUP``) stops
+replies, bytes that are no frame). After every failure once the stream has begun an ``ABORT``
+is sent, so nothing queued moves on (a failed handshake sends nothing: the board may be running
+another program). A signal (:class:`Stop`: ``SIGINT``, ``SIGTERM``, ``SIGHUP``) stops
 the stream the same way, then waits (:data:`ABORT_WAIT` s at most) for the outcomes of the
 frames in flight and reads where the machine stopped.
 """
@@ -146,7 +147,6 @@ class _Sender:
         self.base = None                       # the number of the first frame (the board's)
         self.statuses = 0                      # STATUS replies since the last progress
         self.garbage = 0                       # parser.dropped at the last progress
-        self.connected = False                 # a STATUS came: ABORT is worth sending
 
     # ---- the port -------------------------------------------------------------------------
 
@@ -181,11 +181,12 @@ class _Sender:
 
     # ---- untrusted replies ----------------------------------------------------------------
 
-    def check_flags(self, fields):
+    def check_flags(self, fields, *, abort=True):
         x, y, free, flags = fields
         if flags & ~(MOVING | ERRORED):
             self.fail(f"the board sent a STATUS with flags {flags:#04x}, which no controller "
-                      f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?")
+                      f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?",
+                      abort=abort)
 
     def check_status(self, fields):
         self.check_flags(fields)
@@ -244,7 +245,6 @@ class _Sender:
             self.check_interrupt()
             for reply in self.read():
                 if reply.kind == STATUS:
-                    self.connected = True
                     return self.check_board(reply.fields)
                 if reply.kind == OUTCOME:
                     self.fail("the board answered a frame before any was sent: it is running "
@@ -264,7 +264,7 @@ class _Sender:
             self.fail(f"the board is moving (at ({x}, {y}) steps, {free} queue slots free): it "
                       f"is running another program; wait for its end or reset the board",
                       abort=False)
-        self.check_flags(fields)
+        self.check_flags(fields, abort=False)
         if free != self.window % 256:
             self.fail(f"the board's queue holds {free} frames, the machine file says "
                       f"{self.window}: build the bitstream with --machine FILE (kontur build "
