@@ -57,7 +57,8 @@ class FakeMachine:
     answers), ``"status"`` (a STATUS at every read, never an OUTCOME), ``"garbage"`` (bytes
     that are no frame at every read), ``"crc"`` (the answers with a bad CRC), ``"eof"`` (the
     port reads nothing), ``"close"`` (reading and writing the port raise), ``"write"``
-    (writing the port raises). ``mute``: QUERY is never answered."""
+    (writing the port raises), ``"dead"`` (nothing more at all: no answers, no STATUS, an
+    ABORT ends nothing). ``mute``: QUERY is never answered."""
 
     def __init__(self, window, *, outcome=None, drop=None, error_code=1, offset=(0, 0),
                  silent_after=None, profile=None, free=None, flags=0, at=(0, 0), first=0,
@@ -111,10 +112,12 @@ class FakeMachine:
                 self.count += 1
             elif event[0] == "query":
                 self.queries += 1
-                if not self.mute:
+                if not (self.mute or self.acting_up and self.misbehave == "dead"):
                     self.pending += self.status()
             elif event[0] == "abort":
                 self.aborted = True
+                if self.acting_up and self.misbehave == "dead":
+                    continue
                 for number, _, _ in self.later:
                     self.pending += protocol.frame(0x80, bytes([(number + self.first) % 256, 2]))
                     self.unanswered -= 1
@@ -160,7 +163,7 @@ class FakeMachine:
             elif acting and self.misbehave == "garbage":
                 self.pending += bytes(range(0x30, 0x50))       # no sync byte among them
             elif self.later and not (acting and self.misbehave in ("silent", "status",
-                                                                   "garbage")):
+                                                                   "garbage", "dead")):
                 self._release(bad_crc=acting and self.misbehave == "crc")
         data = bytes(self.pending[:size])
         del self.pending[:size]
@@ -483,6 +486,36 @@ def test_interrupted_send_stops_the_machine():
                                  f"(1.0000, 0.0000) mm (the program had reached line 3)")
 
 
+def test_interrupted_send_to_a_board_gone_wrong():
+    # The board dead (it takes the ABORT and answers nothing): kontur waits for the outcomes
+    # and the position no longer than the timeout (3 s at most), and says what it does not
+    # know. The port gone: the ABORT cannot be sent, and kontur says the machine may move on.
+    job = quick_job()
+    port = FakeMachine(4, misbehave="dead", after=2)
+    answered = []
+    started = time.monotonic()
+    with pytest.raises(SendInterrupted) as raised:
+        within(10, send, job, port, timeout=0.3, progress=answered.append,
+               stop=lambda: signal.SIGHUP if len(answered) == 2 else None)
+    assert port.aborted and 0.6 <= time.monotonic() - started < 3
+    assert str(raised.value) == (f"interrupted (SIGHUP): ABORT sent, 0 frames aborted, "
+                                 f"{port.count - port.released} unanswered after 0.3 s; no "
+                                 f"STATUS: where the machine stopped is unknown (the program "
+                                 f"had reached line 2)")
+    port = FakeMachine(4)
+
+    def stop():
+        if port.released >= 2:
+            port.closed = True
+            return signal.SIGINT
+    with pytest.raises(SendInterrupted, match=r"^interrupted \(SIGINT\); the ABORT could not be "
+                                              r"sent \(writing to the port failed \(write failed: "
+                                              r"the device is gone\)\): the machine may still be "
+                                              r"moving$"):
+        within(10, send, job, port, timeout=0.3, stop=stop)
+    assert not port.aborted
+
+
 def test_interrupted_before_the_first_frame():
     port = FakeMachine(4)
     with pytest.raises(SendInterrupted, match=r"^interrupted \(SIGTERM\): ABORT sent, 0 frames "
@@ -540,8 +573,10 @@ def test_command_line_against_a_misbehaving_board(case, tmp_path, capsys):
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("kontur: SendError: "), captured.err
     body = lines[0].removeprefix("kontur: SendError: ")
-    if case == "closed":                                   # pyserial's words for a closed pty
-        assert body.startswith("reading from the port failed") and "ABORT could not" in body
+    if case == "closed":          # pyserial's words for a closed pty; a read or a write first
+        assert re.match(r"^(reading from|writing to) the port failed \(.*\) with \d+ frames "
+                        r"unanswered .*; the ABORT could not be sent \(writing to the port "
+                        r"failed \(.*\)\): the machine may still be moving$", body), body
     else:
         assert re.match(message.replace("4 frames", r"\d+ frames"), body), body
     assert machine.aborted == reachable
