@@ -187,12 +187,14 @@ class PtyBoard:
 
     def _serve(self):
         machine, ready_at = self.machine, 0.0
-        while not self.done.is_set():
+        while True:
             if machine.misbehave == "close" and machine.acting_up:
                 os.close(self.master)
                 self.master = None
                 return
             readable, _, _ = select.select([self.master], [], [], 0.01)
+            if self.done.is_set() and not readable:        # what the host sent, taken
+                return
             if readable:
                 try:
                     data = os.read(self.master, 4096)

@@ -157,12 +157,19 @@ class _Sender:
             raise _LinkDown(f"writing to the port failed ({error})") from None
 
     def read(self):
+        """The replies the port has now: ``(reply, dropped)`` each, ``dropped`` the bytes that
+        were no frame before it (the parser takes the bytes one at a time, so the bytes after
+        a reply in the same read are not counted before it)."""
         try:
             waiting = getattr(self.port, "in_waiting", 0)
             data = self.port.read(waiting or 1)
         except OSError as error:
             raise _LinkDown(f"reading from the port failed ({error})") from None
-        return self.parser.feed(data) if data else []
+        replies = []
+        for index in range(len(data)):
+            for reply in self.parser.feed(data[index:index + 1]):
+                replies.append((reply, self.parser.dropped))
+        return replies
 
     def abort(self):
         """Send ABORT; return what to add to a message when it could not be sent."""
@@ -196,7 +203,7 @@ class _Sender:
                       f"{self.window} of the machine file: build the bitstream with its "
                       f"machine file (kontur build --machine FILE)")
 
-    def outcome(self, number, code):
+    def outcome(self, number, code, dropped=0):
         if self.answered >= self.sent:
             self.fail(f"the machine answered frame {number}, and no frame was waiting for an "
                       f"answer")
@@ -213,7 +220,7 @@ class _Sender:
             self.fail(f"{where}: the machine {OUTCOMES[code]} this move")
         self.answered += 1
         self.heard = time.monotonic()
-        self.statuses, self.garbage = 0, self.parser.dropped
+        self.statuses, self.garbage = 0, dropped
         if self.progress is not None:
             self.progress(self.answered)
 
@@ -243,7 +250,7 @@ class _Sender:
         deadline = time.monotonic() + self.timeout
         while True:
             self.check_interrupt()
-            for reply in self.read():
+            for reply, _ in self.read():
                 if reply.kind == STATUS:
                     return self.check_board(reply.fields)
                 if reply.kind == OUTCOME:
@@ -290,9 +297,9 @@ class _Sender:
                 self.write(self.frames[self.sent])
                 self.sent_at.append(time.monotonic())
                 self.sent += 1
-            for reply in self.read():
+            for reply, dropped in self.read():
                 if reply.kind == OUTCOME:
-                    self.outcome(*reply.fields)
+                    self.outcome(*reply.fields, dropped)
                 elif reply.kind == ERROR:
                     self.error(*reply.fields)
                 else:
@@ -312,7 +319,7 @@ class _Sender:
         self.statuses, self.garbage = 0, self.parser.dropped
         while True:
             self.check_interrupt()
-            for reply in self.read():
+            for reply, _ in self.read():
                 if reply.kind == STATUS:
                     self.check_status(reply.fields)
                     x, y = reply.fields[:2]
@@ -343,14 +350,14 @@ class _Sender:
         try:
             while sum(counts) < flight and time.monotonic() < deadline \
                     and getattr(self.stop, "count", 1) < 2:
-                for reply in self.read():
+                for reply, _ in self.read():
                     if reply.kind == OUTCOME:
                         counts[min(reply.fields[1], 3)] += 1
             self.write(protocol.query())
             deadline = time.monotonic() + wait
             while status is None and time.monotonic() < deadline \
                     and getattr(self.stop, "count", 1) < 2:
-                for reply in self.read():
+                for reply, _ in self.read():
                     if reply.kind == STATUS:
                         status = reply.fields
         except _LinkDown as error:
