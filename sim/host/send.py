@@ -130,6 +130,8 @@ def _mm(point, spm):
 
 
 class _Sender:
+    """One send: the port, the frames, what is sent and answered."""
+
     def __init__(self, job, port, *, progress, timeout, out, stop):
         self.job = job
         self.port = port
