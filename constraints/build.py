@@ -13,7 +13,7 @@ import sys
 
 from .flow import ROOT, SEED, ToolchainError, place_and_route
 
-__all__ = ["TOPS", "build", "summary", "main"]
+__all__ = ["TOPS", "build", "machine_file", "summary", "main"]
 
 #: What ``kontur build --top`` builds.
 TOPS = ("controller", "player")
@@ -85,26 +85,73 @@ def summary(result):
     return "\n".join(lines) + "\n"
 
 
+def machine_file(board, path):
+    """The :class:`~sim.host.machine.Machine` of the machine file ``path`` for ``board``'s
+    clock, its link and queue checked as the controller takes them (a queue of 2 to 255 frames,
+    STATUS's byte; a baud the clock makes within 2 %): the values the bitstream is built
+    with.
+
+    Raises
+    ------
+    :exc:`sim.host.machine.MachineError`
+        For a file that cannot be read, an unknown key or a value the machine or its controller
+        cannot take (the message names the file and the key).
+    """
+    from sim import registry
+    from sim.host.machine import Machine, MachineError
+    from hdl.motion.uart import divisor_for
+    item = registry.board(board)
+    machine = Machine.from_toml(path, clock_hz=item.clock_hz)
+    if not 2 <= machine.queue_frames <= 255:
+        raise MachineError(f"{path}: queue_frames must be from 2 (the controller's least) to "
+                           f"255 (the free slots a STATUS reply can report, a byte), not "
+                           f"{machine.queue_frames}")
+    try:
+        divisor_for(machine.clock_hz, machine.baud)
+    except ValueError as error:
+        raise MachineError(f"{path}: baud {machine.baud}: {error}") from None
+    return machine
+
+
 def main(argv=None):
-    """``python -m constraints.build [--board B] [--build-dir DIR]``; returns the exit
-    status."""
+    """``python -m constraints.build [--board B] [--top T] [--build-dir DIR] [--machine
+    FILE]``; returns the exit status: 0 built, 2 for a bad option or machine file (one line on
+    standard error, nothing built), 1 when a tool failed."""
     import argparse
     from sim import registry
+    from sim.host.machine import MachineError
     parser = argparse.ArgumentParser(prog="python -m constraints.build",
                                      description="Build a board's bitstream (never programs).")
     parser.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
     parser.add_argument("--top", choices=TOPS, default="controller")
     parser.add_argument("--build-dir", default=None,
-                        help="build directory (default build/<board>)")
+                        help="build directory (default build/<board>-<top>)")
+    parser.add_argument("--machine", metavar="FILE.toml", default=None,
+                        help="the machine file whose link, queue and step/dir timing the "
+                             "controller is built with (default: the defaults)")
     args = parser.parse_args(argv)
+    machine = None
+    if args.machine is not None:
+        if args.top != "controller":
+            sys.stderr.write("kontur build: --machine is for the controller (--top "
+                             "controller); the player takes no machine file\n")
+            return 2
+        try:
+            machine = machine_file(args.board, args.machine)
+        except MachineError as error:
+            sys.stderr.write(f"kontur build: {error}\n")
+            return 2
     build_dir = args.build_dir or ROOT / "build" / f"{args.board}-{args.top}"
     try:
-        build(args.board, build_dir, top=args.top, out=sys.stdout)
+        build(args.board, build_dir, top=args.top, machine=machine, out=sys.stdout)
     except ToolchainError as error:
         sys.stderr.write(f"kontur build: {error}\n")
         return 1
+    if machine is not None:
+        sys.stdout.write(f"machine    {args.machine}: {machine.baud} baud, queue of "
+                         f"{machine.queue_frames} frames (kontur send --machine "
+                         f"{args.machine})\n")
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -156,6 +156,11 @@ def _parser():
                        help="the machine controller (default), or the program played in a "
                             "loop with no host")
     build.add_argument("--build-dir", default=None, help="default: build/<board>-<top>")
+    build.add_argument("--machine", metavar="FILE.toml", default=None,
+                       help="the machine file (docs/controller.md) whose baud, queue_frames "
+                            "and step/dir timing the controller is built with (default: the "
+                            "defaults); kontur send checks the queue in its handshake, so "
+                            "send with the same file")
     _add_machining(commands)
     return parser
 
@@ -202,12 +207,21 @@ def _add_machining(commands):
                           "allow; the steps do not change)")
     send = commands.add_parser(
         "send", help="stream a G-code program to a board over its serial port",
-        epilog="Exit status 0 when the machine ran the whole program and ended on its end, 2 "
-               "for a program refused before anything moved, 1 when the machine refused or "
-               "aborted a move, reported an error, or went silent (the program line named).")
+        epilog="Before the first frame the board must answer a QUERY idle, at the program's "
+               "start, with as many free queue slots as the machine file's queue_frames (a "
+               "bitstream built with the same file: kontur build --machine). Exit status 0 "
+               "when the machine ran the whole program and ended on its end, 2 for a program "
+               "or option refused before anything moved, 1 when the handshake failed, the "
+               "machine refused or aborted a move, reported an error, sent a reply no "
+               "controller sends, made no progress, or the port failed (the program line "
+               "named; an ABORT sent); 128 + the signal on SIGINT, SIGTERM or SIGHUP, after an "
+               "ABORT and the position read back.")
     _machine_options(send)
     send.add_argument("--port", required=True, metavar="DEVICE",
                       help="the serial port (a device, or a pyserial URL)")
+    send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
+                      help="how long the board may take to answer a QUERY, and to answer a "
+                           "frame beyond its planned time (default 10)")
 
 
 def _job(args):
@@ -269,16 +283,27 @@ def _run(args, out):
 
 
 def _send(args, out):
-    from .send import open_port, send
+    import math
+
+    from .send import SendInterrupted, Stop, open_port, send
+    from .trace import UsageError
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
     job = _job(args)
     frames, _ = job.frames()
     try:
-        port = open_port(args.port, job.machine.baud)
+        port = open_port(args.port, job.machine.baud, write_timeout=args.timeout)
     except Exception as error:                     # pyserial: SerialException, ValueError
         sys.stderr.write(f"kontur: cannot open {args.port}: {error}\n")
         return 1
-    with port, _progress(len(frames), "frames") as bar:
-        end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr)
+    try:
+        # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
+        with Stop() as stop, port, _progress(len(frames), "frames") as bar:
+            end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
+                       timeout=args.timeout, stop=stop)
+    except SendInterrupted as error:
+        sys.stderr.write(f"kontur: {error}\n")
+        return 128 + error.signum
     spm = job.machine.steps_per_mm
     out.write(f"sent {len(frames)} frames of {job.name}; the machine ended at ({end[0]}, "
               f"{end[1]}) steps = ({end[0] / spm:.4f}, {end[1] / spm:.4f}) mm, the "
@@ -318,7 +343,8 @@ def _bench(args, out):
 def _build(args, out):
     from constraints.build import main as build
     return build(["--board", args.board, "--top", args.top]
-                 + (["--build-dir", args.build_dir] if args.build_dir else []))
+                 + (["--build-dir", args.build_dir] if args.build_dir else [])
+                 + (["--machine", args.machine] if args.machine else []))
 
 
 def main(argv=None):

@@ -1,23 +1,53 @@
 """``kontur send FILE.ngc --port DEVICE``: a program streamed to a board's controller.
 
 The program is prepared as for ``kontur run`` (:func:`sim.host.machining.prepare`: read,
-on the lattice, planned, its frames), checked whole before anything moves, then streamed over
-the serial port (pyserial) under the protocol's flow control: at most the controller's queue
-length of frames unanswered, an ``OUTCOME`` (or an ``ERROR``) answering each. A frame the
-machine refuses or aborts, and every error it reports, is shown in the program's terms (its
-line), and the stream stops (an ``ABORT`` is sent after an error, so nothing queued after it
-moves). At the end the position is read back (``QUERY``) and compared with the program's end.
+on the lattice, planned, its frames), checked whole before anything moves, then:
+
+1. The handshake: a ``QUERY``, whose ``STATUS`` must come within the timeout and show the board
+   idle (not moving), with as many free queue slots as the machine file's ``queue_frames`` (an
+   idle controller reports its whole queue free: the frames it holds, not the bytes of its
+   block RAM) and at the program's start (the position since reset). A board that does not
+   answer, or answers otherwise, was built for another machine file, is busy, or has moved:
+   nothing is sent.
+2. The stream, under the protocol's flow control: at most ``queue_frames`` frames unanswered,
+   an ``OUTCOME`` (or an ``ERROR``) answering each. A frame the machine refuses or aborts, and
+   every error it reports, is shown in the program's terms (its line), and the stream stops.
+3. At the end the position is read back (``QUERY``) and compared with the program's end.
+
+Every reply is untrusted: an outcome or error code the host does not know, a frame number out
+of turn, a ``STATUS`` with flags or a free count no controller gives, are failures like the
+others. The machine must make progress: the oldest unanswered frame must be answered within
+its planned time (times :data:`PACE`) and the timeout, whatever else arrives (``STATUS``
+replies, bytes that are no frame). After every failure once the stream has begun an ``ABORT``
+is sent, so nothing queued moves on (a failed handshake sends nothing: the board may be running
+another program). A signal (:class:`Stop`: ``SIGINT``, ``SIGTERM``, ``SIGHUP``) stops
+the stream the same way, then waits (:data:`ABORT_WAIT` s at most) for the outcomes of the
+frames in flight and reads where the machine stopped.
 """
 
+import math
+import signal
+import threading
 import time
 
 from hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
 
 from . import protocol
 
-__all__ = ["send", "SendError", "open_port"]
+__all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT"]
 
 OUTCOMES = ("done", "refused", "aborted")
+DONE, REFUSED, ABORTED = range(3)
+
+#: The flags a STATUS may carry: bit 0 moving, bit 1 an error reported since reset.
+MOVING, ERRORED = 1, 2
+
+#: A frame may take this many times its planned time (and the timeout besides).
+PACE = 1.25
+
+#: At most this long (s) an interrupted send waits for the outcomes after its ABORT, and as
+#: long again for the position.
+ABORT_WAIT = 3.0
 
 
 class SendError(RuntimeError):
@@ -25,10 +55,59 @@ class SendError(RuntimeError):
     lines."""
 
 
-def open_port(device, baud, *, timeout=0.05):
-    """Open ``device`` (a path, or any pyserial URL) at ``baud``, 8N1."""
+class SendInterrupted(SendError):
+    """A signal (:attr:`signum`) stopped the send; the message says what the machine did."""
+
+    def __init__(self, message, signum):
+        super().__init__(message)
+        self.signum = signum
+
+
+class _LinkDown(Exception):
+    """The port itself failed (read or write)."""
+
+
+class Stop:
+    """The signals that stop a send: while entered (in the main thread), ``SIGINT``,
+    ``SIGTERM`` and ``SIGHUP`` are recorded (:attr:`signum`, the first; :attr:`count`) instead
+    of ending the process, and :func:`send` stops the machine before it returns; a signal
+    ignored when entered (``nohup``'s ``SIGHUP``) stays ignored. The previous handlers come
+    back on exit. Called, it returns :attr:`signum` (``None`` until a signal)."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def __init__(self):
+        self.signum = None
+        self.count = 0
+        self._saved = {}
+
+    def __call__(self):
+        return self.signum
+
+    def _caught(self, signum, frame):
+        self.signum = self.signum or signum
+        self.count += 1
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for number in self.SIGNALS:
+                if signal.getsignal(number) is not signal.SIG_IGN:     # nohup's stays ignored
+                    self._saved[number] = signal.signal(number, self._caught)
+        return self
+
+    def __exit__(self, *exc):
+        for number, handler in self._saved.items():
+            signal.signal(number, handler)
+        self._saved.clear()
+        return False
+
+
+def open_port(device, baud, *, timeout=0.05, write_timeout=None):
+    """Open ``device`` (a path, or any pyserial URL) at ``baud``, 8N1; a write that the port
+    does not take within ``write_timeout`` s raises (``None``: waits)."""
     import serial
-    return serial.serial_for_url(device, baudrate=baud, timeout=timeout)
+    return serial.serial_for_url(device, baudrate=baud, timeout=timeout,
+                                 write_timeout=write_timeout)
 
 
 def _where(lines, index):
@@ -36,75 +115,306 @@ def _where(lines, index):
     return f"line {line}" if line is not None else "the program's set-up (no program line)"
 
 
-def send(job, port, *, progress=None, timeout=10.0, out=None):
-    """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
-    anything with ``write``, ``read`` and ``in_waiting``); return the final position read back
-    (steps).
+def _durations(job, count):
+    """The planned time (s) of each of the job's ``count`` frames: the move frames' their
+    plan's, the others' none (CONFIG, FEED and a move each, STOP; for any other layout every
+    frame gets the whole program's time)."""
+    items = job.items
+    if count != 2 * len(items) + 2:
+        return [job.seconds] * count
+    return [0.0] + [t for item in items for t in (0.0, item.seconds)] + [0.0]
 
-    ``progress``, if given, is called with the number of frames answered so far. ``timeout`` is
-    how long (s) the machine may stay silent while frames are outstanding, ``out`` where to
-    write what the machine says besides (a file).
+
+def _mm(point, spm):
+    return f"({point[0] / spm:.4f}, {point[1] / spm:.4f}) mm"
+
+
+class _Sender:
+    """One send: the port, the frames, what is sent and answered."""
+
+    def __init__(self, job, port, *, progress, timeout, out, stop):
+        self.job = job
+        self.port = port
+        self.progress = progress
+        self.timeout = timeout
+        self.out = out
+        self.stop = stop if stop is not None else (lambda: None)
+        self.frames, self.lines = job.frames()
+        self.durations = _durations(job, len(self.frames))
+        self.parser = protocol.ReplyParser()
+        self.window = job.machine.queue_frames
+        self.sent = self.answered = 0
+        self.sent_at = []
+        self.heard = 0.0                       # when the last frame was answered
+        self.base = None                       # the number of the first frame (the board's)
+        self.statuses = 0                      # STATUS replies since the last progress
+        self.garbage = 0                       # parser.dropped at the last progress
+
+    # ---- the port -------------------------------------------------------------------------
+
+    def write(self, data):
+        try:
+            self.port.write(data)
+        except OSError as error:               # serial.SerialException is an OSError
+            raise _LinkDown(f"writing to the port failed ({error})") from None
+
+    def read(self):
+        """The replies the port has now: ``(reply, dropped)`` each, ``dropped`` the bytes that
+        were no frame before it (the parser takes the bytes one at a time, so the bytes after
+        a reply in the same read are not counted before it)."""
+        try:
+            waiting = getattr(self.port, "in_waiting", 0)
+            data = self.port.read(waiting or 1)
+        except OSError as error:
+            raise _LinkDown(f"reading from the port failed ({error})") from None
+        replies = []
+        for index in range(len(data)):
+            for reply in self.parser.feed(data[index:index + 1]):
+                replies.append((reply, self.parser.dropped))
+        return replies
+
+    def abort(self):
+        """Send ABORT; return what to add to a message when it could not be sent."""
+        try:
+            self.write(protocol.abort())
+        except _LinkDown as error:
+            return f"; the ABORT could not be sent ({error}): the machine may still be moving"
+        return ""
+
+    def fail(self, message, *, abort=True):
+        raise SendError(message + (self.abort() if abort else ""))
+
+    def check_interrupt(self):
+        if self.stop():
+            self.interrupted(self.stop())
+
+    # ---- untrusted replies ----------------------------------------------------------------
+
+    def check_flags(self, fields, *, abort=True):
+        x, y, free, flags = fields
+        if flags & ~(MOVING | ERRORED):
+            self.fail(f"the board sent a STATUS with flags {flags:#04x}, which no controller "
+                      f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?",
+                      abort=abort)
+
+    def check_status(self, fields):
+        self.check_flags(fields)
+        free = fields[2]
+        if free > self.window % 256:
+            self.fail(f"the board sent a STATUS with {free} free queue slots, more than the "
+                      f"{self.window} of the machine file: build the bitstream with its "
+                      f"machine file (kontur build --machine FILE)")
+
+    def outcome(self, number, code, dropped=0):
+        if self.answered >= self.sent:
+            self.fail(f"the machine answered frame {number}, and no frame was waiting for an "
+                      f"answer")
+        where = _where(self.lines, self.answered)
+        if self.base is None:
+            self.base = (number - self.answered) % 256
+        expected = (self.base + self.answered) % 256
+        if number != expected:
+            self.fail(f"the machine answered frame {number}, expected {expected} ({where})")
+        if code not in (DONE, REFUSED, ABORTED):
+            self.fail(f"the machine answered frame {number} ({where}) with outcome code "
+                      f"{code}, which no controller sends")
+        if code != DONE:
+            self.fail(f"{where}: the machine {OUTCOMES[code]} this move")
+        self.answered += 1
+        self.heard = time.monotonic()
+        self.statuses, self.garbage = 0, dropped
+        if self.progress is not None:
+            self.progress(self.answered)
+
+    def error(self, code):
+        name = ERRORS.get(code)
+        what = name if name else f"error code {code}, which no controller sends"
+        first, last = _where(self.lines, self.answered), _where(self.lines, self.sent - 1)
+        self.fail(f"the machine dropped a frame ({what}) while frames from {first} to {last} "
+                  f"were in flight; the rest is aborted")
+
+    def heard_else(self):
+        """What the machine sent since the last progress, besides answers."""
+        parts = []
+        if self.statuses:
+            parts.append(f"{self.statuses} STATUS replies")
+        garbage = self.parser.dropped - self.garbage
+        if garbage:
+            parts.append(f"{garbage} bytes that were no frame (bad CRCs or noise: is the "
+                         f"bitstream's baud {self.job.machine.baud}?)")
+        return "only " + " and ".join(parts) if parts else "nothing"
+
+    # ---- the three steps ------------------------------------------------------------------
+
+    def handshake(self):
+        baud = self.job.machine.baud
+        self.write(protocol.query())
+        deadline = time.monotonic() + self.timeout
+        while True:
+            self.check_interrupt()
+            for reply, _ in self.read():
+                if reply.kind == STATUS:
+                    return self.check_board(reply.fields)
+                if reply.kind == OUTCOME:
+                    self.fail("the board answered a frame before any was sent: it is running "
+                              "another program; wait for its end or reset the board",
+                              abort=False)
+                if reply.kind == ERROR and self.out is not None:
+                    self.out.write(f"kontur send: before the program: {reply}\n")
+            if time.monotonic() > deadline:
+                garbage = self.parser.dropped
+                heard = f"; {garbage} bytes came that were no frame" if garbage else ""
+                self.fail(f"no answer from the board at {baud} baud in {self.timeout:g} s{heard} "
+                          f"(is the baud of the bitstream's machine file the same?)", abort=False)
+
+    def check_board(self, fields):
+        x, y, free, flags = fields
+        if flags & MOVING:
+            self.fail(f"the board is moving (at ({x}, {y}) steps, {free} queue slots free): it "
+                      f"is running another program; wait for its end or reset the board",
+                      abort=False)
+        self.check_flags(fields, abort=False)
+        if free != self.window % 256:
+            self.fail(f"the board's queue holds {free} frames, the machine file says "
+                      f"{self.window}: build the bitstream with --machine FILE (kontur build "
+                      f"--machine FILE, make bitstream MACHINE=FILE)", abort=False)
+        start = tuple(self.job.start)
+        if (x, y) != start:
+            self.fail(f"the board is at ({x}, {y}) steps, not at the program's start {start}: "
+                      f"its coordinates count from where the board was reset; reset it there",
+                      abort=False)
+
+    def deadline(self):
+        """When the oldest unanswered frame is overdue."""
+        index = self.answered
+        begun = max(self.heard, self.sent_at[index])
+        return begun + PACE * self.durations[index] + self.timeout
+
+    def stream(self):
+        count = len(self.frames)
+        self.heard = time.monotonic()
+        while self.answered < count:
+            self.check_interrupt()
+            while self.sent < count and self.sent - self.answered < self.window:
+                self.write(self.frames[self.sent])
+                self.sent_at.append(time.monotonic())
+                self.sent += 1
+            for reply, dropped in self.read():
+                if reply.kind == OUTCOME:
+                    self.outcome(*reply.fields, dropped)
+                elif reply.kind == ERROR:
+                    self.error(*reply.fields)
+                else:
+                    self.check_status(reply.fields)
+                    self.statuses += 1
+            if self.answered < count and time.monotonic() > self.deadline():
+                index = self.answered
+                waited = time.monotonic() - max(self.heard, self.sent_at[index])
+                self.fail(f"no answer in {waited:.1f} s to {self.sent - index} frames, the "
+                          f"first from {_where(self.lines, index)} (planned to take "
+                          f"{self.durations[index]:.2f} s): the machine sent "
+                          f"{self.heard_else()}")
+
+    def finish(self):
+        self.write(protocol.query())
+        asked = time.monotonic()
+        self.statuses, self.garbage = 0, self.parser.dropped
+        while True:
+            self.check_interrupt()
+            for reply, _ in self.read():
+                if reply.kind == STATUS:
+                    self.check_status(reply.fields)
+                    x, y = reply.fields[:2]
+                    if (x, y) != tuple(self.job.end):
+                        raise SendError(f"the machine ended at ({x}, {y}) steps, not at the "
+                                        f"program's end {tuple(self.job.end)}")
+                    return (x, y)
+                if reply.kind == OUTCOME:
+                    self.outcome(*reply.fields)        # fails: every frame was answered
+                elif reply.kind == ERROR:
+                    self.error(*reply.fields)
+            if time.monotonic() - asked > self.timeout:
+                self.fail(f"no STATUS in {self.timeout:g} s after the program's last frame was "
+                          f"answered: the machine sent {self.heard_else()}")
+
+    # ---- a signal -------------------------------------------------------------------------
+
+    def interrupted(self, signum):
+        name = signal.Signals(signum).name
+        flight = self.sent - self.answered
+        trouble = self.abort()
+        if trouble:
+            raise SendInterrupted(f"interrupted ({name}){trouble}", signum)
+        wait = min(self.timeout, ABORT_WAIT)
+        counts = [0, 0, 0, 0]                  # done, refused, aborted, other
+        deadline = time.monotonic() + wait
+        status = None
+        try:
+            while sum(counts) < flight and time.monotonic() < deadline \
+                    and getattr(self.stop, "count", 1) < 2:
+                for reply, _ in self.read():
+                    if reply.kind == OUTCOME:
+                        counts[min(reply.fields[1], 3)] += 1
+            self.write(protocol.query())
+            deadline = time.monotonic() + wait
+            while status is None and time.monotonic() < deadline \
+                    and getattr(self.stop, "count", 1) < 2:
+                for reply, _ in self.read():
+                    if reply.kind == STATUS:
+                        status = reply.fields
+        except _LinkDown as error:
+            trouble = f"; then {error}"
+        done, refused, aborted, other = counts
+        message = f"interrupted ({name}): ABORT sent, {aborted} frames aborted"
+        if done:
+            message += f", {done} done before it"
+        if refused + other:
+            message += f", {refused + other} refused or unknown"
+        if flight - sum(counts) > 0:
+            message += f", {flight - sum(counts)} unanswered after {wait:g} s"
+        if status is None:
+            message += f"; no STATUS: where the machine stopped is unknown{trouble}"
+        else:
+            x, y, _, flags = status
+            spm = self.job.machine.steps_per_mm
+            verb = "is still moving, at" if flags & MOVING else "stopped at"
+            message += f"; the machine {verb} ({x}, {y}) steps = {_mm((x, y), spm)}"
+        if self.sent == 0:
+            message += " (before the program's first frame)"
+        elif self.answered < len(self.lines):
+            message += f" (the program had reached {_where(self.lines, self.answered)})"
+        raise SendInterrupted(message, signum)
+
+
+def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None):
+    """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
+    anything with ``write``, ``read`` and ``in_waiting``) after the handshake; return the final
+    position read back (steps).
+
+    ``progress``, if given, is called with the number of frames answered so far. ``timeout``
+    (s) is how long the board may take to answer the handshake's and the last ``QUERY``, and
+    how much longer than :data:`PACE` times its planned time a frame may take to be answered;
+    ``out`` where to write what the machine says besides (a file). ``stop`` (a :class:`Stop`,
+    or any callable) returns a signal number once the send must stop.
 
     Raises
     ------
     SendError
-        A frame refused or aborted, an error reply, silence, or a final position that is not
-        the program's end; the message names the program line.
+        The handshake failed, a frame refused or aborted, an error reply, a reply no controller
+        sends, no progress, the port failed, or a final position that is not the program's
+        end; the message names the program line.
+    SendInterrupted
+        ``stop`` returned a signal: ABORT was sent, the message says what the machine did.
     """
-    frames, lines = job.frames()
-    parser = protocol.ReplyParser()
-    window = job.machine.queue_frames
-    sent = answered = 0
-    heard = time.monotonic()
-    status = None
-
-    def replies():
-        waiting = getattr(port, "in_waiting", 0)
-        data = port.read(waiting or 1)
-        return parser.feed(data) if data else []
-
-    def fail(message):
-        try:
-            port.write(protocol.abort())
-        finally:
-            raise SendError(message)
-
-    while answered < len(frames) or status is None:
-        while sent < len(frames) and sent - answered < window:
-            port.write(frames[sent])
-            sent += 1
-        if answered == len(frames) and status is None and sent == len(frames):
-            port.write(protocol.query())
-            sent += 1                              # the QUERY: answered by STATUS
-        got = replies()
-        if got:
-            heard = time.monotonic()
-        elif time.monotonic() - heard > timeout:
-            fail(f"the machine has been silent for {timeout:g} s with {sent - answered} frames "
-                 f"unanswered (the first from {_where(lines, answered)})")
-        for reply in got:
-            if reply.kind == OUTCOME:
-                number, outcome = reply.fields
-                if number != answered % 256:
-                    fail(f"the machine answered frame {number}, expected "
-                         f"{answered % 256} ({_where(lines, answered)})")
-                if outcome != 0:
-                    fail(f"{_where(lines, answered)}: the machine {OUTCOMES[outcome]} this "
-                         f"move")
-                answered += 1
-                if progress is not None:
-                    progress(answered)
-            elif reply.kind == ERROR:
-                (code,) = reply.fields
-                first, last = _where(lines, answered), _where(lines, sent - 1)
-                fail(f"the machine dropped a frame ({ERRORS.get(code, code)}) while frames from "
-                     f"{first} to {last} were in flight; the rest is aborted")
-            elif reply.kind == STATUS and answered == len(frames):
-                status = reply.fields
-            elif out is not None:
-                out.write(f"kontur send: {reply}\n")
-    x, y = status[0], status[1]
-    if (x, y) != tuple(job.end):
-        raise SendError(f"the machine ended at ({x}, {y}) steps, not at the program's end "
-                        f"{tuple(job.end)}")
-    return (x, y)
+    if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
+        raise ValueError(f"The timeout must be a positive number of seconds, not {timeout!r}")
+    sender = _Sender(job, port, progress=progress, timeout=timeout, out=out, stop=stop)
+    try:
+        sender.handshake()
+        sender.stream()
+        return sender.finish()
+    except _LinkDown as error:
+        unanswered = sender.sent - sender.answered
+        where = (f" with {unanswered} frames unanswered (the first from "
+                 f"{_where(sender.lines, sender.answered)})" if unanswered else "")
+        raise SendError(f"{error}{where}{sender.abort()}") from None
