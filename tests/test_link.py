@@ -5,6 +5,7 @@ import random
 import unittest
 
 from amaranth import Module, Shape
+from amaranth.lib import wiring
 
 from hdl.equidistant import EquidistantEngine, Formats
 from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
@@ -55,11 +56,7 @@ class DecoderTestCase(unittest.TestCase):
         m = Module()
         m.submodules.decoder = dut = FrameDecoder(profile=profile)
         m.submodules.queue = queue = FrameQueue(depth)
-        m.d.comb += [
-            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
-            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
-            dut.q_room.eq(queue.w_room),
-        ]
+        wiring.connect(m, dut.q, queue.w)
         frames, signals = [], []
 
         async def testbench(ctx):
@@ -136,11 +133,7 @@ class DecoderTestCase(unittest.TestCase):
         m = Module()
         m.submodules.decoder = dut = FrameDecoder()
         m.submodules.queue = queue = FrameQueue(32)
-        m.d.comb += [
-            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
-            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
-            dut.q_room.eq(queue.w_room),
-        ]
+        wiring.connect(m, dut.q, queue.w)
         codes, levels = [], []
 
         async def testbench(ctx):
