@@ -235,11 +235,8 @@ class MotionController(wiring.Component):
 
         # The feed: permissions for the engine whose turn it is.
         wiring.connect(m, turns.feed, self.feed.feed)
-        m.d.comb += [
-            self.feed.profile.eq(turns.ramp.profile),
-            self.feed.start.eq(turns.ramp.start),
-            self.feed.accel.eq(dispatcher.accel),
-        ]
+        wiring.connect(m, turns.ramp, self.feed.ramp)
+        m.d.comb += self.feed.accel.eq(dispatcher.accel)
 
         # Motion: the position, and the pins.
         wiring.connect(m, turns.motion, self.stepdir.i)

@@ -23,11 +23,11 @@ from amaranth.lib import data, fifo, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ..engine import FeedSignature, MotionSignature, Outcome
-from .feed import Profile
+from .feed import Profile, RampSignature
 from .link import CONFIG, DWELL, ERROR, FEED, OUTCOME, STATUS, FrameEncoder
 
-__all__ = ["NONE_UNIT", "DWELL_UNIT", "Turn", "EngineUnit", "raw_bits", "UnitSignature",
-           "RampSignature", "StatusFields", "Dispatcher", "TurnQueue", "Replies"]
+__all__ = ["NONE_UNIT", "DWELL_UNIT", "Turn", "EngineUnit", "little", "raw_bits",
+           "UnitSignature", "StatusFields", "Dispatcher", "TurnQueue", "Replies"]
 
 #: Turns that are no engine's: nothing to move (FEED, STOP, CONFIG, an aborted frame), a dwell.
 NONE_UNIT, DWELL_UNIT = 0, 3
@@ -112,21 +112,6 @@ class _UnitPort:
         self.signature = UnitSignature(engine.signature.status_layout, engine.signature.axes)
         for name in self.signature.members:
             setattr(self, name, getattr(engine, name))
-
-
-class RampSignature(wiring.Signature):
-    """What the feed generator ramps toward (:class:`~hdl.motion.feed.FeedGenerator`).
-
-    Members
-    -------
-    profile : :py:`Out(Profile())`
-        The running move's feed.
-    start : :py:`Out(1)`
-        A move begins in this clock.
-    """
-
-    def __init__(self):
-        super().__init__({"profile": Out(Profile()), "start": Out(1)})
 
 
 def StatusFields():
@@ -300,7 +285,8 @@ class TurnQueue(wiring.Component):
     feed : :py:`Out(FeedSignature())`
         To the feed generator: the engine whose turn it is.
     ramp : :py:`Out(RampSignature())`
-        To the feed generator: the running move's profile, and its start.
+        To the feed generator (:class:`~.feed.RampSignature`): the running move's profile,
+        and its start.
     motion : :py:`Out(MotionSignature(2))`
         The engines' steps.
     busy : :py:`Out(1)`
