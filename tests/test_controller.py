@@ -2,10 +2,13 @@
 """The machine controller end to end in Amaranth's simulator: frames over the serial pin,
 steps on the step/dir pins, replies back; against the step-level models."""
 
+import binascii
+import struct
 import unittest
 
 from hdl.motion.controller import MotionController
-from hdl.motion.link import OUTCOME, STATUS
+from hdl.motion.dispatch import EngineUnit, raw_bits
+from hdl.motion.link import ERROR, LINE, OUTCOME, QUERY, STATUS
 from sim import registry
 from sim.host import protocol
 
@@ -25,13 +28,14 @@ def controller(**kwargs):
                             **kwargs)
 
 
-def run(frames, *, clocks, depth=8, inject=None, name):
+def run(frames, *, clocks, depth=8, inject=None, name, engines=()):
     """Send ``frames`` (bytes each) as a host would (at most ``depth`` unanswered queued
     frames), and ``inject`` (clock to bytes) at those clocks; collect the pins and replies.
     Returns ``(moves, replies, trace)``: the ``(clock, dx, dy)`` of every step pulse, the
     replies, and ``(step, dir)`` per clock."""
     trace = []
-    result = run_amaranth(controller(queue_frames=depth), frames, divisor=BIT, window=depth,
+    result = run_amaranth(controller(queue_frames=depth, engines=engines), frames, divisor=BIT,
+                          window=depth,
                           max_clocks=clocks, inject=inject, levels=trace,
                           vcd=waves_path(name))
     moves = [(clock, dx, dy) for (clock, _, _), (dx, dy) in zip(result.steps,
@@ -114,6 +118,66 @@ class ControllerTestCase(unittest.TestCase):
         self.assertLess(len(pins), 400)
         (status,) = [r.fields for r in replies if r.kind == STATUS]
         self.assertEqual(status[:2], (sum(dx for _, dx, _ in pins), sum(dy for _, _, dy in pins)))
+
+
+#: The stand-in engine's frame type and turn number: free ones (the protocol's next type).
+STANDIN, STANDIN_UNIT = 0x17, 5
+
+
+def standin_frame(x, y):
+    """A frame of the stand-in's type, written here from the protocol's definition (sync,
+    type, length, little-endian payload, CRC-16/CCITT of type, length and payload, high byte
+    first), not by the host's code, which knows no such type."""
+    body = bytes([STANDIN, 8]) + struct.pack("<ii", x, y)
+    return bytes([0xA5]) + body + binascii.crc_hqx(body, 0xFFFF).to_bytes(2, "big")
+
+
+class EngineTableTestCase(unittest.TestCase):
+    def test_standin_engine_by_its_row_alone(self):
+        # A second line engine, 6 bits wide (moves up to 63 steps), added as one row of the
+        # engine table: turn 5, frame type 0x17, the payload's bits as its command. Its frames
+        # reach it (a short move is made, by the step-level model's steps; a move too long for
+        # 6 bits but not for the 12-bit line engine is refused, so it went to the stand-in)
+        # and every outcome comes back in order among the line engine's.
+        row = EngineUnit("standin", STANDIN_UNIT, STANDIN, registry.make_engine("line", width=6),
+                         8, raw_bits)
+        rate = round(0.05 * Q24)
+        feed = protocol.feed(rate, rate, 1 << 20)
+        frames = [protocol.config((1 << 32) - 1),
+                  feed, protocol.line(7, -3),
+                  feed, standin_frame(5, 2),
+                  feed, protocol.line(70, 1),
+                  feed, standin_frame(70, 1),            # too long for 6 bits
+                  feed, standin_frame(-4, 6),
+                  protocol.stop(), protocol.query()]
+        pins, replies, _ = run(frames, clocks=30_000, name="controller_standin", engines=[row])
+        moves = [(7, -3, 12), (5, 2, 6), (70, 1, 12), (-4, 6, 6)]      # x, y, engine's width
+        self.assertEqual([(dx, dy) for _, dx, dy in pins],
+                         [step for x, y, width in moves for step in registry.steps(
+                             "line", {"x": x, "y": y}, width=width)])
+        refused = frames.index(standin_frame(70, 1))
+        self.assertEqual([r.fields for r in replies if r.kind == OUTCOME],
+                         [(n, 1 if n == refused else 0) for n in range(len(frames) - 1)])
+        self.assertEqual([r for r in replies if r.kind == ERROR], [])
+        (status,) = [r.fields for r in replies if r.kind == STATUS]
+        self.assertEqual(status[:2], (7 + 5 + 70 - 4, -3 + 2 + 1 + 6))
+
+    def test_table_rows_must_be_their_own(self):
+        line = registry.make_engine("line", width=6)
+        for row, message in [
+                (EngineUnit("standin", 2, STANDIN, line, 8),
+                 r"^Turn number 2 of engine 'standin' is already used by engine 'arc'$"),
+                (EngineUnit("standin", 3, STANDIN, line, 8),
+                 r"^Turn number 3 of engine 'standin' is already used by the controller "
+                 r"\(DWELL\)$"),
+                (EngineUnit("standin", STANDIN_UNIT, LINE, line, 8),
+                 r"^Frame type 0x10 of engine 'standin' is already used by engine 'line'$"),
+                (EngineUnit("standin", STANDIN_UNIT, QUERY, line, 8),
+                 r"^Frame type 0x20 of engine 'standin' is already used by the controller$"),
+                (EngineUnit("arc", STANDIN_UNIT, STANDIN, line, 8),
+                 r"^Engine name 'arc' is used twice$")]:
+            with self.assertRaisesRegex(ValueError, message):
+                controller(engines=[row])
 
 
 if __name__ == "__main__":

@@ -40,9 +40,9 @@ def run(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=
         while index < len(plan) and (clocks is None or clock < clocks):
             p, count = plan[index]
             d, diag = due(clock), diagonal(len(stepped))
-            ctx.set(dut.profile, p)
+            ctx.set(dut.ramp.profile, p)
             ctx.set(dut.accel, accel)
-            ctx.set(dut.start, starting)
+            ctx.set(dut.ramp.start, starting)
             ctx.set(dut.feed.due, d)
             ctx.set(dut.feed.diagonal, diag)
             tick = model.cycle(profile=p, accel=accel, start=starting, due=d, diagonal=diag)

@@ -5,6 +5,7 @@ import random
 import unittest
 
 from amaranth import Module, Shape
+from amaranth.lib import wiring
 
 from hdl.equidistant import EquidistantEngine, Formats
 from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
@@ -55,11 +56,7 @@ class DecoderTestCase(unittest.TestCase):
         m = Module()
         m.submodules.decoder = dut = FrameDecoder(profile=profile)
         m.submodules.queue = queue = FrameQueue(depth)
-        m.d.comb += [
-            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
-            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
-            dut.q_room.eq(queue.w_room),
-        ]
+        wiring.connect(m, dut.q, queue.w)
         frames, signals = [], []
 
         async def testbench(ctx):
@@ -129,6 +126,28 @@ class DecoderTestCase(unittest.TestCase):
         self.assertNotIn(PROFILE, host_lengths())
         self.assertEqual(with_profile.lengths[PROFILE], 38)
 
+    def test_queued_types_from_a_table(self):
+        # A controller's decoder takes its queued types and lengths from the engine table: a
+        # new type (0x17, 8 bytes) is known and queued, PROFILE unknown when not listed; the
+        # fixed types keep host_lengths()'s order, QUERY and ABORT included.
+        queued = {kind: host_lengths()[kind] for kind in (LINE, ARC, DWELL, FEED, STOP, CONFIG)}
+        dut = FrameDecoder(queued=queued | {0x17: 8})
+        used(dut)
+        self.assertEqual(dut.lengths, host_lengths() | {0x17: 8})
+        with self.assertRaisesRegex(ValueError, r"^A payload length must be 0 to 255 bytes, "
+                                                r"not 256 \(type 0x17\)$"):
+            FrameDecoder(queued={0x17: 256})
+        with self.assertRaisesRegex(ValueError, r"^A decoder takes a PROFILE length or the "
+                                                r"queued types' lengths, not both$"):
+            FrameDecoder(profile=38, queued=queued)
+
+    def test_queue_depth_wrong(self):
+        # The room the decoder sees is 16 bits wide: a queue holds at most 32768 bytes.
+        for depth in (48, 1 << 16):
+            with self.assertRaisesRegex(TypeError, rf"^Queue depth must be a power of 2 up to "
+                                                   rf"32768, not {depth}$"):
+                FrameQueue(depth)
+
     def test_queue_full_drops_and_reports(self):
         # A 32-byte queue nobody reads: frames fit until one does not; that one is dropped
         # whole (code 5), and nothing of it is readable.
@@ -136,11 +155,7 @@ class DecoderTestCase(unittest.TestCase):
         m = Module()
         m.submodules.decoder = dut = FrameDecoder()
         m.submodules.queue = queue = FrameQueue(32)
-        m.d.comb += [
-            queue.w_data.eq(dut.q_data), queue.w_en.eq(dut.q_en),
-            queue.commit.eq(dut.q_commit), queue.rollback.eq(dut.q_rollback),
-            dut.q_room.eq(queue.w_room),
-        ]
+        wiring.connect(m, dut.q, queue.w)
         codes, levels = [], []
 
         async def testbench(ctx):

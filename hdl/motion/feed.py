@@ -9,7 +9,8 @@ from amaranth.lib.wiring import In, Out
 from ..elements._checks import check_width
 from ..engine import FeedSignature
 
-__all__ = ["FeedDivider", "FeedGenerator", "Profile", "ONE", "SQRT2", "rate_limit"]
+__all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "SQRT2",
+           "rate_limit"]
 
 #: Distances in the generator's accumulator: one axial step and one diagonal step (Q2.24).
 ONE = 1 << 24
@@ -21,6 +22,31 @@ def Profile():
     rates in steps a clock (Q0.24), and the steps it makes before it ramps down to the exit
     rate."""
     return data.StructLayout({"cruise": 24, "exit": 24, "decelerate": 24})
+
+
+class RampSignature(wiring.Signature):
+    """What the feed generator ramps toward, as its source (the controller's turn queue)
+    sees it.
+
+    Members
+    -------
+    profile : :py:`Out(Profile())`
+        The running move's feed.
+    start : :py:`Out(1)`
+        A move begins in this clock: its step count starts from zero.
+    """
+
+    def __init__(self):
+        super().__init__({"profile": Out(Profile()), "start": Out(1)})
+
+    def __eq__(self, other):
+        return type(other) is type(self)
+
+    def __hash__(self):
+        return hash(type(self))
+
+    def __repr__(self):
+        return "RampSignature()"
 
 
 def rate_limit(min_interval):
@@ -97,12 +123,10 @@ class FeedGenerator(wiring.Component):
     -------
     feed : :py:`In(FeedSignature())`
         To the engine.
-    profile : :py:`In(Profile())`
-        The running move's feed.
+    ramp : :py:`In(RampSignature())`
+        The running move's feed (:py:`ramp.profile`), and its start (:py:`ramp.start`).
     accel : :py:`In(32)`
         The rate's change a clock, Q0.40 (the configured acceleration).
-    start : :py:`In(1)`
-        A move begins in this clock: its step count starts from zero.
     hold : :py:`In(1)`
         No permission while high (the rate goes on).
     rate : :py:`Out(24)`
@@ -124,9 +148,8 @@ class FeedGenerator(wiring.Component):
         self._max_rate = max_rate
         super().__init__({
             "feed":    In(FeedSignature()),
-            "profile": In(Profile()),
+            "ramp":    In(RampSignature()),
             "accel":   In(32),
-            "start":   In(1),
             "hold":    In(1),
             "rate":    Out(24),
             "steps":   Out(24),
@@ -138,7 +161,7 @@ class FeedGenerator(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        p = self.profile
+        p = self.ramp.profile
         rate = Signal(40)                       # Q0.40
         distance = Signal(26)                   # Q2.24: below √2 + 1
         steps = Signal(24)
@@ -171,7 +194,7 @@ class FeedGenerator(wiring.Component):
             m.d.sync += distance.eq(grown - length)
         with m.Elif(~self.hold & ~tick):            # a pending permission holds its distance
             m.d.sync += distance.eq(grown)
-        with m.If(self.start):
+        with m.If(self.ramp.start):
             m.d.sync += steps.eq(Mux(step, 1, 0))
         with m.Elif(step):
             m.d.sync += steps.eq(steps + 1)

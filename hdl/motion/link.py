@@ -62,6 +62,8 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
+from .queue import QueueWriteSignature
+
 __all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
            "ABORT", "OUTCOME", "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
            "host_lengths", "profile_bytes", "crc16_byte", "FrameDecoder", "FrameEncoder"]
@@ -145,6 +147,9 @@ class FrameDecoder(wiring.Component):
     profile : :class:`int` or ``None``
         The PROFILE payload length of the controller's profile engine (:func:`profile_bytes`);
         ``None`` (the default): the controller has none, and PROFILE is an unknown type.
+    queued : :class:`dict` or ``None``
+        Instead of ``profile``: the payload length of every queued frame type the controller
+        knows (its engine table's types and the fixed ones); QUERY and ABORT are added.
 
     Members
     -------
@@ -152,10 +157,8 @@ class FrameDecoder(wiring.Component):
         Bytes from the host.
     line_error : :py:`In(1)`
         A character was lost on the line (framing error or overrun).
-    q_data, q_en, q_commit, q_rollback : :py:`Out(8)`, :py:`Out(1)` ...
-        To the frame queue's write side.
-    q_room : :py:`In(16)`
-        Bytes the queue can still take.
+    q : :py:`Out(QueueWriteSignature())`
+        To the frame queue's write side (bytes, commit, rollback; the room left).
     query, abort : :py:`Out(1)`
         A checked QUERY or ABORT frame ended in this clock.
     error : :py:`Out(stream.Signature(8))`
@@ -165,19 +168,33 @@ class FrameDecoder(wiring.Component):
     Raises
     ------
     :exc:`ValueError`
-        If ``profile`` is not a length byte (1 to 255).
+        If ``profile`` is not a length byte (1 to 255), a length of ``queued`` not a byte
+        (0 to 255), or both are given.
     """
 
-    def __init__(self, *, profile=None):
-        self._lengths = host_lengths(profile)
+    def __init__(self, *, profile=None, queued=None):
+        if queued is None:
+            self._lengths = host_lengths(profile)
+            self._queued = frozenset(QUEUED)
+        else:
+            if profile is not None:
+                raise ValueError("A decoder takes a PROFILE length or the queued types' "
+                                 "lengths, not both")
+            for kind, count in queued.items():
+                if isinstance(count, bool) or not isinstance(count, int) or \
+                        not 0 <= count <= 255:
+                    raise ValueError(f"A payload length must be 0 to 255 bytes, not {count!r} "
+                                     f"(type {kind:#04x})")
+            # The fixed types first, in the order of host_lengths(), then the others.
+            self._lengths = {kind: queued.get(kind, count)
+                             for kind, count in host_lengths().items()
+                             if kind in queued or kind not in QUEUED}
+            self._lengths.update(queued)
+            self._queued = frozenset(queued)
         super().__init__({
             "i":          In(stream.Signature(8)),
             "line_error": In(1),
-            "q_data":     Out(8),
-            "q_en":       Out(1),
-            "q_commit":   Out(1),
-            "q_rollback": Out(1),
-            "q_room":     In(16),
+            "q":          Out(QueueWriteSignature()),
             "query":      Out(1),
             "abort":      Out(1),
             "error":      Out(stream.Signature(8)),
@@ -200,7 +217,7 @@ class FrameDecoder(wiring.Component):
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
         take = self.i.valid & self.i.ready
-        m.d.comb += self.q_data.eq(byte)
+        m.d.comb += self.q.data.eq(byte)
 
         code = Signal(8)                        # an error to report; 0: none
         m.d.comb += [self.error.valid.eq(code != 0), self.error.payload.eq(code)]
@@ -214,12 +231,12 @@ class FrameDecoder(wiring.Component):
             for frame_type, count in self._lengths.items():
                 with m.Case(frame_type):
                     m.d.comb += [known.eq(1), expected.eq(count),
-                                 queued_type.eq(frame_type in QUEUED)]
+                                 queued_type.eq(frame_type in self._queued)]
 
         def drop(error_code, rollback):
             m.d.sync += code.eq(error_code)
             if rollback:
-                m.d.comb += self.q_rollback.eq(queued)
+                m.d.comb += self.q.rollback.eq(queued)
             m.next = "Hunt"
 
         with m.FSM(name="decoder") as fsm:
@@ -231,10 +248,10 @@ class FrameDecoder(wiring.Component):
                 with m.If(take):
                     with m.If(~known):
                         drop(2, rollback=False)
-                    with m.Elif(queued_type & (self.q_room < expected + 1)):
+                    with m.Elif(queued_type & (self.q.room < expected + 1)):
                         drop(5, rollback=False)
                     with m.Else():
-                        m.d.comb += self.q_en.eq(queued_type)
+                        m.d.comb += self.q.en.eq(queued_type)
                         m.d.sync += [kind.eq(byte), queued.eq(queued_type),
                                      length.eq(expected), crc.eq(crc_next)]
                         m.next = "Length"
@@ -249,7 +266,7 @@ class FrameDecoder(wiring.Component):
                 with m.If(index == length):
                     m.next = "CRC high"
                 with m.Elif(self.i.valid):          # (ready here)
-                    m.d.comb += self.q_en.eq(queued)
+                    m.d.comb += self.q.en.eq(queued)
                     m.d.sync += [index.eq(index + 1), crc.eq(crc_next)]
             with m.State("CRC high"):
                 with m.If(take):
@@ -261,7 +278,7 @@ class FrameDecoder(wiring.Component):
                         drop(1, rollback=True)
                     with m.Else():
                         m.d.comb += [
-                            self.q_commit.eq(queued),
+                            self.q.commit.eq(queued),
                             self.query.eq(kind == QUERY),
                             self.abort.eq(kind == ABORT),
                         ]
