@@ -23,83 +23,9 @@ from .arc import ArcCoreSignature, _quadrant, _x_falls
 from .elements import AccumulatingAdder, ReversibleCounter
 from .elements._checks import check_width
 from .engine import EngineSignature, Outcome, StatusUnit
+from .spec import Formats, Kind
 
 __all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine"]
-
-
-class Kind:
-    """Frame kinds (the ``kind`` field of :meth:`EquidistantEngine.Frame`)."""
-    RADIUS = 0       #: set the cutter radius (``x``); DONE once r² is formed
-    START = 1        #: the cutter's centre is at ``(x, y)``: a contour begins there
-    LINE = 2         #: a line element
-    ARC = 3          #: an arc element
-    CLOSE = 4        #: return to the start of the contour
-
-
-class Formats:
-    """The widths of the engine's numbers (:class:`sim.models.equidistant.Formats` mirrors it).
-
-    Parameters
-    ----------
-    width : :class:`int`
-        Coordinate width: coordinates within ``±(2**width - 1)``, the radius below
-        ``2**width``.
-    fraction : :class:`int`
-        Fractional bits of ``k``, ``b``, ``1/cos α``, ``2R`` and of line functions (default
-        ``width + 4``).
-
-    Raises
-    ------
-    :exc:`TypeError`
-        If ``width`` is not an integer of at least 4 or ``fraction`` not one of at least 2.
-    """
-
-    def __init__(self, width=16, fraction=None):
-        check_width("Coordinate width", width, minimum=4)
-        fraction = width + 4 if fraction is None else fraction
-        check_width("Fractional bits", fraction, minimum=2)
-        self.width = width
-        self.fraction = fraction
-
-    def __eq__(self, other):
-        return (type(other) is type(self) and other.width == self.width
-                and other.fraction == self.fraction)
-
-    def __hash__(self):
-        return hash((self.width, self.fraction))
-
-    def __repr__(self):
-        return f"Formats(width={self.width}, fraction={self.fraction})"
-
-    @property
-    def position(self):
-        """Width of the position counters (signed)."""
-        return self.width + 2
-
-    @property
-    def coefficient(self):
-        """Width of ``k`` and ``1/cos α`` (signed)."""
-        return self.fraction + 2
-
-    @property
-    def intercept(self):
-        """Width of ``b`` and of an offset coefficient (signed)."""
-        return self.width + self.fraction + 3
-
-    @property
-    def square(self):
-        """Width of ``R²`` (unsigned)."""
-        return 2 * self.width + 3
-
-    @property
-    def value(self):
-        """Width of a function's value (signed)."""
-        return max(self.fraction + self.width + 4, 2 * self.width + 5)
-
-    @property
-    def core(self):
-        """Register width of the arc core."""
-        return self.width + 2
 
 
 class SerialMultiplier(wiring.Component):
