@@ -422,7 +422,8 @@ class EquidistantEngine(wiring.Component):
 
     def _block11_comparator(self, m, n):
         """Block 11: the traced element's end, now (at the point) or after this clock's step,
-        where the next element's function (or its entry line) reaches the threshold ``2τ``."""
+        where the next element's function (or its entry line) reaches the threshold ``2τ``;
+        the arc core's run from the position, stopped by it."""
         f, one, own, cmp = n.f, n.one, n.own, n.cmp
         # The kinds of the traced element's steps (signs qx, qy; which axis steps occur).
         own_u, own_v = self._relative(n, own)
@@ -471,6 +472,20 @@ class EquidistantEngine(wiring.Component):
                                       | (own.arc & (own.empty | at_centre)))),
             end_after.eq(n.running & ~n.end_now & n.stepped & reached(target_after)),
         ]
+
+        # The arc core: a run from the position, on the circle N (residue = -S), stopped by
+        # this comparator.
+        core, arc_state = n.core, n.arc_state
+        core_native_x = Mux(_x_falls(quadrant, own.cw), _abs(own_u), _abs(own_v))
+        core_native_y = Mux(_x_falls(quadrant, own.cw), _abs(own_v), _abs(own_u))
+        m.d.comb += [
+            core.cmd.valid.eq(n.arc_go & (arc_state == 0)),
+            core.cmd.payload.x.eq(core_native_x),
+            core.cmd.payload.y.eq(core_native_y),
+            core.cmd.payload.residue.eq(-own.v),
+            core.stop.eq(own.arc & end_after),
+            core.abort.eq(self.abort | (own.arc & n.end_now)),
+        ]
         n.own_u, n.own_v, n.quadrant = own_u, own_v, quadrant
         n.x_negative, n.y_negative, n.end_after = x_negative, y_negative, end_after
 
@@ -492,20 +507,10 @@ class EquidistantEngine(wiring.Component):
         n.shift_own, n.shift_cmp, n.shift_prep = shift_own, shift_cmp, shift_prep
 
     def _arc_runs(self, m, n):
-        """The arc core: a run from the position on the circle N (residue = -S), handed over
-        in WAIT, taken in TAKE, stopped by block 11."""
+        """The arc runs' state: a run handed to the core in WAIT, taken in TAKE, run to its
+        axis or stopped by block 11."""
         own, core, quadrant = n.own, n.core, n.quadrant
         x_negative, y_negative, arc_state = n.x_negative, n.y_negative, n.arc_state
-        core_native_x = Mux(_x_falls(quadrant, own.cw), _abs(n.own_u), _abs(n.own_v))
-        core_native_y = Mux(_x_falls(quadrant, own.cw), _abs(n.own_v), _abs(n.own_u))
-        m.d.comb += [
-            core.cmd.valid.eq(n.arc_go & (arc_state == 0)),
-            core.cmd.payload.x.eq(core_native_x),
-            core.cmd.payload.y.eq(core_native_y),
-            core.cmd.payload.residue.eq(-own.v),
-            core.stop.eq(own.arc & n.end_after),
-            core.abort.eq(self.abort | (own.arc & n.end_now)),
-        ]
         with m.If(self.abort):
             m.d.sync += arc_state.eq(0)
         with m.Elif(n.element_end):
