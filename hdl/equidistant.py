@@ -13,6 +13,8 @@ distributor of lines, ``block4``/``block10`` the integrators of every slot's fun
 the feed interface. ``docs/equidistant.md`` maps them and states what the text leaves open.
 """
 
+from types import SimpleNamespace
+
 from amaranth import *
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
@@ -21,83 +23,9 @@ from .arc import ArcCoreSignature, _quadrant, _x_falls
 from .elements import AccumulatingAdder, ReversibleCounter
 from .elements._checks import check_width
 from .engine import EngineSignature, Outcome, StatusUnit
+from .spec import Formats, Kind
 
 __all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine"]
-
-
-class Kind:
-    """Frame kinds (the ``kind`` field of :meth:`EquidistantEngine.Frame`)."""
-    RADIUS = 0       #: set the cutter radius (``x``); DONE once r² is formed
-    START = 1        #: the cutter's centre is at ``(x, y)``: a contour begins there
-    LINE = 2         #: a line element
-    ARC = 3          #: an arc element
-    CLOSE = 4        #: return to the start of the contour
-
-
-class Formats:
-    """The widths of the engine's numbers (:class:`sim.models.equidistant.Formats` mirrors it).
-
-    Parameters
-    ----------
-    width : :class:`int`
-        Coordinate width: coordinates within ``±(2**width - 1)``, the radius below
-        ``2**width``.
-    fraction : :class:`int`
-        Fractional bits of ``k``, ``b``, ``1/cos α``, ``2R`` and of line functions (default
-        ``width + 4``).
-
-    Raises
-    ------
-    :exc:`TypeError`
-        If ``width`` is not an integer of at least 4 or ``fraction`` not one of at least 2.
-    """
-
-    def __init__(self, width=16, fraction=None):
-        check_width("Coordinate width", width, minimum=4)
-        fraction = width + 4 if fraction is None else fraction
-        check_width("Fractional bits", fraction, minimum=2)
-        self.width = width
-        self.fraction = fraction
-
-    def __eq__(self, other):
-        return (type(other) is type(self) and other.width == self.width
-                and other.fraction == self.fraction)
-
-    def __hash__(self):
-        return hash((self.width, self.fraction))
-
-    def __repr__(self):
-        return f"Formats(width={self.width}, fraction={self.fraction})"
-
-    @property
-    def position(self):
-        """Width of the position counters (signed)."""
-        return self.width + 2
-
-    @property
-    def coefficient(self):
-        """Width of ``k`` and ``1/cos α`` (signed)."""
-        return self.fraction + 2
-
-    @property
-    def intercept(self):
-        """Width of ``b`` and of an offset coefficient (signed)."""
-        return self.width + self.fraction + 3
-
-    @property
-    def square(self):
-        """Width of ``R²`` (unsigned)."""
-        return 2 * self.width + 3
-
-    @property
-    def value(self):
-        """Width of a function's value (signed)."""
-        return max(self.fraction + self.width + 4, 2 * self.width + 5)
-
-    @property
-    def core(self):
-        """Register width of the arc core."""
-        return self.width + 2
 
 
 class SerialMultiplier(wiring.Component):
@@ -332,33 +260,59 @@ class EquidistantEngine(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        f = self._formats
-        w, fr = f.width, f.fraction
-        one, half = 1 << fr, 1 << (fr - 1)
-        m.submodules.core = core = self._core
+        m.submodules.core = self._core
         for name in ("block5x", "block5y", "block6", "block12", "block13"):
             m.submodules[name] = getattr(self, name)
-        b5x, b5y, b6 = self.block5x, self.block5y, self.block6
-        block12, block13 = self.block12, self.block13
-        m.submodules.status = status = StatusUnit(position_width=w + 3,
-                                                  number_width=self.signature.number_width)
-        frame = self.cmd.payload
-        slot = _slot(f)
+        m.submodules.status = StatusUnit(position_width=self._formats.width + 3,
+                                         number_width=self.signature.number_width)
+        n = self._block2_registers(m)
+        self._block3_line_steps(m, n)
+        self._block9_steps(m, n)
+        self._blocks4_10_integrators(m, n)
+        self._block11_comparator(m, n)
+        self._element_ends(m, n)
+        self._arc_runs(m, n)
+        self._block1_frames(m, n)
+        self._blocks5_8_functions(m, n)
+        self._block2_memory(m, n)
+        self._control_frames(m, n)
+        self._blocks12_13_position(m, n)
+        self._blocks14_15_outputs(m, n)
+        return m
+
+    # The helpers below each elaborate one group of Fig. 4's blocks into ``m``; ``n`` (a
+    # namespace) carries the signals that one group drives and another reads, under the names
+    # the groups give them.
+
+    def _block2_registers(self, m):
+        """Block 2's three slots, the dial, the start and the contour's flags."""
+        f = self._formats
+        w, fr = f.width, f.fraction
+        n = SimpleNamespace(f=f, one=1 << fr, half=1 << (fr - 1), core=m.submodules.core,
+                            status=m.submodules.status, frame=self.cmd.payload, slot=_slot(f))
+        slot = n.slot
         own = Signal(slot)                   # block 2: the element traced (register III in v)
         cmp = Signal(slot)                   # ... the next one (its function in blocks 4, 10)
         prep = Signal(slot)                  # ... the one after (being formed, blocks 5-8)
-        slots = (own, cmp, prep)
-
-        x, y = block12.q, block13.q          # blocks 12, 13: the cutter's centre
+        n.own, n.cmp, n.prep = own, cmp, prep
+        n.slots = (own, cmp, prep)
+        n.x, n.y = self.block12.q, self.block13.q    # blocks 12, 13: the cutter's centre
         radius = Signal(w)
         radius2 = Signal(2 * w)
         start_x = Signal(signed(w + 1))
         start_y = Signal(signed(w + 1))
         contour = Signal()                   # a contour is open: elements are taken
         homing = Signal()
+        n.radius, n.radius2, n.start_x, n.start_y = radius, radius2, start_x, start_y
+        n.contour, n.homing = contour, homing
+        return n
 
-        # ---- this clock's step -----------------------------------------------------------
-        hold = status.hold
+    def _block3_line_steps(self, m, n):
+        """This clock's step: whether the traced element runs; block 3, the line's steps;
+        the arc run's hand-over registers; the return's steps."""
+        f, own, cmp, core = n.f, n.own, n.cmp, n.core
+        half = n.half
+        hold = n.status.hold
         running = Signal()
         end_now = Signal()
         m.d.comb += running.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready
@@ -393,48 +347,62 @@ class EquidistantEngine(wiring.Component):
             arc_go.eq(running & ~end_now & own.arc),
             core.feed.tick.eq(self.feed.tick & arc_go),
         ]
-        native = core.step
-        arc_bits = Mux(run_swap, Cat(native[1], native[0]), native)
 
         home_dx = Signal()
         home_dy = Signal()
         m.d.comb += [
-            home_dx.eq(x != start_x),
-            home_dy.eq(y != start_y),
+            home_dx.eq(n.x != n.start_x),
+            home_dy.eq(n.y != n.start_y),
         ]
-        home_due = homing & (home_dx | home_dy) & ~hold & ~self.abort
+        home_due = n.homing & (home_dx | home_dy) & ~hold & ~self.abort
         home_step = home_due & self.feed.tick
+        n.hold, n.running, n.end_now = hold, running, end_now
+        n.line_major, n.line_minor, n.line_minor_negative = (line_major, line_minor,
+                                                             line_minor_negative)
+        n.line_due, n.line_step = line_due, line_step
+        n.arc_state, n.run_swap, n.run_dir, n.arc_go = arc_state, run_swap, run_dir, arc_go
+        n.home_dx, n.home_dy, n.home_due, n.home_step = home_dx, home_dy, home_due, home_step
 
-        # Block 9: the steps of lines and arcs onto the real axes.
+    def _block9_steps(self, m, n):
+        """Block 9: the steps of lines, arcs and the return onto the real axes."""
+        own, x, y = n.own, n.x, n.y
+        native = n.core.step
+        arc_bits = Mux(n.run_swap, Cat(native[1], native[0]), native)
         step_x = Signal()
         step_y = Signal()
         neg_x = Signal()
         neg_y = Signal()
-        with m.If(line_step):
+        with m.If(n.line_step):
             with m.If(own.swap):
-                m.d.comb += [step_x.eq(line_minor), neg_x.eq(line_minor_negative),
-                             step_y.eq(line_major), neg_y.eq(own.back)]
+                m.d.comb += [step_x.eq(n.line_minor), neg_x.eq(n.line_minor_negative),
+                             step_y.eq(n.line_major), neg_y.eq(own.back)]
             with m.Else():
-                m.d.comb += [step_x.eq(line_major), neg_x.eq(own.back),
-                             step_y.eq(line_minor), neg_y.eq(line_minor_negative)]
-        with m.Elif(home_step):
-            m.d.comb += [step_x.eq(home_dx), neg_x.eq(x > start_x),
-                         step_y.eq(home_dy), neg_y.eq(y > start_y)]
-        with m.Elif(arc_go):
-            m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(run_dir[0]),
-                         step_y.eq(arc_bits[1]), neg_y.eq(run_dir[1])]
+                m.d.comb += [step_x.eq(n.line_major), neg_x.eq(own.back),
+                             step_y.eq(n.line_minor), neg_y.eq(n.line_minor_negative)]
+        with m.Elif(n.home_step):
+            m.d.comb += [step_x.eq(n.home_dx), neg_x.eq(x > n.start_x),
+                         step_y.eq(n.home_dy), neg_y.eq(y > n.start_y)]
+        with m.Elif(n.arc_go):
+            m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(n.run_dir[0]),
+                         step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
         stepped = Signal()
-        m.d.comb += stepped.eq((step_x | step_y) & ~homing)
+        m.d.comb += stepped.eq((step_x | step_y) & ~n.homing)
+        n.step_x, n.step_y, n.neg_x, n.neg_y, n.stepped = step_x, step_y, neg_x, neg_y, stepped
 
-        # ---- blocks 4 and 10: every slot's function over this clock's step ----------------
-        def relative(s):
-            return x - s.cx, y - s.cy
+    def _relative(self, n, s):
+        """The position relative to slot ``s``'s centre."""
+        return n.x - s.cx, n.y - s.cy
+
+    def _blocks4_10_integrators(self, m, n):
+        """Blocks 4 and 10: every slot's functions ``(v, w)`` after this clock's step."""
+        f, one = n.f, n.one
+        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
 
         def stepped_values(s):
             """``(v, w)`` of slot ``s`` after this clock's step."""
             c, d = _coefficients(s.swap, s.minor, s.k, one)
             ec, ed = _coefficients(s.eswap, s.eminor, s.ek, one)
-            u, v = relative(s)
+            u, v = self._relative(n, s)
             circle = (Mux(step_x, Mux(neg_x, -2 * u + 1, 2 * u + 1), 0)
                       + Mux(step_y, Mux(neg_y, -2 * v + 1, 2 * v + 1), 0))
             line = _term(c, step_x, neg_x) + _term(d, step_y, neg_y)
@@ -443,17 +411,22 @@ class EquidistantEngine(wiring.Component):
 
         stepped_v = []
         stepped_w = []
-        for n, s in enumerate(slots):
-            sv = Signal(signed(f.value), name=f"stepped_v{n}")
-            sw = Signal(signed(f.value), name=f"stepped_w{n}")
+        for i, s in enumerate(n.slots):
+            sv = Signal(signed(f.value), name=f"stepped_v{i}")
+            sw = Signal(signed(f.value), name=f"stepped_w{i}")
             v_expr, w_expr = stepped_values(s)
             m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
             stepped_v.append(sv)
             stepped_w.append(sw)
+        n.stepped_v, n.stepped_w = stepped_v, stepped_w
 
-        # ---- block 11: the comparator ----------------------------------------------------
+    def _block11_comparator(self, m, n):
+        """Block 11: the traced element's end, now (at the point) or after this clock's step,
+        where the next element's function (or its entry line) reaches the threshold ``2τ``;
+        the arc core's run from the position, stopped by it."""
+        f, one, own, cmp = n.f, n.one, n.own, n.cmp
         # The kinds of the traced element's steps (signs qx, qy; which axis steps occur).
-        own_u, own_v = relative(own)
+        own_u, own_v = self._relative(n, own)
         quadrant = _quadrant(own_u, own_v, own.cw)
         x_negative = (quadrant == 1) | (quadrant == 2)
         y_negative = (quadrant == 2) | (quadrant == 3)
@@ -467,7 +440,7 @@ class EquidistantEngine(wiring.Component):
         tc, td = _coefficients(Mux(cmp.entry, cmp.eswap, cmp.swap),
                                Mux(cmp.entry, cmp.eminor, cmp.minor),
                                Mux(cmp.entry, cmp.ek, cmp.k), one)
-        tu, tv = relative(cmp)
+        tu, tv = self._relative(n, cmp)
         target_circle = cmp.arc & ~cmp.entry
         kind_a = Signal(signed(f.value))
         kind_b = Signal(signed(f.value))
@@ -487,7 +460,7 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += tau2.eq(Mux(kab > kd, kab, kd))
 
         target = Mux(cmp.entry, cmp.w, cmp.v)
-        target_after = Mux(cmp.entry, stepped_w[1], stepped_v[1])
+        target_after = Mux(cmp.entry, n.stepped_w[1], n.stepped_v[1])
 
         def reached(value):
             return ((Mux(cmp.h, -value, value) << 1) + tau2) >= 0
@@ -495,73 +468,88 @@ class EquidistantEngine(wiring.Component):
         at_centre = own.arc & (own_u == 0) & (own_v == 0)
         end_after = Signal()
         m.d.comb += [
-            end_now.eq(running & (reached(target) | (own.arc & (own.empty | at_centre)))),
-            end_after.eq(running & ~end_now & stepped & reached(target_after)),
+            n.end_now.eq(n.running & (reached(target)
+                                      | (own.arc & (own.empty | at_centre)))),
+            end_after.eq(n.running & ~n.end_now & n.stepped & reached(target_after)),
         ]
 
-        # The arc core: a run from the position, on the circle N (residue = -S).
+        # The arc core: a run from the position, on the circle N (residue = -S), stopped by
+        # this comparator.
+        core, arc_state = n.core, n.arc_state
         core_native_x = Mux(_x_falls(quadrant, own.cw), _abs(own_u), _abs(own_v))
         core_native_y = Mux(_x_falls(quadrant, own.cw), _abs(own_v), _abs(own_u))
         m.d.comb += [
-            core.cmd.valid.eq(arc_go & (arc_state == 0)),
+            core.cmd.valid.eq(n.arc_go & (arc_state == 0)),
             core.cmd.payload.x.eq(core_native_x),
             core.cmd.payload.y.eq(core_native_y),
             core.cmd.payload.residue.eq(-own.v),
             core.stop.eq(own.arc & end_after),
-            core.abort.eq(self.abort | (own.arc & end_now)),
+            core.abort.eq(self.abort | (own.arc & n.end_now)),
         ]
+        n.own_u, n.own_v, n.quadrant = own_u, own_v, quadrant
+        n.x_negative, n.y_negative, n.end_after = x_negative, y_negative, end_after
 
-        # ---- the contour's elements: ends and the memory's shifts ------------------------
+    def _element_ends(self, m, n):
+        """The contour's elements: ends and block 2's shifts."""
         element_end = Signal()
         terminal_end = Signal()
         shift_own = Signal()
         shift_cmp = Signal()
         shift_prep = Signal()
         m.d.comb += [
-            element_end.eq(end_now | end_after),
-            terminal_end.eq(own.valid & own.last & ~hold & ~self.abort),
-            shift_own.eq(element_end | terminal_end | ~own.valid),
-            shift_cmp.eq(shift_own | ~cmp.valid),
-            shift_prep.eq(shift_cmp | ~prep.valid),
+            element_end.eq(n.end_now | n.end_after),
+            terminal_end.eq(n.own.valid & n.own.last & ~n.hold & ~self.abort),
+            shift_own.eq(element_end | terminal_end | ~n.own.valid),
+            shift_cmp.eq(shift_own | ~n.cmp.valid),
+            shift_prep.eq(shift_cmp | ~n.prep.valid),
         ]
+        n.element_end, n.terminal_end = element_end, terminal_end
+        n.shift_own, n.shift_cmp, n.shift_prep = shift_own, shift_cmp, shift_prep
 
+    def _arc_runs(self, m, n):
+        """The arc runs' state: a run handed to the core in WAIT, taken in TAKE, run to its
+        axis or stopped by block 11."""
+        own, core, quadrant = n.own, n.core, n.quadrant
+        x_negative, y_negative, arc_state = n.x_negative, n.y_negative, n.arc_state
         with m.If(self.abort):
             m.d.sync += arc_state.eq(0)
-        with m.Elif(element_end):
+        with m.Elif(n.element_end):
             m.d.sync += arc_state.eq(0)
         with m.Elif((arc_state == 0) & core.cmd.valid):
             x_falls = _x_falls(quadrant, own.cw)
             m.d.sync += [
                 arc_state.eq(1),
-                run_swap.eq(~x_falls),
-                run_dir.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
-                               Mux(x_falls, y_negative, ~y_negative))),
+                n.run_swap.eq(~x_falls),
+                n.run_dir.eq(Cat(Mux(x_falls, ~x_negative, x_negative),
+                                 Mux(x_falls, y_negative, ~y_negative))),
             ]
         with m.Elif(arc_state == 1):
             m.d.sync += arc_state.eq(2)
         with m.Elif((arc_state == 2) & core.done):
             m.d.sync += arc_state.eq(0)
 
-        # ---- block 1: frames in ----------------------------------------------------------
+    def _block1_frames(self, m, n):
+        """Block 1: frames in: checked, taken or refused, an element decoded into a slot."""
+        frame, own, cmp, prep, status = n.frame, n.own, n.cmp, n.prep, n.status
         kind = frame.kind
         is_element = (kind == Kind.LINE) | (kind == Kind.ARC)
         bad = Signal()
-        m.d.comb += bad.eq((kind > Kind.CLOSE) | (is_element & ~contour)
+        m.d.comb += bad.eq((kind > Kind.CLOSE) | (is_element & ~n.contour)
                            | ((kind == Kind.RADIUS) & (frame.x < 0)))
         unit = Signal(3)                     # blocks 5-8: 0 idle, 1 launch, 2 round 1,
         #                                      3 launch 2, 4 round 2, 5 radius
         unit_entry = Signal()
         unit_last_round = Signal()
-        pending = Signal(_frame(f))          # the frame being formed
+        pending = Signal(_frame(n.f))        # the frame being formed
         engine_idle = Signal()
         m.d.comb += engine_idle.eq(~own.valid & ~cmp.valid & ~prep.valid & (unit == 0)
-                                   & ~homing & ~contour)
+                                   & ~n.homing & ~n.contour)
         accepting = ~self.abort & ~status.flushing
         take_element = Signal()
         take_control = Signal()
         refuse = Signal()
         m.d.comb += [
-            take_element.eq(accepting & contour & is_element & shift_prep
+            take_element.eq(accepting & n.contour & is_element & n.shift_prep
                             & ((unit == 0) | unit_last_round)),
             take_control.eq(accepting & ~is_element & ~bad & engine_idle & status.idle),
             refuse.eq(self.cmd.valid & accepting & bad & engine_idle & status.idle),
@@ -569,7 +557,7 @@ class EquidistantEngine(wiring.Component):
         ]
         accept = self.cmd.valid & self.cmd.ready
         taken = accept & ~bad                # accepted and not refused
-        new = Signal(slot)
+        new = Signal(n.slot)
         m.d.comb += [
             new.valid.eq(1), new.computing.eq(1), new.last.eq(frame.last),
             new.arc.eq(kind == Kind.ARC), new.h.eq(frame.h), new.entry.eq(frame.entry),
@@ -577,10 +565,20 @@ class EquidistantEngine(wiring.Component):
             new.k.eq(frame.k), new.cx.eq(frame.x), new.cy.eq(frame.y), new.cw.eq(frame.cw),
             new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
         ]
+        n.kind, n.unit, n.unit_entry, n.unit_last_round, n.pending = (
+            kind, unit, unit_entry, unit_last_round, pending)
+        n.take_element, n.refuse, n.accept, n.taken, n.new = (take_element, refuse, accept,
+                                                             taken, new)
 
-        # ---- blocks 5, 6, 7, 8: a frame's functions at the position ----------------------
-        p0x = Signal(signed(w + 2))
-        p0y = Signal(signed(w + 2))
+    def _blocks5_8_functions(self, m, n):
+        """Blocks 5, 6, 7, 8: a frame's functions at the position it entered the memory (and
+        r² when the radius is set)."""
+        f, frame, pending, unit, kind = n.f, n.frame, n.pending, n.unit, n.kind
+        one, half, fr = n.one, n.half, f.fraction
+        b5x, b5y, b6 = self.block5x, self.block5y, self.block6
+        x, y, radius = n.x, n.y, n.radius
+        p0x = Signal(signed(f.width + 2))
+        p0y = Signal(signed(f.width + 2))
         launching = (unit == 1) | (unit == 3)
         base_x = Mux(unit == 1, x, p0x)
         base_y = Mux(unit == 1, y, p0y)
@@ -595,7 +593,7 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += [
             b5x.start.eq(launching),
             b5y.start.eq(launching),
-            b6.start.eq(launching | ((unit == 0) & taken & (kind == Kind.RADIUS))),
+            b6.start.eq(launching | ((unit == 0) & n.taken & (kind == Kind.RADIUS))),
             b5x.clear.eq(self.abort),
             b5y.clear.eq(self.abort),
             b6.clear.eq(self.abort),
@@ -620,19 +618,19 @@ class EquidistantEngine(wiring.Component):
         sigma_out = (pending.side == 1) == pending.cw
         rounded = (b6.product + half) >> fr
         n_value = Signal(signed(f.value))
-        m.d.comb += n_value.eq(pending.e + radius2 + Mux(sigma_out, rounded, -rounded))
+        m.d.comb += n_value.eq(pending.e + n.radius2 + Mux(sigma_out, rounded, -rounded))
         circle_value = Signal(signed(f.value))
         m.d.comb += circle_value.eq(b5x.product + b5y.product - n_value)
         combine1 = (unit == 2) & b6.done
         combine2 = (unit == 4) & b6.done
         m.d.comb += [
-            unit_entry.eq(pending.entry),
-            unit_last_round.eq((combine1 & ~pending.entry) | combine2),
+            n.unit_entry.eq(pending.entry),
+            n.unit_last_round.eq((combine1 & ~pending.entry) | combine2),
         ]
         with m.If(self.abort):
             m.d.sync += unit.eq(0)
         with m.Elif(unit == 0):
-            with m.If(taken & (kind == Kind.RADIUS)):
+            with m.If(n.taken & (kind == Kind.RADIUS)):
                 m.d.sync += [unit.eq(5), radius.eq(frame.x)]
         with m.Elif(unit == 1):
             m.d.sync += [unit.eq(2), p0x.eq(x), p0y.eq(y)]
@@ -643,92 +641,110 @@ class EquidistantEngine(wiring.Component):
         with m.Elif(combine2):
             m.d.sync += unit.eq(0)
         with m.Elif((unit == 5) & b6.done):
-            m.d.sync += [unit.eq(0), radius2.eq(b6.product)]
-        with m.If(take_element & self.cmd.valid & ~self.abort):
+            m.d.sync += [unit.eq(0), n.radius2.eq(b6.product)]
+        with m.If(n.take_element & self.cmd.valid & ~self.abort):
             m.d.sync += [pending.eq(frame), unit.eq(1)]
+        n.line_value, n.n_value, n.circle_value = line_value, n_value, circle_value
+        n.combine1, n.combine2 = combine1, combine2
 
-        # ---- the memory's next contents ----------------------------------------------------
-        def advanced(n):
-            """Slot ``n`` after this clock: stepped, and its functions added when formed."""
-            s = slots[n]
-            out = Signal(slot, name=f"advanced{n}")
-            m.d.comb += [out.eq(s), out.v.eq(stepped_v[n]), out.w.eq(stepped_w[n])]
-            with m.If(s.computing & combine1):
-                m.d.comb += out.v.eq(stepped_v[n] + Mux(s.arc, circle_value, line_value))
+    def _block2_memory(self, m, n):
+        """Block 2's next contents: every slot stepped, its functions added when formed, the
+        slots shifted at an element's end, a new frame taken into the last."""
+        own, cmp, prep, slots, pending = n.own, n.cmp, n.prep, n.slots, n.pending
+
+        def advanced(i):
+            """Slot ``i`` after this clock: stepped, and its functions added when formed."""
+            s = slots[i]
+            out = Signal(n.slot, name=f"advanced{i}")
+            m.d.comb += [out.eq(s), out.v.eq(n.stepped_v[i]), out.w.eq(n.stepped_w[i])]
+            with m.If(s.computing & n.combine1):
+                m.d.comb += out.v.eq(n.stepped_v[i] + Mux(s.arc, n.circle_value,
+                                                          n.line_value))
                 with m.If(s.arc):
-                    m.d.comb += out.empty.eq(n_value <= 0)
+                    m.d.comb += out.empty.eq(n.n_value <= 0)
                 with m.If(~pending.entry):
                     m.d.comb += [out.computing.eq(0), out.ready.eq(1)]
-            with m.If(s.computing & combine2):
-                m.d.comb += [out.w.eq(stepped_w[n] + line_value), out.computing.eq(0),
+            with m.If(s.computing & n.combine2):
+                m.d.comb += [out.w.eq(n.stepped_w[i] + n.line_value), out.computing.eq(0),
                              out.ready.eq(1)]
             return out
 
-        moved = [advanced(n) for n in range(3)]
+        moved = [advanced(i) for i in range(3)]
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
         with m.Else():
             m.d.sync += [
-                own.eq(Mux(shift_own, moved[1], moved[0])),
-                cmp.eq(Mux(shift_cmp, moved[2], moved[1])),
+                own.eq(Mux(n.shift_own, moved[1], moved[0])),
+                cmp.eq(Mux(n.shift_cmp, moved[2], moved[1])),
             ]
-            with m.If(shift_prep):
-                with m.If(take_element & self.cmd.valid):
-                    m.d.sync += prep.eq(new)
+            with m.If(n.shift_prep):
+                with m.If(n.take_element & self.cmd.valid):
+                    m.d.sync += prep.eq(n.new)
                 with m.Else():
                     m.d.sync += prep.valid.eq(0)
             with m.Else():
                 m.d.sync += prep.eq(moved[2])
 
-        # ---- control frames: the radius, the start, the return -----------------------------
+    def _control_frames(self, m, n):
+        """Control frames: the radius's end, the start, the return (``CLOSE``)."""
+        frame, kind, taken = n.frame, n.kind, n.taken
+        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
         start_now = taken & (kind == Kind.START)
         close_now = taken & (kind == Kind.CLOSE)
         close_end = Signal()
-        home_x_after = x + Mux(step_x, Mux(neg_x, -1, 1), 0)
-        home_y_after = y + Mux(step_y, Mux(neg_y, -1, 1), 0)
-        m.d.comb += close_end.eq((close_now & ~home_dx & ~home_dy)
-                                 | (home_step & (home_x_after == start_x)
-                                    & (home_y_after == start_y)))
+        home_x_after = n.x + Mux(step_x, Mux(neg_x, -1, 1), 0)
+        home_y_after = n.y + Mux(step_y, Mux(neg_y, -1, 1), 0)
+        m.d.comb += close_end.eq((close_now & ~n.home_dx & ~n.home_dy)
+                                 | (n.home_step & (home_x_after == n.start_x)
+                                    & (home_y_after == n.start_y)))
         with m.If(self.abort):
-            m.d.sync += [contour.eq(0), homing.eq(0)]
+            m.d.sync += [n.contour.eq(0), n.homing.eq(0)]
         with m.Else():
             with m.If(start_now):
-                m.d.sync += [contour.eq(1), start_x.eq(frame.x), start_y.eq(frame.y)]
-            with m.If(take_element & self.cmd.valid & frame.last):
-                m.d.sync += contour.eq(0)
+                m.d.sync += [n.contour.eq(1), n.start_x.eq(frame.x), n.start_y.eq(frame.y)]
+            with m.If(n.take_element & self.cmd.valid & frame.last):
+                m.d.sync += n.contour.eq(0)
             with m.If(close_now & ~close_end):
-                m.d.sync += homing.eq(1)
+                m.d.sync += n.homing.eq(1)
             with m.If(close_end):
-                m.d.sync += homing.eq(0)
-        radius_end = (unit == 5) & b6.done
+                m.d.sync += n.homing.eq(0)
+        n.radius_end = (n.unit == 5) & self.block6.done
+        n.start_now, n.close_end = start_now, close_end
 
+    def _blocks12_13_position(self, m, n):
+        """Blocks 12, 13: the position counters, loaded by ``START``, counting every step."""
+        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
+        block12, block13 = self.block12, self.block13
         m.d.comb += [
-            block12.d.eq(frame.x), block12.load.eq(start_now),
+            block12.d.eq(n.frame.x), block12.load.eq(n.start_now),
             block12.up.eq(step_x & ~neg_x), block12.down.eq(step_x & neg_x),
-            block13.d.eq(frame.y), block13.load.eq(start_now),
+            block13.d.eq(n.frame.y), block13.load.eq(n.start_now),
             block13.up.eq(step_y & ~neg_y), block13.down.eq(step_y & neg_y),
         ]
 
-        # ---- blocks 14 and 15: the step permission; motion; outcomes ----------------------
-        arc_due = core.feed.due & arc_go
+    def _blocks14_15_outputs(self, m, n):
+        """Blocks 14 and 15: the step permission (the feed interface); motion; outcomes."""
+        core, status = n.core, n.status
+        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
+        line_due, home_due = n.line_due, n.home_due
+        arc_due = core.feed.due & n.arc_go
         due = Signal()
         m.d.comb += [
             due.eq(line_due | arc_due | home_due),
             self.feed.due.eq(due),
-            self.feed.diagonal.eq(due & Mux(line_due, line_major & line_minor,
-                                            Mux(home_due, home_dx & home_dy,
+            self.feed.diagonal.eq(due & Mux(line_due, n.line_major & n.line_minor,
+                                            Mux(home_due, n.home_dx & n.home_dy,
                                                 core.feed.diagonal))),
             self.motion.step.eq(Cat(step_x, step_y)),
             self.motion.dir.eq(Cat(step_x & neg_x, step_y & neg_y)),
 
             status.motion.step.eq(Cat(step_x, step_y)),
             status.motion.dir.eq(Cat(neg_x, neg_y)),
-            status.accept.eq(accept),
-            status.end.eq(element_end | terminal_end | start_now | close_end | radius_end
-                          | refuse),
-            status.outcome.eq(Mux(refuse, Outcome.REFUSED, Outcome.DONE)),
+            status.accept.eq(n.accept),
+            status.end.eq(n.element_end | n.terminal_end | n.start_now | n.close_end
+                          | n.radius_end | n.refuse),
+            status.outcome.eq(Mux(n.refuse, Outcome.REFUSED, Outcome.DONE)),
             status.flush.eq(self.abort),
             self.busy.eq(status.busy),
         ]
         wiring.connect(m, wiring.flipped(self.status), status.status)
-        return m

@@ -11,6 +11,7 @@ from amaranth.lib import data, io, stream, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from . import spec
 from .elements._checks import check_width
 from .line import LineEngine
 from .linear import LinearCore
@@ -19,13 +20,9 @@ from .motion.player import check_timing
 
 __all__ = ["BareAccumulator", "ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
-#: The demo program: a closed octagon, one segment in each octant, relative moves. The same
-#: frames as ``OCTAGON`` in ``sim/host/demo.py`` (copied: ``hdl/`` never imports ``sim/``; a
-#: test checks that the two agree).
-OCTAGON = [
-    {"x": 14, "y": 4}, {"x": 9, "y": 11}, {"x": -9, "y": 11}, {"x": -14, "y": 4},
-    {"x": -14, "y": -4}, {"x": -9, "y": -11}, {"x": 9, "y": -11}, {"x": 14, "y": -4},
-]
+#: The demo program: a closed octagon, one segment in each octant, relative moves: the frames
+#: of :data:`hdl.spec.OCTAGON`, which ``sim/host/demo.py`` plots.
+OCTAGON = [{"x": x, "y": y} for x, y in spec.OCTAGON]
 
 
 class BareAccumulator(wiring.Component):
