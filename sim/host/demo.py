@@ -14,6 +14,8 @@ import math
 import time
 from pathlib import Path
 
+from hdl.spec import OCTAGON           # a closed octagon, one segment in each octant
+
 from .. import registry
 from ..geometry import radial_error, segment_deviation, walk
 from ..runners import ROOT, CocotbBuild, run_amaranth
@@ -21,8 +23,6 @@ from ..stimulus import Job, first_difference, record_moves, run_model
 
 __all__ = ["demo", "ascii_plot", "OCTAGON", "PROGRAM"]
 
-# A closed octagon: one segment in each octant, chosen where the patent's device strays.
-OCTAGON = [(14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4)]
 
 # A slot with a round hole: lines and arcs, each command continuing from where the last ended.
 # Lines are relative moves; arcs give the start and end relative to the centre.
