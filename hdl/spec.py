@@ -7,9 +7,10 @@ import these one definitions, so the two sides cannot disagree on them. It descr
 parameters and data only, not behaviour.
 """
 
+import math
 from dataclasses import dataclass
 
-__all__ = ["Kind", "Formats", "OCTAGON"]
+__all__ = ["Kind", "Formats", "OCTAGON", "ONE", "SQRT2"]
 
 
 class Kind:
@@ -99,3 +100,10 @@ class Formats:
 #: octant, chosen where SU 1571551's device strays (``hdl.top.DemoTop`` plays it,
 #: ``sim.host.demo`` plots it).
 OCTAGON = ((14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4))
+
+
+#: Distances in the feed generator's accumulator (:class:`hdl.motion.feed.FeedGenerator`, its
+#: model :class:`sim.models.motion.FeedGeneratorModel`): one axial step and one diagonal step
+#: (Q2.24).
+ONE = 1 << 24
+SQRT2 = round(math.sqrt(2) * ONE)

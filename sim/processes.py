@@ -25,7 +25,7 @@ import signal
 import subprocess
 import time
 
-__all__ = ["Interrupted", "GRACE", "popen", "run", "child", "stop", "stop_all", "live",
+__all__ = ["SimulatorError", "Interrupted", "GRACE", "popen", "run", "child", "stop", "stop_all", "live",
            "hold", "signals_handled"]
 
 GRACE = 2.0
@@ -34,6 +34,10 @@ GRACE = 2.0
 _live = {}                     # leader's pid (= the group's id) -> its Popen
 _stopping = False              # while ending groups, a signal is held in _pending
 _pending = []
+
+
+class SimulatorError(RuntimeError):
+    """A simulator build or run failed; the message names its log."""
 
 
 class Interrupted(KeyboardInterrupt):

@@ -21,6 +21,7 @@ from pathlib import Path
 from amaranth import Module, ResetInserter, Shape, Signal
 
 from . import processes
+from .processes import SimulatorError
 from .stimulus import Driver, check_outcomes, entry, eventful
 
 __all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
@@ -150,10 +151,6 @@ def ensure_simulator(simulator):
     else:
         raise ValueError(f"Simulator must be one of {', '.join(map(repr, SIMULATORS))}, "
                          f"not {simulator!r}")
-
-
-class SimulatorError(RuntimeError):
-    """A simulator build or run failed; the message names its log."""
 
 
 class CocotbBuild:

@@ -1,20 +1,16 @@
 """Feed: step permissions for an engine (:class:`~hdl.engine.FeedSignature`)."""
 
-import math
-
 from amaranth import *
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
 
 from ..elements._checks import check_width
 from ..engine import FeedSignature
+from ..spec import ONE, SQRT2          # one axial and one diagonal step (Q2.24)
 
 __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "SQRT2",
            "rate_limit"]
 
-#: Distances in the generator's accumulator: one axial step and one diagonal step (Q2.24).
-ONE = 1 << 24
-SQRT2 = round(math.sqrt(2) * ONE)
 
 
 def Profile():

@@ -1,6 +1,6 @@
 """Models of the motion side (``hdl/motion/``): the feed generator, clock by clock."""
 
-from hdl.motion.feed import ONE, SQRT2
+from hdl.spec import ONE, SQRT2
 
 __all__ = ["FeedGeneratorModel"]
 

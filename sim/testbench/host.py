@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
 
 from ..host.protocol import Reply, ReplyParser
+from ..processes import SimulatorError
 
 __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
            "run_cocotb", "read_frames", "write_frames"]
@@ -176,13 +177,12 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
     :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
     ``(step, dir)`` is appended to it.
 
-    Raises :exc:`sim.runners.SimulatorError` if the run does not end within ``max_clocks``.
+    Raises :exc:`sim.processes.SimulatorError` if the run does not end within ``max_clocks``.
     """
     import time
 
     from amaranth.sim import Simulator
 
-    from ..runners import SimulatorError
 
     host = HostLink(frames, divisor=divisor, window=window, inject=inject)
 
