@@ -136,10 +136,10 @@ def _prepare(run, machine, radius, width):
         centre = None
         if move.kind == "arc":
             centre = on_lattice(move.centre, machine)
-            radius = check_arc_radii(move.line, (vertex[0] - centre[0], vertex[1] - centre[1]),
-                                     (end[0] - centre[0], end[1] - centre[1]), machine)
+            rho = check_arc_radii(move.line, (vertex[0] - centre[0], vertex[1] - centre[1]),
+                                  (end[0] - centre[0], end[1] - centre[1]), machine)
             check_sweep(move, (vertex[0] - centre[0], vertex[1] - centre[1]),
-                        (end[0] - centre[0], end[1] - centre[1]), radius)
+                        (end[0] - centre[0], end[1] - centre[1]), rho)
         moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side))
         vertex = end
     # The origin: the middle of the contour's extent (arcs as whole circles: enough).
