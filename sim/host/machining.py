@@ -38,7 +38,7 @@ from .. import registry
 from .compensation import program_segments, references
 from .gcode import GCodeError, read, sweep
 from .machine import Machine
-from .planner import ProgramError, frames as program_frames, lattice, plan
+from .planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "deviation",
            "write_outputs", "summary_text", "RunError"]
@@ -355,6 +355,9 @@ def summary(job, result):
         "steps_per_mm": spm,
         "feeds_mm_min": sorted({round(float(m.feed), 3) for m in moves
                                 if m.feed is not None and m.kind != "rapid"}),
+        "planned_feeds_mm_min": sorted({round(planned_feed(m.feed, job.machine), 3)
+                                        for m in moves
+                                        if m.feed is not None and m.kind != "rapid"}),
         "compress": result.compress,
         "clocks": result.clocks,
         "simulated_seconds": result.simulated,
@@ -377,6 +380,16 @@ def summary(job, result):
     return data
 
 
+def _feeds(data):
+    """The programmed feeds, and the ones planned where they differ (the machine's maximum,
+    the feed generator's rates)."""
+    programmed = ", ".join(f"{f:g}" for f in data["feeds_mm_min"])
+    planned = ", ".join(f"{f:g}" for f in data["planned_feeds_mm_min"])
+    if planned == programmed:
+        return f"{programmed} mm/min"
+    return f"{programmed} mm/min programmed, planned at {planned} mm/min"
+
+
 def summary_text(data, out_dir=None):
     """What ``kontur run`` prints: the summary's figures, one per line."""
     lines = [
@@ -384,7 +397,7 @@ def summary_text(data, out_dir=None):
         f"(lines {data['lines'][0]}-{data['lines'][1]}), {data['segments']} segments "
         f"({data['arcs']} arcs)",
         f"steps      {data['steps']} ({data['diagonal_steps']} diagonal) at "
-        f"{data['steps_per_mm']:g} steps/mm; feeds {', '.join(f'{f:g}' for f in data['feeds_mm_min'])} mm/min",
+        f"{data['steps_per_mm']:g} steps/mm; feeds {_feeds(data)}",
         f"time       {data['machining_seconds']:.2f} s machining at the programmed feeds "
         f"(the plan)",
     ]

@@ -26,7 +26,8 @@ from . import protocol
 from .gcode import sweep
 
 __all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
-           "check_arc_radii", "check_sweep", "sweep_slack", "min_feed"]
+           "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
+           "planned_feed"]
 
 
 class ProgramError(ValueError):
@@ -115,6 +116,32 @@ def _path_point(x0, y0, x1, y1, width):
     if best is None:
         raise InputError(f"no point of the arc's path near ({x1}, {y1})")
     return best[1]
+
+
+def _centre(move, start, end, machine):
+    """An arc's centre on the lattice: of the four lattice points around the programmed centre
+    (and the nearest), the one whose circle through the lattice ``start`` lies nearest the
+    programmed circle: the least ``|centre's shift| + |radius's change|`` (the farthest the
+    two circles are apart), among those whose ``end`` keeps within the arc tolerance. Rounding
+    the centre and the start each to the nearest step can shrink or grow the radius by up to
+    √2 steps, and the far side of a circle moves by twice the centre's shift: about 1.8 steps
+    off the programmed circle at worst, where a choice of the four keeps within about one."""
+    spm = Fraction(machine.steps_per_mm)
+    cx, cy = (Fraction(c) * spm for c in move.centre)
+    sx, sy = (Fraction(c) * spm for c in move.start)
+    radius = math.hypot(sx - cx, sy - cy)
+    best = None
+    nearest = on_lattice(move.centre, machine)
+    for candidate in {nearest, *((math.floor(cx) + i, math.floor(cy) + j)
+                                 for i in (0, 1) for j in (0, 1))}:
+        r_start = math.hypot(start[0] - candidate[0], start[1] - candidate[1])
+        r_end = math.hypot(end[0] - candidate[0], end[1] - candidate[1])
+        if abs(r_start - r_end) / float(spm) > machine.arc_tolerance or not r_start:
+            continue
+        cost = (math.hypot(candidate[0] - cx, candidate[1] - cy) + abs(r_start - radius),
+                candidate != nearest, candidate)
+        best = cost if best is None or cost < best else best
+    return nearest if best is None else best[2]
 
 
 def sweep_slack(radius):
@@ -219,7 +246,7 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 position, end, feed)
             position = end
             continue
-        centre = on_lattice(move.centre, machine)
+        centre = _centre(move, position, end, machine)
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
         if (x0, y0) == (0, 0):
@@ -286,6 +313,14 @@ def _quantise(speed, unit):
     """``speed`` rounded down to the feed generator's rates (whole units): never faster
     than asked."""
     return math.floor(speed / unit + 1e-9) * unit
+
+
+def planned_feed(feed, machine):
+    """The feed (mm/min) the plan cruises at for a programmed ``feed`` (mm/min): capped by the
+    machine's ``max_feed`` and rounded down to the feed generator's rates (an arc's
+    centripetal cap and a move too short to reach it apart)."""
+    unit = min_feed(machine)
+    return max(_quantise(min(float(feed), machine.max_feed) / 60, unit), unit) * 60
 
 
 def plan(segments, machine):
