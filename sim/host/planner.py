@@ -1,17 +1,22 @@
 """From moves to frames: the step lattice, the look-ahead feed plan, the frames of a program.
 
-:func:`lattice` puts a program's moves (in millimetres) on the step grid: every end point
-and arc centre is rounded to the nearest step. An arc's start and end radii then differ by up
-to about a step; more than the machine's ``arc_tolerance`` is an error naming the program
-line (as LinuxCNC does). Within it the arc is traced on its start point's circle to the path
-point nearest the programmed end, and a short line (a step or two) finishes exactly on the
-end: the machine ends every move, and so the program, exactly where it was told, to the step.
+:func:`lattice` puts a program's moves (in millimetres) on the step grid: every end point is
+rounded to the nearest step, an arc's centre to the lattice point around it whose circle
+through the start lies nearest the programmed circle. An arc's start and end radii then
+differ by up to about a step; more than the machine's ``arc_tolerance`` is an error naming
+the program line (as LinuxCNC does). Within it the arc is traced on its start point's circle
+to the path point nearest the programmed end, and a short line (a step or two) finishes
+exactly on the end: the machine ends every move, and so the program, exactly where it was
+told, to the step. The arc's sweep on the lattice is its programmed sweep within the rounding
+(:func:`sweep_slack`): a full turn only where the program's end is its start, a sliver whose
+ends round together (or cross) a line to its end, anything else an error naming the line.
 
 :func:`plan` is a look-ahead planner in GRBL's manner: each junction's speed comes from the
 angle between the moves and the acceleration (junction deviation), an arc's speed is capped
 by its centripetal acceleration, and backward and forward passes make every move's entry and
 exit reachable from its neighbours within the acceleration. Each move then gets its cruise
-and exit rates and the step from which it ramps down; the gateware ramps linearly between
+and exit rates (whole rates of the feed generator, never above the feed; a feed below its
+lowest rate is an error naming the line) and the step from which it ramps down; the gateware ramps linearly between
 them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the program's frames.
 """
 
