@@ -127,10 +127,11 @@ def _centre(move, start, end, machine):
     """An arc's centre on the lattice: of the four lattice points around the programmed centre
     (and the nearest), the one whose circle through the lattice ``start`` lies nearest the
     programmed circle: the least ``|centre's shift| + |radius's change|`` (the farthest the
-    two circles are apart), among those whose ``end`` keeps within the arc tolerance. Rounding
-    the centre and the start each to the nearest step can shrink or grow the radius by up to
-    √2 steps, and the far side of a circle moves by twice the centre's shift: about 1.8 steps
-    off the programmed circle at worst, where a choice of the four keeps within about one."""
+    two circles are apart), among those whose ``end`` keeps within the arc tolerance (the
+    nearest lattice point when none does: the caller has checked the program's radii on it).
+    Rounding the centre and the start each to the nearest step puts the circle up to 2.0 steps
+    off the programmed one (the worst of 200 000 random circles); the best of the four, up
+    to 1.22."""
     spm = Fraction(machine.steps_per_mm)
     cx, cy = (Fraction(c) * spm for c in move.centre)
     sx, sy = (Fraction(c) * spm for c in move.start)
@@ -251,11 +252,16 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 position, end, feed)
             position = end
             continue
+        # The program's arc, its centre rounded to the nearest step: refused as before (radius
+        # zero, radii beyond the tolerance); then the lattice centre nearest its circle.
+        centre = on_lattice(move.centre, machine)
+        if position == centre:
+            raise ProgramError(move.line, "the arc's start is its centre: radius zero")
+        check_arc_radii(move.line, (position[0] - centre[0], position[1] - centre[1]),
+                        (end[0] - centre[0], end[1] - centre[1]), machine)
         centre = _centre(move, position, end, machine)
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
-        if (x0, y0) == (0, 0):
-            raise ProgramError(move.line, "the arc's start is its centre: radius zero")
         r_start = check_arc_radii(move.line, (x0, y0), (x1, y1), machine)
         try:
             reach = _path_point(x0, y0, x1, y1, widths[1])
