@@ -95,7 +95,8 @@ class PlanTestCase(unittest.TestCase):
         self.assertTrue(0 <= math.sqrt(2 * 200 / 100) - second.exit < self.unit)
         # Time: up to the cruise and down to the corner speed within 20 mm.
         v1 = first.exit
-        expected = vc / 200 + (vc - v1) / 200 + (20 - vc ** 2 / 400 - (vc ** 2 - v1 ** 2) / 400) / vc
+        cruise_mm = 20 - vc ** 2 / 400 - (vc ** 2 - v1 ** 2) / 400
+        expected = vc / 200 + (vc - v1) / 200 + cruise_mm / vc
         self.assertAlmostEqual(first.seconds, expected, places=6)
         # The ramp down starts with room to reach the exit speed.
         segment = lattice([Move(1, "line", (0, 0), (20, 0), feed=3000)], self.machine)[0]

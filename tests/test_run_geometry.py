@@ -141,7 +141,8 @@ def distance(p, move):
 def on_grid(value):
     """A length in mm as steps, rounded to the nearest (halves away from zero)."""
     steps = value * SPM
-    return math.floor(steps + Fraction(1, 2)) if steps >= 0 else -math.floor(-steps + Fraction(1, 2))
+    half = Fraction(1, 2)
+    return math.floor(steps + half) if steps >= 0 else -math.floor(-steps + half)
 
 
 # ---- the generator -----------------------------------------------------------------------

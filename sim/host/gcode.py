@@ -16,9 +16,9 @@ Numbers are exact (:class:`fractions.Fraction`): the reader never rounds, except
 given by its radius needs a square root (its centre is then exact to 40 digits). It accepts
 exactly what it can interpret: G0 G1 G2 G3 (arcs by centre, ``I`` and ``J`` relative to the
 start, or by radius ``R``, negative for more than a half turn; a full circle by ``I J`` with
-the end exactly on the start, and only then), G17, G40 G41 G42, G90 G91, the words X Y I J R, F (feed, recorded), D
-(offset number, recorded), N, and M2 M30 (program end). Anything else is refused with a
-:exc:`GCodeError` naming the line, as is every malformed line.
+the end exactly on the start, and only then), G17, G40 G41 G42, G90 G91, the words X Y I J R, F
+(feed, recorded), D (offset number, recorded), N, and M2 M30 (program end). Anything else is
+refused with a :exc:`GCodeError` naming the line, as is every malformed line.
 
 Units: with ``units=None`` (``kontur trace profile``) a program is in lattice units (steps) and
 G20/G21 are refused; with ``units="mm"`` (the machine controller, ``kontur run``) G21

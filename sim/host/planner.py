@@ -14,10 +14,11 @@ ends round together (or cross) a line to its end, anything else an error naming 
 :func:`plan` is a look-ahead planner in GRBL's manner: each junction's speed comes from the
 angle between the moves and the acceleration (junction deviation), an arc's speed is capped
 by its centripetal acceleration, and backward and forward passes make every move's entry and
-exit reachable from its neighbours within the acceleration. Each move then gets its cruise
-and exit rates (whole rates of the feed generator, never above the feed; a feed below its
-lowest rate is an error naming the line) and the step from which it ramps down; the gateware ramps linearly between
-them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the program's frames.
+exit reachable from its neighbours within the acceleration. Each move then gets its cruise and
+exit rates (whole rates of the feed generator, never above the feed; a feed below its lowest
+rate is an error naming the line) and the step from which it ramps down; the gateware ramps
+linearly between them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the
+program's frames.
 """
 
 import math
