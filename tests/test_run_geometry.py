@@ -34,7 +34,7 @@ from hypothesis import given, settings, strategies as st
 
 from sim.host.cli import main
 from sim.host.machine import Machine
-from sim.host.machining import deviation, execute, prepare
+from sim.host.machining import deviation, execute, prepare, summary, summary_text
 from sim.host.planner import ProgramError
 
 MACHINE = Machine(clock_hz=6e6)             # the iCEBreaker's clock, the default machine
@@ -345,7 +345,14 @@ class RegressionTestCase(unittest.TestCase):
         job = prepare("G21 G90\nG1 X5 F10\n", machine=MACHINE)
         self.assertGreaterEqual(job.seconds, 30)
         self.assertLessEqual(job.seconds, 5 / (10 / 60 - UNIT) + 1)
-        self.assertAlmostEqual(execute(job, "model").times[-1], job.seconds, delta=0.01)
+        result = execute(job, "model")
+        self.assertAlmostEqual(result.times[-1], job.seconds, delta=0.01)
+        # The summary says what is planned: F10 as the generator's 37 rates of 0.268 mm/min.
+        planned = math.floor(10 / (UNIT * 60)) * UNIT * 60
+        self.assertIn(f"feeds 10 mm/min programmed, planned at {planned:.3f} mm/min",
+                      summary_text(summary(job, result)))
+        job = prepare("G21 G90\nG1 X5 F600\n", machine=MACHINE)      # within 0.1 %: as is
+        self.assertIn("feeds 600 mm/min\n", summary_text(summary(job, execute(job, "model"))))
 
     def test_feed_below_the_generators_lowest_is_refused(self):
         lowest = UNIT * 60                                  # 0.268 mm/min at 6 MHz, 80 steps/mm

@@ -381,12 +381,14 @@ def summary(job, result):
 
 
 def _feeds(data):
-    """The programmed feeds, and the ones planned where they differ (the machine's maximum,
-    the feed generator's rates)."""
+    """The programmed feeds, and the planned ones where any differs by more than 0.1 % (the
+    machine's maximum, a low feed's rounding to the feed generator's rates)."""
     programmed = ", ".join(f"{f:g}" for f in data["feeds_mm_min"])
-    planned = ", ".join(f"{f:g}" for f in data["planned_feeds_mm_min"])
-    if planned == programmed:
+    if all(abs(a - b) <= 0.001 * a for a, b in zip(data["feeds_mm_min"],
+                                                  data["planned_feeds_mm_min"])) \
+            and len(data["feeds_mm_min"]) == len(data["planned_feeds_mm_min"]):
         return f"{programmed} mm/min"
+    planned = ", ".join(f"{f:g}" for f in data["planned_feeds_mm_min"])
     return f"{programmed} mm/min programmed, planned at {planned} mm/min"
 
 
