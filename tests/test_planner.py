@@ -6,7 +6,7 @@ from collections import namedtuple
 from fractions import Fraction
 
 from sim.host.machine import Machine, MachineError
-from sim.host.planner import ProgramError, frames, lattice, plan
+from sim.host.planner import ProgramError, _on_sweep, frames, lattice, plan
 
 Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 600))
 
@@ -55,6 +55,26 @@ class LatticeTestCase(unittest.TestCase):
         segments = lattice([Move(1, "arc", (5, 0), (5, 0), centre=(0, 0), cw=True)],
                            self.machine)
         self.assertEqual(len(segments), 1)
+        self.assertEqual(walk(segments), (50, 0))
+        self.assertGreater(len(segments[0].steps), 4 * 50)
+
+    def test_sweep_on_the_lattice_is_the_programmed_one(self):
+        # A quarter turn (counter-clockwise from (5, 0) about the origin) put on a lattice arc
+        # that ends half a turn on, or one that is a full circle: refused, naming the line.
+        quarter = Move(4, "arc", (5, 0), (0, 5), centre=(0, 0))
+        for reach in ((-50, 0), (50, 0)):
+            with self.subTest(reach=reach), self.assertRaisesRegex(
+                    ProgramError, r"^line 4: the arc sweeps 90\.0000 degrees as programmed but"):
+                _on_sweep(quarter, (50, 0), reach, 50)
+        self.assertEqual(_on_sweep(quarter, (50, 0), (0, 50), 50), (0, 50))
+        # A sliver (0.001 mm of a 5 mm circle, a fiftieth of a step) whose ends round to one
+        # step: no arc (a line to the end); a sliver short of a full turn: a full circle.
+        sliver = Move(5, "arc", (5, 0), (5, Fraction(1, 1000)), centre=(0, 0))
+        self.assertIsNone(_on_sweep(sliver, (50, 0), (50, 0), 50))
+        short = sliver._replace(cw=True)
+        self.assertEqual(_on_sweep(short, (50, 0), (50, 0), 50), (50, 0))
+        self.assertEqual(lattice([sliver], self.machine), [])        # no step to make
+        segments = lattice([short], self.machine)
         self.assertEqual(walk(segments), (50, 0))
         self.assertGreater(len(segments[0].steps), 4 * 50)
 
