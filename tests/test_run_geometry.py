@@ -266,17 +266,22 @@ class GeometryTestCase(unittest.TestCase):
             # 3. the time
             feed = MACHINE.max_feed if move["kind"] == "rapid" else \
                 min(float(move["feed"]), MACHINE.max_feed)
-            v = feed / 60
+            v = high = low = feed / 60
             ramps = 1
             if move["kind"] == "arc":
-                # The centripetal limit, on the lattice's radius (the programmed one within
-                # two steps: start and centre each rounded by up to sqrt(2)/2).
-                v = min(v, math.sqrt(MACHINE.accel * max(move["radius"] - 2 * STEP, STEP)))
+                # The centripetal limit sqrt(accel r), on the lattice's radius: the programmed
+                # one within two steps (start and centre each rounded by up to sqrt(2)/2).
+                high = min(v, math.sqrt(MACHINE.accel * (move["radius"] + 2 * STEP)))
+                low = min(v, math.sqrt(MACHINE.accel * max(move["radius"] - 2 * STEP, STEP)))
                 ramps = 2
             seconds = planned.get(move["line"], 0.0)
             length = contour * STEP
-            self.assertGreaterEqual(seconds, length / v * (1 - 1e-9), where)
-            self.assertLessEqual(seconds, length / (v - UNIT) + ramps * v / MACHINE.accel
+            # A segment cruising at c takes length / c and at most c / accel more (ramps from and
+            # to rest: (c - v0)^2 / 2ac + (c - v1)^2 / 2ac; a move too short to reach c,
+            # 2 sqrt(length / accel), which is at most length / c + c / accel). The cruise is
+            # at most the feed and at least it less one rate of the generator.
+            self.assertGreaterEqual(seconds, length / high * (1 - 1e-9), where)
+            self.assertLessEqual(seconds, length / (low - UNIT) + ramps * v / MACHINE.accel
                                  + 1e-9, where)
             # 4. the steps of an arc: its length, within the rounding (the radius by two steps,
             # each end's angle by 4 / r: start, end and centre rounded, the end's path point a
