@@ -104,7 +104,7 @@ class InterpretTestCase(unittest.TestCase):
                          [(1, 0), (Fraction(254, 10), Fraction(508, 10)),
                           (Fraction(264, 10), Fraction(508, 10))])
         self.assertEqual([m.feed for m in moves], [10, 254, 254])
-        moves = interpret(parse("G20 G0 X1\nG3 X0 Y1 I-1\n"), units="mm")
+        moves = interpret(parse("G20 G0 X1\nG3 X0 Y1 I-1 F10\n"), units="mm")
         self.assertEqual(moves[1].centre, (0, 0))
         with self.assertRaisesRegex(GCodeError, r"^line 1: two units codes in one block "
                                                 r"\(G20 and G21\)$"):

@@ -161,6 +161,23 @@ class RTLTestCase(unittest.TestCase):
                                            accel=5000), name="tiny.ngc")
         self.check(job, "amaranth")
 
+    def test_low_feed_on_amaranth(self):
+        # A millimetre at 10 mm/min: 6 s at the feed, and a little longer as the feed generator
+        # makes it (10 steps/mm at 6 MHz: a rate of 1 in Q0.24 is 2.146 mm/min, so F10 runs at 4
+        # of them, 8.58 mm/min). The RTL's every step at the model's time (time compressed
+        # x4096: the rates 4096 times as many units, the acceleration within its 32 bits).
+        machine = Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000)
+        job = prepare("G21 G90\nG1 X1 F10\n", machine=machine, name="slow.ngc")
+        unit = CLOCK / (1 << 24) / 10 * 60                          # mm/min
+        self.assertGreaterEqual(job.seconds, 1 / (10 / 60))
+        self.assertLessEqual(job.seconds, 1 / (math.floor(10 / unit) * unit / 60) + 0.01)
+        model = execute(job, "model")
+        result = execute(job, "amaranth", compress=4096)
+        self.assertEqual(result.steps, job.steps)
+        for rtl, planned in zip(result.times, model.times):
+            # The RTL's times count from its first step, the model's from the start.
+            self.assertAlmostEqual(rtl + model.times[0], planned, delta=0.01 * planned + 0.002)
+
     def test_part_on_verilator_at_two_compressions(self):
         if "verilator" not in selected_simulators():
             self.skipTest("SIM selects another simulator")

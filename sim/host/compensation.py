@@ -46,7 +46,7 @@ from fractions import Fraction
 
 from .. import registry
 from ..models import equidistant
-from .planner import ProgramError, Segment, check_arc_radii, lattice, on_lattice
+from .planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
 __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine"]
 
@@ -136,8 +136,10 @@ def _prepare(run, machine, radius, width):
         centre = None
         if move.kind == "arc":
             centre = on_lattice(move.centre, machine)
-            check_arc_radii(move.line, (vertex[0] - centre[0], vertex[1] - centre[1]),
-                            (end[0] - centre[0], end[1] - centre[1]), machine)
+            rho = check_arc_radii(move.line, (vertex[0] - centre[0], vertex[1] - centre[1]),
+                                  (end[0] - centre[0], end[1] - centre[1]), machine)
+            check_sweep(move, (vertex[0] - centre[0], vertex[1] - centre[1]),
+                        (end[0] - centre[0], end[1] - centre[1]), rho)
         moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side))
         vertex = end
     # The origin: the middle of the contour's extent (arcs as whole circles: enough).

@@ -16,22 +16,25 @@ Numbers are exact (:class:`fractions.Fraction`): the reader never rounds, except
 given by its radius needs a square root (its centre is then exact to 40 digits). It accepts
 exactly what it can interpret: G0 G1 G2 G3 (arcs by centre, ``I`` and ``J`` relative to the
 start, or by radius ``R``, negative for more than a half turn; a full circle by ``I J`` with
-the end on the start), G17, G40 G41 G42, G90 G91, the words X Y I J R, F (feed, recorded), D
-(offset number, recorded), N, and M2 M30 (program end). Anything else is refused with a
-:exc:`GCodeError` naming the line, as is every malformed line.
+the end exactly on the start, and only then), G17, G40 G41 G42, G90 G91, the words X Y I J R, F
+(feed, recorded), D (offset number, recorded), N, and M2 M30 (program end). Anything else is
+refused with a :exc:`GCodeError` naming the line, as is every malformed line.
 
 Units: with ``units=None`` (``kontur trace profile``) a program is in lattice units (steps) and
 G20/G21 are refused; with ``units="mm"`` (the machine controller, ``kontur run``) G21
 (millimetres) is the default and G20 switches to inches, and every coordinate and feed of the
-moves is given in millimetres (per minute).
+moves is given in millimetres (per minute); a feed move (G1, G2, G3) before any F is then
+refused, as LinuxCNC refuses it ("Cannot do g1 with zero feed rate").
 """
 
 import decimal
+import math
 import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-__all__ = ["GCodeError", "Word", "Block", "Move", "Program", "parse", "interpret", "read"]
+__all__ = ["GCodeError", "Word", "Block", "Move", "Program", "parse", "interpret", "read",
+           "sweep"]
 
 
 class GCodeError(ValueError):
@@ -92,6 +95,9 @@ class Move:
     ``kind`` is ``"rapid"``, ``"line"`` or ``"arc"``; ``start`` and ``end`` are ``(x, y)``;
     for an arc ``centre`` is ``(x, y)`` and ``cw`` says clockwise; ``side`` is the cutter-radius
     compensation in effect (``"left"``, ``"right"`` or ``None``); ``line`` is the program line.
+    An arc is a full circle exactly when its programmed end is its start (``full``), as
+    LinuxCNC decides: an arc whose end is a hair from its start is that hair of a turn, never a
+    whole one, however the ends round.
     """
     line: int
     kind: str
@@ -102,6 +108,17 @@ class Move:
     side: str = None
     feed: Fraction = None
 
+    @property
+    def full(self):
+        """An arc that is a full circle: its programmed end is its start, exactly."""
+        return self.kind == "arc" and tuple(self.end) == tuple(self.start)
+
+    @property
+    def sweep(self):
+        """An arc's programmed sweep (radians, in the direction of motion): in (0, 2π) or
+        2π for a full circle, 0 for an end on the start's ray short of a full circle."""
+        return sweep(self.start, self.end, self.centre, self.cw, full=self.full)
+
 
 @dataclass(frozen=True)
 class Program:
@@ -109,6 +126,27 @@ class Program:
     blocks: tuple
     moves: tuple
     name: str = None
+
+
+def sweep(start, end, centre, cw, *, full):
+    """The sweep (radians) of an arc about ``centre`` from ``start`` to ``end``, clockwise
+    with ``cw``: 2π when ``full``, else in [0, 2π) (0 when the end lies on the start's ray).
+    The side the end lies on is decided exactly (for exact numbers), the angle in floating
+    point."""
+    if full:
+        return 2 * math.pi
+    sx, sy = start[0] - centre[0], start[1] - centre[1]
+    ex, ey = end[0] - centre[0], end[1] - centre[1]
+    cross = sx * ey - sy * ex
+    dot = sx * ex + sy * ey
+    if cw:
+        cross = -cross
+    if cross == 0:
+        return 0.0 if dot > 0 else math.pi
+    angle = math.atan2(float(cross), float(dot))
+    if cross > 0:
+        return max(angle, 0.0)
+    return min(angle + 2 * math.pi, math.nextafter(2 * math.pi, 0))
 
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)"
@@ -252,6 +290,7 @@ def interpret(blocks, *, start=(0, 0), name=None, units=None):
     ------
     :exc:`GCodeError`
         For a word the reader does not interpret, two codes of one modal group in a block,
+        a feed move (G1, G2, G3) with no F in force (with ``units``, as LinuxCNC refuses it),
         a word given twice, coordinates without a motion mode, an arc without its centre
         (``I``/``J`` or ``R``, not both), an arc by radius that cannot reach its end, a block
         after the program's end, or a code without an integer value.
@@ -331,6 +370,9 @@ def interpret(blocks, *, start=(0, 0), name=None, units=None):
         else:
             end = (x0 + (x or 0), y0 + (y or 0))
         kind = _MOTION[state.motion]
+        if kind != "rapid" and state.feed is None and units is not None:
+            fail(f"G{state.motion} with no feed rate: give an F before the first feed move "
+                 f"(G1, G2, G3)")
         if kind != "arc":
             if i is not None or j is not None or r is not None:
                 fail(f"I, J and R belong to arcs (G2, G3), not to G{state.motion}")

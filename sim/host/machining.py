@@ -36,9 +36,9 @@ from pathlib import Path
 
 from .. import registry
 from .compensation import program_segments, references
-from .gcode import GCodeError, read
+from .gcode import GCodeError, read, sweep
 from .machine import Machine
-from .planner import ProgramError, frames as program_frames, lattice, plan
+from .planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "deviation",
            "write_outputs", "summary_text", "RunError"]
@@ -270,11 +270,26 @@ def _distance_to_segment(p, a, b):
     return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
 
 
+def _distance_to_arc(p, move):
+    """The distance of ``p`` (mm) from the programmed arc of ``move`` as a curve: from its
+    circle (the start's radius) where ``p`` lies within the programmed sweep, else from the
+    nearer of its two end points."""
+    start = tuple(float(c) for c in move.start)
+    end = tuple(float(c) for c in move.end)
+    centre = tuple(float(c) for c in move.centre)
+    radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
+    if move.full or sweep(start, p, centre, move.cw, full=False) <= move.sweep + 1e-12:
+        return abs(math.hypot(p[0] - centre[0], p[1] - centre[1]) - radius)
+    return min(math.hypot(p[0] - start[0], p[1] - start[1]),
+               math.hypot(p[0] - end[0], p[1] - end[1]))
+
+
 def deviation(job, steps):
     """The largest distance (mm) of a point the steps visit from the programmed contour: for
-    each segment's points, from its program move (a line segment, or the arc's circle of its
-    start radius); a compensated contour's, from its exact equidistant (the approach to it
-    from its own line)."""
+    each segment's points, from its program move (a line segment, or the programmed arc: its
+    circle within its programmed sweep, its nearer end outside it, so a turn traced where a
+    sliver was programmed is far from it); a compensated contour's, from its exact equidistant
+    (the approach to it from its own line)."""
     moves = {move.line: move for move in job.moves}
     special = references(job)
     spm = job.machine.steps_per_mm
@@ -293,14 +308,11 @@ def deviation(job, steps):
         move = moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
-        if move.kind == "arc":
-            centre = tuple(float(c) for c in move.centre)
-            radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
         for dx, dy in steps[index:index + len(segment.steps)]:
             x, y = x + dx, y + dy
             p = (x / spm, y / spm)
             if move.kind == "arc":
-                d = abs(math.hypot(p[0] - centre[0], p[1] - centre[1]) - radius)
+                d = _distance_to_arc(p, move)
             else:
                 d = _distance_to_segment(p, start, end)
             worst = max(worst, d)
@@ -343,6 +355,9 @@ def summary(job, result):
         "steps_per_mm": spm,
         "feeds_mm_min": sorted({round(float(m.feed), 3) for m in moves
                                 if m.feed is not None and m.kind != "rapid"}),
+        "planned_feeds_mm_min": sorted({round(planned_feed(m.feed, job.machine), 3)
+                                        for m in moves
+                                        if m.feed is not None and m.kind != "rapid"}),
         "compress": result.compress,
         "clocks": result.clocks,
         "simulated_seconds": result.simulated,
@@ -365,6 +380,18 @@ def summary(job, result):
     return data
 
 
+def _feeds(data):
+    """The programmed feeds, and the planned ones where any differs by more than 0.1 % (the
+    machine's maximum, a low feed's rounding to the feed generator's rates)."""
+    programmed = ", ".join(f"{f:g}" for f in data["feeds_mm_min"])
+    if all(abs(a - b) <= 0.001 * a for a, b in zip(data["feeds_mm_min"],
+                                                  data["planned_feeds_mm_min"])) \
+            and len(data["feeds_mm_min"]) == len(data["planned_feeds_mm_min"]):
+        return f"{programmed} mm/min"
+    planned = ", ".join(f"{f:g}" for f in data["planned_feeds_mm_min"])
+    return f"{programmed} mm/min programmed, planned at {planned} mm/min"
+
+
 def summary_text(data, out_dir=None):
     """What ``kontur run`` prints: the summary's figures, one per line."""
     lines = [
@@ -372,7 +399,7 @@ def summary_text(data, out_dir=None):
         f"(lines {data['lines'][0]}-{data['lines'][1]}), {data['segments']} segments "
         f"({data['arcs']} arcs)",
         f"steps      {data['steps']} ({data['diagonal_steps']} diagonal) at "
-        f"{data['steps_per_mm']:g} steps/mm; feeds {', '.join(f'{f:g}' for f in data['feeds_mm_min'])} mm/min",
+        f"{data['steps_per_mm']:g} steps/mm; feeds {_feeds(data)}",
         f"time       {data['machining_seconds']:.2f} s machining at the programmed feeds "
         f"(the plan)",
     ]

@@ -1,18 +1,24 @@
 """From moves to frames: the step lattice, the look-ahead feed plan, the frames of a program.
 
-:func:`lattice` puts a program's moves (in millimetres) on the step grid: every end point
-and arc centre is rounded to the nearest step. An arc's start and end radii then differ by up
-to about a step; more than the machine's ``arc_tolerance`` is an error naming the program
-line (as LinuxCNC does). Within it the arc is traced on its start point's circle to the path
-point nearest the programmed end, and a short line (a step or two) finishes exactly on the
-end: the machine ends every move, and so the program, exactly where it was told, to the step.
+:func:`lattice` puts a program's moves (in millimetres) on the step grid: every end point is
+rounded to the nearest step, an arc's centre to the lattice point around it whose circle
+through the start lies nearest the programmed circle. An arc's start and end radii then
+differ by up to about a step; more than the machine's ``arc_tolerance`` is an error naming
+the program line (as LinuxCNC does). Within it the arc is traced on its start point's circle
+to the path point nearest the programmed end, and a short line (a step or two) finishes
+exactly on the end: the machine ends every move, and so the program, exactly where it was
+told, to the step. The arc's sweep on the lattice is its programmed sweep within the rounding
+(:func:`sweep_slack`): a full turn only where the program's end is its start, a sliver whose
+ends round together (or cross) a line to its end, anything else an error naming the line.
 
 :func:`plan` is a look-ahead planner in GRBL's manner: each junction's speed comes from the
 angle between the moves and the acceleration (junction deviation), an arc's speed is capped
 by its centripetal acceleration, and backward and forward passes make every move's entry and
-exit reachable from its neighbours within the acceleration. Each move then gets its cruise
-and exit rates and the step from which it ramps down; the gateware ramps linearly between
-them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the program's frames.
+exit reachable from its neighbours within the acceleration. Each move then gets its cruise and
+exit rates (whole rates of the feed generator, never above the feed; a feed below its lowest
+rate is an error naming the line) and the step from which it ramps down; the gateware ramps
+linearly between them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the
+program's frames.
 """
 
 import math
@@ -23,9 +29,11 @@ from .. import registry
 from ..models.arc import check_arc
 from ..models.errors import InputError
 from . import protocol
+from .gcode import sweep
 
 __all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
-           "check_arc_radii"]
+           "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
+           "planned_feed"]
 
 
 class ProgramError(ValueError):
@@ -116,6 +124,91 @@ def _path_point(x0, y0, x1, y1, width):
     return best[1]
 
 
+def _centre(move, start, end, machine):
+    """An arc's centre on the lattice: of the four lattice points around the programmed centre
+    (and the nearest), the one whose circle through the lattice ``start`` lies nearest the
+    programmed circle: the least ``|centre's shift| + |radius's change|`` (the farthest the
+    two circles are apart), among those whose ``end`` keeps within the arc tolerance (the
+    nearest lattice point when none does: the caller has checked the program's radii on it).
+    Rounding the centre and the start each to the nearest step puts the circle up to 2.0 steps
+    off the programmed one (the worst of 200 000 random circles); the best of the four, up
+    to 1.22."""
+    spm = Fraction(machine.steps_per_mm)
+    cx, cy = (Fraction(c) * spm for c in move.centre)
+    sx, sy = (Fraction(c) * spm for c in move.start)
+    radius = math.hypot(sx - cx, sy - cy)
+    best = None
+    nearest = on_lattice(move.centre, machine)
+    for candidate in {nearest, *((math.floor(cx) + i, math.floor(cy) + j)
+                                 for i in (0, 1) for j in (0, 1))}:
+        r_start = math.hypot(start[0] - candidate[0], start[1] - candidate[1])
+        r_end = math.hypot(end[0] - candidate[0], end[1] - candidate[1])
+        if abs(r_start - r_end) / float(spm) > machine.arc_tolerance or not r_start:
+            continue
+        cost = (math.hypot(candidate[0] - cx, candidate[1] - cy) + abs(r_start - radius),
+                candidate != nearest, candidate)
+        best = cost if best is None or cost < best else best
+    return nearest if best is None else best[2]
+
+
+def sweep_slack(radius):
+    """How far (radians) an arc's sweep on the lattice may differ from its programmed sweep,
+    for a radius of ``radius`` steps: its start, end and centre are each rounded by up to
+    √2/2 of a step, and the path point nearest the end lies up to a step along the circle from
+    it, so each end's angle moves by up to (√2 + 1)/``radius``; 4/``radius`` for both ends."""
+    return 4 / radius
+
+
+def _full(move):
+    """An arc programmed as a full circle: its end is its start, exactly (as LinuxCNC)."""
+    return tuple(move.end) == tuple(move.start)
+
+
+def _on_sweep(move, start, reach, radius):
+    """The end ``reach`` (relative to the lattice centre) of an arc from ``start`` whose sweep
+    on the lattice is its programmed sweep: ``reach`` itself, the start (a full circle, for a
+    programmed sweep within the rounding of a full turn whose end rounds a hair past its start),
+    or ``None`` for a programmed sweep within the rounding of nothing whose lattice arc is not
+    (its end rounds onto its start, or a hair behind it: the engine would trace a full turn).
+
+    Raises
+    ------
+    ProgramError
+        When the lattice arc's sweep is none of these (a full circle programmed, another
+        traced; a sweep on the lattice that is not the programmed one).
+    """
+    full = _full(move)
+    programmed = sweep(move.start, move.end, move.centre, move.cw, full=full)
+    traced = sweep(start, reach, (0, 0), move.cw, full=tuple(reach) == tuple(start))
+    slack = sweep_slack(radius)
+    if full:
+        if traced == programmed:
+            return reach
+    elif abs(traced - programmed) <= slack:
+        return reach
+    elif programmed >= 2 * math.pi - slack and traced <= slack:
+        return start
+    elif programmed <= slack:
+        return None
+    raise ProgramError(move.line, f"the arc sweeps {math.degrees(programmed):.4f} degrees as "
+                                  f"programmed but {math.degrees(traced):.4f} on the step "
+                                  f"lattice, more than its rounding "
+                                  f"({math.degrees(slack):.4f}) apart")
+
+
+def check_sweep(move, start, end, radius):
+    """Raise :exc:`ProgramError` unless the arc of ``move`` on the lattice, from ``start`` to
+    ``end`` (relative to its lattice centre, ``radius`` steps), sweeps its programmed sweep
+    within the rounding (:func:`sweep_slack`): a full circle only where one is programmed.
+    (A compensated contour's arc, which the equidistant engine traces as it is given.)"""
+    if _on_sweep(move, start, end, radius) != tuple(end):
+        programmed = sweep(move.start, move.end, move.centre, move.cw, full=_full(move))
+        traced = sweep(start, end, (0, 0), move.cw, full=tuple(end) == tuple(start))
+        raise ProgramError(move.line, f"the arc sweeps {math.degrees(programmed):.4f} degrees "
+                                      f"as programmed but {math.degrees(traced):.4f} on the "
+                                      f"step lattice: too short for a compensated contour")
+
+
 def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), start=None):
     """The moves on the step lattice: a list of :class:`Segment`.
 
@@ -160,16 +253,27 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 position, end, feed)
             position = end
             continue
+        # The program's arc, its centre rounded to the nearest step: refused as before (radius
+        # zero, radii beyond the tolerance); then the lattice centre nearest its circle.
         centre = on_lattice(move.centre, machine)
+        if position == centre:
+            raise ProgramError(move.line, "the arc's start is its centre: radius zero")
+        check_arc_radii(move.line, (position[0] - centre[0], position[1] - centre[1]),
+                        (end[0] - centre[0], end[1] - centre[1]), machine)
+        centre = _centre(move, position, end, machine)
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
-        if (x0, y0) == (0, 0):
-            raise ProgramError(move.line, "the arc's start is its centre: radius zero")
         r_start = check_arc_radii(move.line, (x0, y0), (x1, y1), machine)
         try:
             reach = _path_point(x0, y0, x1, y1, widths[1])
         except InputError as error:
             raise ProgramError(move.line, str(error)) from None
+        reach = _on_sweep(move, (x0, y0), reach, r_start)
+        if reach is None:                 # a sweep that rounds to nothing: a line to the end
+            add(move.line, "line", {"x": end[0] - position[0], "y": end[1] - position[1]},
+                position, end, feed)
+            position = end
+            continue
         cw = int(bool(move.cw))
         sign = -1 if cw else 1
 
@@ -209,20 +313,62 @@ def _junction(previous, following, machine):
     return math.sqrt(machine.accel * machine.junction_deviation * sin_half / (1 - sin_half))
 
 
+def min_feed(machine):
+    """The lowest contour speed (mm/s) the feed generator makes: a rate of 1 in Q0.24, one
+    step length every 2**24 clocks (:class:`hdl.motion.feed.FeedGenerator` adds the rate's
+    upper 24 bits to its distance every clock, so a lower rate is 0 and never steps). Every
+    rate the planner sends is a whole number of these (:func:`plan`)."""
+    return machine.clock_hz / (machine.steps_per_mm * (1 << 24))
+
+
+def _quantise(speed, unit):
+    """``speed`` rounded down to the feed generator's rates (whole units): never faster
+    than asked."""
+    return math.floor(speed / unit + 1e-9) * unit
+
+
+def planned_feed(feed, machine):
+    """The feed (mm/min) the plan cruises at for a programmed ``feed`` (mm/min): capped by the
+    machine's ``max_feed`` and rounded down to the feed generator's rates (an arc's
+    centripetal cap and a move too short to reach it apart)."""
+    unit = min_feed(machine)
+    return max(_quantise(min(float(feed), machine.max_feed) / 60, unit), unit) * 60
+
+
 def plan(segments, machine):
-    """The feed plan of ``segments``: a :class:`PlanItem` each."""
+    """The feed plan of ``segments``: a :class:`PlanItem` each.
+
+    1. Every speed of the plan (a move's cruise, its exit, the next move's entry) is one the
+       feed generator makes: its rate rounded down to a whole Q0.24 rate (:func:`min_feed`),
+       so a move is never faster than its feed and its planned time is the generator's.
+    2. A move cruises at its feed (capped by the machine's maximum and, on an arc, by the
+       centripetal acceleration), however low: a feed below :func:`min_feed` is refused.
+    3. A move that ends at rest in the plan (a reversal, the program's end) ends at the speed
+       from which one step stops it within the acceleration, ``sqrt(2 accel / steps_per_mm)``,
+       or its own cruise and the next move's if they are lower: the generator ramps toward
+       the exit rate, and a rate of zero would never make the last step.
+
+    Raises
+    ------
+    ProgramError
+        For a feed below :func:`min_feed`, naming the line and the minimum.
+    """
     spm = machine.steps_per_mm
     a = machine.accel
-    # The slowest speed a move may end at: what one step's acceleration from rest gives (the
-    # gateware's rate must not reach zero before the last step).
+    unit = min_feed(machine)
     floor = math.sqrt(2 * a / spm)
     lengths = [s.length / spm for s in segments]
     nominal = []
     for s in segments:
+        if s.feed < unit * (1 - 1e-9):
+            raise ProgramError(s.line, f"the feed {s.feed * 60:g} mm/min is below the lowest "
+                                       f"the feed generator makes, {unit * 60:.4f} mm/min (one "
+                                       f"step in 2^24 clocks at {machine.clock_hz:g} Hz and "
+                                       f"{spm:g} steps/mm)")
         v = s.feed
         if s.radius:
             v = min(v, math.sqrt(a * s.radius / spm))       # centripetal acceleration
-        nominal.append(max(v, floor))
+        nominal.append(max(_quantise(v, unit), unit))
     count = len(segments)
     limit = [0.0] * (count + 1)                # speed limits at the junctions
     for i in range(1, count):
@@ -233,10 +379,13 @@ def plan(segments, machine):
     for i in range(count):                     # forward: able to speed up in time
         limit[i + 1] = min(limit[i + 1], math.sqrt(limit[i] ** 2 + 2 * a * lengths[i]))
     items = []
+    v0 = 0.0
     for i, s in enumerate(segments):
-        v0, v1, length = limit[i], max(limit[i + 1], floor), lengths[i]
+        following = nominal[i + 1] if i + 1 < count else math.inf
+        v1 = _quantise(max(limit[i + 1], min(floor, nominal[i], following), unit), unit)
+        length = lengths[i]
         peak = math.sqrt(max((2 * a * length + v0 * v0 + v1 * v1) / 2, 0))
-        vc = max(min(nominal[i], peak), v1, v0)
+        vc = max(_quantise(min(nominal[i], peak), unit), v1, v0)
         down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 1     # step lengths, and one more
         remaining = s.length
         decelerate = 0
@@ -250,6 +399,7 @@ def plan(segments, machine):
         cruise_mm = max(length - up - down_mm, 0)
         seconds = (vc - v0) / a + (vc - v1) / a + cruise_mm / vc
         items.append(PlanItem(v0, vc, v1, decelerate, seconds))
+        v0 = v1
     return items
 
 
