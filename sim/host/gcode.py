@@ -28,6 +28,7 @@ moves is given in millimetres (per minute).
 
 import decimal
 import re
+import sys
 from dataclasses import dataclass, field
 from fractions import Fraction
 
@@ -179,7 +180,14 @@ def parse(text, *, name=None):
                 raise GCodeError(number, f"cannot read {rest.split()[0]!r}: a word is a "
                                          f"letter and a number", name=name)
             letter, digits = match.group(1).upper(), match.group(2)
-            words.append(Word(letter, Fraction(digits), f"{letter}{digits}"))
+            try:
+                value = Fraction(digits)
+            except ValueError:                 # beyond Python's int string limit
+                raise GCodeError(number, f"the number of {letter} has {len(digits)} "
+                                         f"characters, more than the "
+                                         f"{sys.get_int_max_str_digits()} digits a number may "
+                                         f"have", name=name) from None
+            words.append(Word(letter, value, f"{letter}{digits}"))
             position = match.end()
         if words:
             blocks.append(Block(number, tuple(words), comment))

@@ -114,22 +114,40 @@ class Result:
 
 
 def _move_steps(move, spm):
-    """An upper bound on the steps of a move (mm) on a lattice of ``spm`` steps/mm: a line's
-    ``|dx| + |dy|`` steps (and 2 for the rounding of its ends); an arc's share of a full
-    circle's ``8R + 8`` (``R`` its radius in steps, rounded up) by its sweep, and 16 more."""
+    """An upper bound on the steps of a move (mm) on a lattice of ``spm`` steps/mm, computed
+    exactly (a coordinate may have thousands of digits): a line's ``|dx| + |dy|`` steps (and 2
+    for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
+    radius in steps, rounded up) by its sweep, and 16 more."""
+    spm = Fraction(spm)
+
+    def steps(a, b):                       # a coordinate difference (mm) in whole steps, up
+        return math.ceil(abs(Fraction(b) - Fraction(a)) * spm)
+
     (x0, y0), (x1, y1) = move.start, move.end
     if move.kind != "arc":
-        return math.ceil((abs(float(x1 - x0)) + abs(float(y1 - y0))) * spm) + 2
-    cx, cy = (float(c) for c in move.centre)
-    a0 = math.atan2(float(y0) - cy, float(x0) - cx)
-    a1 = math.atan2(float(y1) - cy, float(x1) - cx)
-    sweep = (a0 - a1) if move.cw else (a1 - a0)
+        return steps(x0, x1) + steps(y0, y1) + 2
+    cx, cy = move.centre
+    radius = max(math.isqrt(steps(cx, x) ** 2 + steps(cy, y) ** 2) + 1
+                 for x, y in ((x0, y0), (x1, y1)))
+    # The sweep, from the angles of the start and end (floats: each pair scaled to fit).
+    angles = []
+    for x, y in ((x0, y0), (x1, y1)):
+        dx, dy = Fraction(x) - Fraction(cx), Fraction(y) - Fraction(cy)
+        scale = max(abs(dx), abs(dy)) or 1
+        angles.append(math.atan2(float(dy / scale), float(dx / scale)))
+    sweep = (angles[0] - angles[1]) if move.cw else (angles[1] - angles[0])
     sweep %= 2 * math.pi
     if sweep < 1e-9:                               # start and end alike: a full circle
         sweep = 2 * math.pi
-    radius = math.ceil(max(math.hypot(float(x0) - cx, float(y0) - cy),
-                           math.hypot(float(x1) - cx, float(y1) - cy)) * spm) + 1
-    return math.ceil((8 * radius + 8) * sweep / (2 * math.pi)) + 16
+    return math.ceil(Fraction(8 * radius + 8) * Fraction(sweep) / Fraction(2 * math.pi)) + 16
+
+
+def _figure(number, unit=1):
+    """An int of any size divided by ``unit``, for a message: with commas up to 10**30, else
+    as a power of ten."""
+    if number < 10 ** 30 * unit:
+        return f"{number / unit:.3g}" if unit > 1 else f"{number:,}"
+    return f"10**{len(str(number // unit)) - 1}"
 
 
 def estimate_steps(moves, machine, *, max_steps=None):
@@ -143,15 +161,15 @@ def estimate_steps(moves, machine, *, max_steps=None):
         the estimate and the memory it would take.
     """
     limit = MAX_STEPS if max_steps is None else max_steps
-    spm = float(machine.steps_per_mm)
+    spm = machine.steps_per_mm
     total = 0
     for move in moves:
         total += _move_steps(move, spm)
         if total > limit:
             raise ProgramError(
-                move.line, f"the program reaches about {total:,} steps by this line, more "
+                move.line, f"the program reaches about {_figure(total)} steps by this line, more "
                            f"than the {limit:,} this run takes (about "
-                           f"{total * BYTES_PER_STEP / 1e9:.1f} GB of memory at "
+                           f"{_figure(total * BYTES_PER_STEP, 10 ** 9)} GB of memory at "
                            f"{BYTES_PER_STEP} bytes a step); raise --max-steps to run it "
                            f"anyway")
     return total
