@@ -118,6 +118,20 @@ def _move_steps(move, spm):
     exactly (a coordinate may have thousands of digits): a line's ``|dx| + |dy|`` steps (and 2
     for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
     radius in steps, rounded up) by its sweep, and 16 more."""
+    coordinates = [*move.start, *move.end, *(move.centre or ())]
+    if all(abs(c) < 10 ** 9 for c in coordinates):       # floats exact enough: +2 steps slack
+        x0, y0, x1, y1, *centre = map(float, coordinates)
+        spm = float(spm)
+        if move.kind != "arc":
+            return math.ceil((abs(x1 - x0) + abs(y1 - y0)) * spm) + 4
+        cx, cy = centre
+        radius = math.ceil(max(math.hypot(x0 - cx, y0 - cy), math.hypot(x1 - cx, y1 - cy))
+                           * spm) + 2
+        a0, a1 = math.atan2(y0 - cy, x0 - cx), math.atan2(y1 - cy, x1 - cx)
+        sweep = ((a0 - a1) if move.cw else (a1 - a0)) % (2 * math.pi)
+        if sweep < 1e-9:
+            sweep = 2 * math.pi
+        return math.ceil((8 * radius + 8) * sweep / (2 * math.pi)) + 16
     spm = Fraction(spm)
 
     def steps(a, b):                       # a coordinate difference (mm) in whole steps, up
@@ -451,11 +465,15 @@ def deviation(job, steps):
 
 
 def _speeds(steps, times, spm):
-    speeds, previous = [], 0.0
+    """The feed (mm/min) at each step: its length over the time since the step before (NaN
+    for none); an ``array('d')``, 8 bytes a step."""
+    from array import array
+    speeds, previous = array("d"), 0.0
+    axial, diagonal = 60 / spm, 60 * math.sqrt(2) / spm
     for (dx, dy), t in zip(steps, times):
-        length = (math.sqrt(2) if dx and dy else 1.0) / spm
         interval = t - previous
-        speeds.append(length / interval * 60 if interval > 0 else float("nan"))
+        speeds.append((diagonal if dx and dy else axial) / interval if interval > 0
+                      else math.nan)
         previous = t
     return speeds
 
@@ -603,7 +621,9 @@ def write_outputs(job, result, out_dir, *, staging=None):
     earlier contents are gone, and a run never mixes its files with another's."""
     out_dir = Path(out_dir)
     staging = staging_dir(out_dir) if staging is None else Path(staging)
-    (staging / "steps.txt").write_text("".join(f"{dx} {dy}\n" for dx, dy in result.steps))
+    lines = {(dx, dy): f"{dx} {dy}\n" for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+    with open(staging / "steps.txt", "w") as handle:
+        handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)
     from .plot import plot_toolpath
     plot_toolpath(job, result.steps, _speeds(result.steps, result.times,
