@@ -311,7 +311,7 @@ def _run(args, out):
     except OSError as error:
         raise UsageError(f"--out {out_dir}: {error.strerror or error}") from None
     try:
-        with _progress(len(job.steps), "steps") as bar:
+        with _progress(sum(len(s.steps) for s in job.segments), "steps") as bar:
             def progress(made):
                 bar.update(made - bar.n)
             result = execute(job, args.engine, compress=args.compress,

@@ -153,14 +153,19 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
         axes.add_collection(LineCollection(_polylines(offsets), colors="tab:blue",
                                            linestyles="--", linewidths=1,
                                            label="offset path"))
-    moves = numpy.array(steps, dtype=numpy.int64).reshape(-1, 2)
-    points = numpy.vstack([numpy.array([job.start], dtype=numpy.int64),
-                           numpy.array(job.start, dtype=numpy.int64) + numpy.cumsum(moves, 0)])
-    points = points / spm
-    if len(moves):
-        stride = max(1, -(-len(moves) // MAX_POINTS))
-        ends = numpy.append(numpy.arange(0, len(moves), stride), len(moves))
-        segments = numpy.stack([points[ends[:-1]], points[ends[1:]]], axis=1)
+    import itertools
+    moves = numpy.fromiter(itertools.chain.from_iterable(steps), dtype=numpy.int8,
+                           count=2 * len(steps)).reshape(-1, 2)
+    positions = numpy.cumsum(moves, axis=0, dtype=numpy.int64)
+    del moves
+    start = numpy.array([job.start], dtype=numpy.int64)
+    points = numpy.vstack([start, start + positions[[-1]]]) / spm if len(steps) else start / spm
+    if len(steps):
+        stride = max(1, -(-len(steps) // MAX_POINTS))
+        ends = numpy.append(numpy.arange(0, len(steps), stride), len(steps))
+        kept = numpy.vstack([start, start + positions[ends[1:] - 1]]) / spm
+        del positions
+        segments = numpy.stack([kept[:-1], kept[1:]], axis=1)
         feed = numpy.nan_to_num(numpy.asarray(speeds, dtype=float), nan=0.0)
         colours = numpy.minimum.reduceat(feed, ends[:-1]) if len(feed) else \
             numpy.zeros(len(segments))
