@@ -44,10 +44,10 @@ def test_machine_takes_what_the_gateware_takes(key, values):
     for value in values:
         takes = _gateware_takes(**{key: value})
         if takes:
-            assert getattr(Machine(clock_hz=CLOCK, **{key: value}), key) == value
+            assert getattr(Machine(clock_hz=CLOCK, **{key: value}).check(), key) == value
         else:
             with pytest.raises(MachineError, match=key):
-                Machine(clock_hz=CLOCK, **{key: value})
+                Machine(clock_hz=CLOCK, **{key: value}).check()
 
 
 def test_both_sides_seen():

@@ -17,8 +17,10 @@ cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them ne
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
 --board``; :data:`sim.registry.BOARDS`), given to :meth:`Machine.from_toml` by the caller.
 
-Every value is checked once, when the machine is made, against what the gateware takes (the
-same for every engine, the model included): :exc:`MachineError` names the key and its range.
+Every value is checked once against what the gateware takes (the same for every engine, the
+model included): :exc:`MachineError` names the key and its range. ``queue_frames`` when the
+machine is made; the baud and acceleration, which depend on the clock, by :meth:`Machine.check`
+(called by :func:`sim.host.machining.prepare` once the clock is the board's).
 
 1. ``queue_frames``: an integer of at least 2 (:class:`hdl.motion.controller.
    MotionController`).
@@ -77,8 +79,6 @@ class Machine:
         if self.queue_frames < 2:
             raise MachineError(f"queue_frames must be an integer of at least 2, not "
                                f"{self.queue_frames!r}")
-        self.check_baud()
-        self.accel_q40                                  # noqa: B018 (raises if out of range)
         if self.max_step_rate < self.max_feed / 60 * self.steps_per_mm:
             raise MachineError(
                 f"max_feed {self.max_feed:g} mm/min is {self.max_feed / 60 * self.steps_per_mm:.0f}"
@@ -125,6 +125,15 @@ class Machine:
     def max_step_rate(self):
         """Steps a second per axis at most: one every ``dir_setup + step_width + 1`` clocks."""
         return self.clock_hz / (self.dir_setup + self.step_width + 1)
+
+    def check(self):
+        """Raise :exc:`MachineError` (naming the key and its range) for a value the gateware
+        at this clock cannot take: the baud (:meth:`check_baud`), the acceleration
+        (:attr:`accel_q40`). Called by :func:`sim.host.machining.prepare` for every engine,
+        once the clock is known to be the board's; return the machine."""
+        self.check_baud()
+        self.accel_q40                                  # noqa: B018 (raises if out of range)
+        return self
 
     def check_baud(self):
         """Raise :exc:`MachineError` unless the UART can make ``baud`` from the clock: a bit

@@ -37,7 +37,7 @@ from pathlib import Path
 from .. import registry
 from .compensation import program_segments, references
 from .gcode import GCodeError, read
-from .machine import Machine
+from .machine import Machine, MachineError
 from .planner import ProgramError, frames as program_frames, lattice, plan
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -207,6 +207,11 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock ({machine.clock_hz:g} Hz) is not the "
                          f"{item.name}'s ({item.clock_hz:g} Hz)")
+    from .trace import UsageError
+    try:
+        machine.check()
+    except MachineError as error:
+        raise UsageError(str(error)) from None
     try:
         program = read(text, name=name, units="mm")
     except GCodeError as error:
