@@ -99,18 +99,12 @@ def machine_file(board, path):
     """
     from sim import registry
     from sim.host.machine import Machine, MachineError
-    from hdl.motion.uart import divisor_for
     item = registry.board(board)
     machine = Machine.from_toml(path, clock_hz=item.clock_hz)
-    if not 2 <= machine.queue_frames <= 255:
-        raise MachineError(f"{path}: queue_frames must be from 2 (the controller's least) to "
-                           f"255 (the free slots a STATUS reply can report, a byte), not "
-                           f"{machine.queue_frames}")
     try:
-        divisor_for(machine.clock_hz, machine.baud)
-    except ValueError as error:
-        raise MachineError(f"{path}: baud {machine.baud}: {error}") from None
-    return machine
+        return machine.check()
+    except MachineError as error:
+        raise MachineError(f"{path}: {error}") from None
 
 
 def main(argv=None):

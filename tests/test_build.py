@@ -49,9 +49,9 @@ def test_machine_file_sets_the_controllers_link_and_queue(board, built, tmp_path
         in out
 
 
-BAD = {"queue_frames = 1\n": "queue_frames must be from 2",
-       "queue_frames = 256\n": "queue_frames must be from 2 (the controller's least) to 255",
-       "baud = 100000000\n": "baud 100000000: A 6 MHz clock cannot make 100000000 baud",
+BAD = {"queue_frames = 1\n": "queue_frames must be an integer from 2 to 255",
+       "queue_frames = 256\n": "queue_frames must be an integer from 2 to 255",
+       "baud = 100000000\n": "baud 1e+08 cannot be made from the 6 MHz clock",
        "bauds = 9600\n": "unknown key 'bauds'",
        "queue_frames = 2.5\n": "queue_frames must be an integer"}
 

@@ -576,9 +576,11 @@ def test_command_line_against_a_misbehaving_board(case, tmp_path, capsys):
     assert len(lines) == 1 and lines[0].startswith("kontur: SendError: "), captured.err
     body = lines[0].removeprefix("kontur: SendError: ")
     if case == "closed":          # pyserial's words for a closed pty; a read or a write first
+        # The ABORT's write may fail too (said), or reach the kernel's buffer first (silent, as
+        # every ABORT that is sent).
         assert re.match(r"^(reading from|writing to) the port failed \(.*\) with \d+ frames "
-                        r"unanswered .*; the ABORT could not be sent \(writing to the port "
-                        r"failed \(.*\)\): the machine may still be moving$", body), body
+                        r"unanswered [^;]*(; the ABORT could not be sent \(writing to the port "
+                        r"failed \(.*\)\): the machine may still be moving)?$", body), body
     else:
         assert re.match(message.replace("4 frames", r"\d+ frames"), body), body
     assert machine.aborted == reachable

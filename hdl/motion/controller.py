@@ -104,7 +104,8 @@ class MotionController(wiring.Component):
     baud : :class:`int`
         Serial rate (8N1).
     queue_frames : :class:`int`
-        Frames the queue holds (its bytes are in block RAM).
+        Frames the queue holds (its bytes are in block RAM), 2 to 255 (``STATUS`` reports the
+        free slots in a byte).
     dir_setup, step_width : :class:`int`
         Step/dir timing in clocks (see :class:`~hdl.motion.stepdir.StepDirStage`).
 
@@ -153,6 +154,9 @@ class MotionController(wiring.Component):
             table.append(row)
         _check_table(table)
         check_width("Queue length", queue_frames, minimum=2)
+        if queue_frames > 255:
+            raise ValueError(f"Queue length must be at most 255 (STATUS reports the free "
+                             f"slots in a byte), not {queue_frames}")
         check_width("Direction setup", dir_setup, minimum=0)
         check_width("Step pulse width", step_width)
         divisor = divisor_for(clock_hz, baud)

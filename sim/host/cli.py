@@ -113,13 +113,43 @@ def _add_program(kinds, kind):
                         help="draw the profile, its equidistant and the steps (matplotlib)")
 
 
+def _check_plot(path):
+    """Raise :exc:`UsageError` unless matplotlib can write a figure to ``path``: its folder
+    exists and is writable, its extension is a format matplotlib writes (checked before
+    anything runs)."""
+    import os
+    from pathlib import Path
+
+    from matplotlib.figure import Figure
+
+    from .trace import UsageError
+    path = Path(path)
+    formats = Figure().canvas.get_supported_filetypes()
+    extension = path.suffix[1:].lower()
+    if extension not in formats:
+        raise UsageError(f"--plot {path}: unknown extension {path.suffix or '(none)'!r}; "
+                         f"matplotlib writes {', '.join(sorted(formats))}")
+    parent = path.parent
+    if path.is_dir():
+        raise UsageError(f"--plot {path}: is a directory")
+    if not parent.is_dir():
+        raise UsageError(f"--plot {path}: no directory {parent}")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UsageError(f"--plot {path}: not writable")
+
+
 def _trace_program(args, out):
     from .trace import UsageError, trace_profile
     try:
         with open(args.file, encoding="utf-8") as handle:
             text = handle.read()
-    except (OSError, UnicodeDecodeError) as error:
+    except UnicodeDecodeError as error:
+        raise UsageError(f"{args.file}: not a text file (not UTF-8: {error.reason} at byte "
+                         f"{error.start})") from None
+    except OSError as error:
         raise UsageError(f"{args.file}: {error.strerror or error}") from None
+    if args.plot:
+        _check_plot(args.plot)
     run = trace_profile(text, radius=args.radius, name=args.file, variant=args.variant,
                         engine=args.engine, width=args.width, vcd=args.vcd, cycles=args.cycles,
                         max_clocks=args.max_clocks, treatment=args.corner,
@@ -204,7 +234,18 @@ def _add_machining(commands):
     run.add_argument("--compress", type=int, default=None, metavar="N",
                      help="time compression of an RTL run: rates N times the planned ones "
                           "(default: the largest power of two the step timing and the link "
-                          "allow; the steps do not change)")
+                          "allow; the steps do not change). Checked on every engine, the "
+                          "model's too: more than the step/dir timing, the acceleration's "
+                          "field or the link allows is refused with the largest allowed")
+    from .machining import BYTES_PER_STEP, MAX_CLOCKS, MAX_STEPS
+    run.add_argument("--max-steps", type=int, default=None, metavar="N",
+                     help=f"refuse a program whose steps, estimated from the G-code before "
+                          f"any is computed (a line |dx| + |dy|, an arc its share of 8R + 8), "
+                          f"exceed N (default {MAX_STEPS:,}: about "
+                          f"{MAX_STEPS * BYTES_PER_STEP / 1e9:g} GB at ~{BYTES_PER_STEP} "
+                          f"bytes a step). The RTL engines also refuse a run whose planned "
+                          f"clocks exceed "
+                          + ", ".join(f"{e} {n:,}" for e, n in MAX_CLOCKS.items()))
     send = commands.add_parser(
         "send", help="stream a G-code program to a board over its serial port",
         epilog="Before the first frame the board must answer a QUERY idle, at the program's "
@@ -232,8 +273,11 @@ def _job(args):
     try:
         with open(args.file, encoding="utf-8") as handle:
             text = handle.read()
-    except (OSError, UnicodeDecodeError) as error:
-        raise UsageError(f"{args.file}: {getattr(error, 'strerror', None) or error}") from None
+    except UnicodeDecodeError as error:
+        raise UsageError(f"{args.file}: not a text file (not UTF-8: {error.reason} at byte "
+                         f"{error.start})") from None
+    except OSError as error:
+        raise UsageError(f"{args.file}: {error.strerror or error}") from None
     try:
         if args.machine:
             machine = Machine.from_toml(args.machine, clock_hz=board.clock_hz,
@@ -247,7 +291,8 @@ def _job(args):
     except MachineError as error:
         raise UsageError(str(error)) from None
     from pathlib import Path
-    return prepare(text, machine=machine, board=args.board, name=Path(args.file).name)
+    return prepare(text, machine=machine, board=args.board, name=Path(args.file).name,
+                   max_steps=getattr(args, "max_steps", None))
 
 
 def _progress(total, what):
@@ -258,26 +303,36 @@ def _progress(total, what):
 
 
 def _run(args, out):
+    import shutil
     from pathlib import Path
 
-    from .machining import execute, summary_text, write_outputs
+    from .machining import check_compress, execute, staging_dir, summary_text, write_outputs
     from .trace import UsageError
     if args.compress is not None and args.compress < 1:
         raise UsageError(f"--compress must be a positive integer, not {args.compress}")
+    if args.max_steps is not None and args.max_steps < 1:
+        raise UsageError(f"--max-steps must be a positive integer, not {args.max_steps}")
     if args.vcd and args.engine == "model":
         raise UsageError("--vcd needs an RTL engine (amaranth, icarus, verilator)")
     job = _job(args)
+    if args.compress is not None:
+        check_compress(job, args.compress)
     out_dir = Path(args.out) if args.out else Path("build") / "run" / Path(args.file).stem
+    # The outputs go into a fresh folder beside DIR, moved into place at the end: made now,
+    # so that a DIR that cannot be written is refused before the run.
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        staging = staging_dir(out_dir)
     except OSError as error:
-        raise UsageError(f"--out {out_dir}: {error.strerror}") from None
-    with _progress(len(job.steps), "steps") as bar:
-        def progress(made):
-            bar.update(made - bar.n)
-        result = execute(job, args.engine, compress=args.compress,
-                         vcd=out_dir / "run.vcd" if args.vcd else None, progress=progress)
-    data = write_outputs(job, result, out_dir)
+        raise UsageError(f"--out {out_dir}: {error.strerror or error}") from None
+    try:
+        with _progress(sum(len(s.steps) for s in job.segments), "steps") as bar:
+            def progress(made):
+                bar.update(made - bar.n)
+            result = execute(job, args.engine, compress=args.compress,
+                             vcd=staging / "run.vcd" if args.vcd else None, progress=progress)
+        data = write_outputs(job, result, out_dir, staging=staging)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)      # gone already when moved into place
     out.write(summary_text(data, out_dir))
     return 0
 

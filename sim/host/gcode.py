@@ -30,6 +30,7 @@ refused, as LinuxCNC refuses it ("Cannot do g1 with zero feed rate").
 import decimal
 import math
 import re
+import sys
 from dataclasses import dataclass, field
 from fractions import Fraction
 
@@ -217,7 +218,14 @@ def parse(text, *, name=None):
                 raise GCodeError(number, f"cannot read {rest.split()[0]!r}: a word is a "
                                          f"letter and a number", name=name)
             letter, digits = match.group(1).upper(), match.group(2)
-            words.append(Word(letter, Fraction(digits), f"{letter}{digits}"))
+            try:
+                value = Fraction(digits)
+            except ValueError:                 # beyond Python's int string limit
+                raise GCodeError(number, f"the number of {letter} has {len(digits)} "
+                                         f"characters, more than the "
+                                         f"{sys.get_int_max_str_digits()} digits a number may "
+                                         f"have", name=name) from None
+            words.append(Word(letter, value, f"{letter}{digits}"))
             position = match.end()
         if words:
             blocks.append(Block(number, tuple(words), comment))

@@ -10,12 +10,27 @@ arc_tolerance = 0.05       # mm: an arc's start and end radii may differ by this
 baud = 115200
 dir_setup_us = 1.0         # step/dir timing of the drivers
 step_width_us = 2.0
-queue_frames = 32
+queue_frames = 32          # at least 2
 cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them needs it)
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
 --board``; :data:`sim.registry.BOARDS`), given to :meth:`Machine.from_toml` by the caller.
+
+Every value is checked once against what the gateware takes (the same for every engine, the
+model included): :exc:`MachineError` names the key and its range. ``queue_frames`` when the
+machine is made; the baud and acceleration, which depend on the clock, by :meth:`Machine.check`
+(called by :func:`sim.host.machining.prepare` once the clock is the board's).
+
+1. ``queue_frames``: an integer from 2 to 255 (:class:`hdl.motion.controller.
+   MotionController`).
+2. ``baud``: the clock divided by it, rounded, is the UART's bit time in clocks; it must be at
+   least 4 clocks and the rate it makes within 2 % of ``baud``
+   (:func:`hdl.motion.uart.divisor_for`).
+3. ``accel``: as the feed generator's rate change a clock, Q0.40, it must round to at least 1
+   and fit its 32-bit field (:attr:`Machine.accel_q40`).
+4. ``max_feed``: at most the step rate the step/dir timing allows (one step every
+   ``dir_setup + step_width + 1`` clocks per axis).
 """
 
 import math
@@ -60,6 +75,10 @@ class Machine:
         for name in ("baud", "queue_frames"):
             if int(getattr(self, name)) != getattr(self, name):
                 raise MachineError(f"{name} must be an integer, not {getattr(self, name)!r}")
+            object.__setattr__(self, name, int(getattr(self, name)))
+        if not 2 <= self.queue_frames <= 255:
+            raise MachineError(f"queue_frames must be an integer from 2 to 255 (STATUS reports "
+                               f"the free slots in a byte), not {self.queue_frames!r}")
         if self.max_step_rate < self.max_feed / 60 * self.steps_per_mm:
             raise MachineError(
                 f"max_feed {self.max_feed:g} mm/min is {self.max_feed / 60 * self.steps_per_mm:.0f}"
@@ -75,6 +94,9 @@ class Machine:
                 table = tomllib.load(handle)
         except OSError as error:
             raise MachineError(f"cannot read the machine file {path}: {error.strerror}")
+        except UnicodeDecodeError as error:
+            raise MachineError(f"{path}: not a TOML file (not UTF-8 text: {error.reason} at "
+                               f"byte {error.start})")
         except tomllib.TOMLDecodeError as error:
             raise MachineError(f"{path}: {error}")
         known = {item.name for item in fields(cls)} - {"clock_hz"}
@@ -104,16 +126,57 @@ class Machine:
         """Steps a second per axis at most: one every ``dir_setup + step_width + 1`` clocks."""
         return self.clock_hz / (self.dir_setup + self.step_width + 1)
 
+    def check(self):
+        """Raise :exc:`MachineError` (naming the key and its range) for a value the gateware
+        at this clock cannot take: the baud (:meth:`check_baud`), the acceleration
+        (:attr:`accel_q40`). Called by :func:`sim.host.machining.prepare` for every engine,
+        once the clock is known to be the board's; return the machine."""
+        self.check_baud()
+        self.accel_q40                                  # noqa: B018 (raises if out of range)
+        return self
+
+    def check_baud(self):
+        """Raise :exc:`MachineError` unless the UART can make ``baud`` from the clock: a bit
+        time of at least 4 clocks, its rate within 2 % (:func:`hdl.motion.uart.divisor_for`);
+        return the bit time in clocks."""
+        from hdl.motion.uart import divisor_for
+        try:
+            return divisor_for(self.clock_hz, self.baud)
+        except ValueError:
+            raise MachineError(
+                f"baud {self.baud:g} cannot be made from the {self.clock_hz / 1e6:g} MHz clock: "
+                f"the bit time ({self.clock_hz / self.baud:.2f} clocks) must round to at least "
+                f"4 whole clocks and give a rate within 2 % of the baud (at most "
+                f"{self.clock_hz / 4 / 0.98:.0f} baud)") from None
+
+    @property
+    def max_rate(self):
+        """The feed generator's highest rate (Q0.24): one step every ``dir_setup +
+        step_width + 1`` clocks (:func:`hdl.motion.feed.rate_limit`)."""
+        return ((1 << 24) - 1) // (self.dir_setup + self.step_width + 1)
+
     def rate(self, mm_per_s):
-        """A contour speed as the feed generator's rate: step lengths a clock, Q0.24."""
-        return min(round(mm_per_s * self.steps_per_mm / self.clock_hz * (1 << 24)),
-                   (1 << 24) - 1)
+        """A contour speed as the feed generator's rate: step lengths a clock, Q0.24.
+
+        Raises
+        ------
+        MachineError
+            If it does not fit the 24-bit field (never clamped)."""
+        value = round(mm_per_s * self.steps_per_mm / self.clock_hz * (1 << 24))
+        if not 0 <= value < 1 << 24:
+            raise MachineError(f"a speed of {mm_per_s * 60:g} mm/min is a feed generator rate "
+                               f"of {value}, beyond its 24-bit field (at most {(1 << 24) - 1})")
+        return value
 
     @property
     def accel_q40(self):
         """The acceleration as the feed generator's rate change a clock, Q0.40."""
-        value = round(self.accel * self.steps_per_mm / self.clock_hz ** 2 * (1 << 40))
+        scale = self.steps_per_mm / self.clock_hz ** 2 * (1 << 40)
+        value = round(self.accel * scale)
         if not 1 <= value < 1 << 32:
-            raise MachineError(f"accel {self.accel:g} mm/s^2 does not fit the feed generator "
-                               f"at {self.clock_hz:g} Hz and {self.steps_per_mm:g} steps/mm")
+            raise MachineError(
+                f"accel {self.accel:g} mm/s^2 does not fit the feed generator at "
+                f"{self.clock_hz:g} Hz and {self.steps_per_mm:g} steps/mm: it must be from "
+                f"{0.5 / scale:.4g} to {((1 << 32) - 0.5) / scale:.4g} mm/s^2 (a rate change a "
+                f"clock of 1 to 2**32 - 1 in Q0.40)")
         return value

@@ -37,17 +37,29 @@ from pathlib import Path
 from .. import registry
 from .compensation import program_segments, references
 from .gcode import GCodeError, read, sweep
-from .machine import Machine
+from .machine import Machine, MachineError
 from .planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
 
-__all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "deviation",
-           "write_outputs", "summary_text", "RunError"]
+__all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
+           "estimate_steps", "deviation", "write_outputs", "summary_text", "RunError",
+           "MAX_STEPS", "BYTES_PER_STEP", "check_compress", "staging_dir"]
 
 ENGINES = ("model", "amaranth", "icarus", "verilator")
 
 #: Clocks a run may take at most, per engine (about ten minutes of each, as measured on these
 #: machines: Amaranth ~10 k, Icarus ~8 k, Verilator's fast harness ~1.5 M clocks a second).
 MAX_CLOCKS = {"amaranth": 6_000_000, "icarus": 5_000_000, "verilator": 1_000_000_000}
+
+
+#: Steps a run takes at most (``kontur run --max-steps``): every step is held in memory (the
+#: steps, their times and speeds, the plot), about :data:`BYTES_PER_STEP` bytes each, so the
+#: default keeps a run within about 2 GB. A program is refused before any step is computed
+#: when its estimate (:func:`estimate_steps`) exceeds it.
+MAX_STEPS = 10_000_000
+
+#: Memory a step of a run takes, about (measured: ``kontur run --engine model`` of a long
+#: line, peak resident memory over the steps).
+BYTES_PER_STEP = 200
 
 
 class RunError(RuntimeError):
@@ -101,21 +113,105 @@ class Result:
     notes: list = field(default_factory=list)
 
 
-def prepare(text, *, machine=None, board="icebreaker", name=None):
+def _move_steps(move, spm):
+    """An upper bound on the steps of a move (mm) on a lattice of ``spm`` steps/mm, computed
+    exactly (a coordinate may have thousands of digits): a line's ``|dx| + |dy|`` steps (and 2
+    for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
+    radius in steps, rounded up) by its sweep, and 16 more."""
+    coordinates = [*move.start, *move.end, *(move.centre or ())]
+    if all(abs(c) < 10 ** 9 for c in coordinates):       # floats exact enough: +2 steps slack
+        x0, y0, x1, y1, *centre = map(float, coordinates)
+        spm = float(spm)
+        if move.kind != "arc":
+            return math.ceil((abs(x1 - x0) + abs(y1 - y0)) * spm) + 4
+        cx, cy = centre
+        radius = math.ceil(max(math.hypot(x0 - cx, y0 - cy), math.hypot(x1 - cx, y1 - cy))
+                           * spm) + 2
+        a0, a1 = math.atan2(y0 - cy, x0 - cx), math.atan2(y1 - cy, x1 - cx)
+        sweep = ((a0 - a1) if move.cw else (a1 - a0)) % (2 * math.pi)
+        if sweep < 1e-9:
+            sweep = 2 * math.pi
+        return math.ceil((8 * radius + 8) * sweep / (2 * math.pi)) + 16
+    spm = Fraction(spm)
+
+    def steps(a, b):                       # a coordinate difference (mm) in whole steps, up
+        return math.ceil(abs(Fraction(b) - Fraction(a)) * spm)
+
+    (x0, y0), (x1, y1) = move.start, move.end
+    if move.kind != "arc":
+        return steps(x0, x1) + steps(y0, y1) + 2
+    cx, cy = move.centre
+    radius = max(math.isqrt(steps(cx, x) ** 2 + steps(cy, y) ** 2) + 1
+                 for x, y in ((x0, y0), (x1, y1)))
+    # The sweep, from the angles of the start and end (floats: each pair scaled to fit).
+    angles = []
+    for x, y in ((x0, y0), (x1, y1)):
+        dx, dy = Fraction(x) - Fraction(cx), Fraction(y) - Fraction(cy)
+        scale = max(abs(dx), abs(dy)) or 1
+        angles.append(math.atan2(float(dy / scale), float(dx / scale)))
+    sweep = (angles[0] - angles[1]) if move.cw else (angles[1] - angles[0])
+    sweep %= 2 * math.pi
+    if sweep < 1e-9:                               # start and end alike: a full circle
+        sweep = 2 * math.pi
+    return math.ceil(Fraction(8 * radius + 8) * Fraction(sweep) / Fraction(2 * math.pi)) + 16
+
+
+def _figure(number, unit=1):
+    """An int of any size divided by ``unit``, for a message: with commas up to 10**30, else
+    as a power of ten."""
+    if number < 10 ** 30 * unit:
+        return f"{number / unit:.3g}" if unit > 1 else f"{number:,}"
+    return f"10**{len(str(number // unit)) - 1}"
+
+
+def estimate_steps(moves, machine, *, max_steps=None):
+    """An upper bound on the steps of ``moves`` (mm, :class:`sim.host.gcode.Move`), computed
+    from the program alone, before any step is (see :func:`_move_steps`).
+
+    Raises
+    ------
+    ProgramError
+        Naming the line where the total passes ``max_steps`` (default :data:`MAX_STEPS`), with
+        the estimate and the memory it would take.
+    """
+    limit = MAX_STEPS if max_steps is None else max_steps
+    spm = machine.steps_per_mm
+    total = 0
+    for move in moves:
+        total += _move_steps(move, spm)
+        if total > limit:
+            raise ProgramError(
+                move.line, f"the program reaches about {_figure(total)} steps by this line, more "
+                           f"than the {limit:,} this run takes (about "
+                           f"{_figure(total * BYTES_PER_STEP, 10 ** 9)} GB of memory at "
+                           f"{BYTES_PER_STEP} bytes a step); raise --max-steps to run it "
+                           f"anyway")
+    return total
+
+
+def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None):
     """Read, place on the lattice and plan a program for ``board``'s controller (a board's
     name, or a :class:`sim.registry.Board`); return the :class:`Job`.
+
+    Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
+    and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
 
     Raises
     ------
     ProgramError
         For a program the machine refuses, naming its line (:class:`~sim.host.gcode.
-        GCodeError` for one it cannot read).
+        GCodeError` for one it cannot read), or one with too many steps.
     """
     item = registry.board(board)
     machine = Machine(clock_hz=item.clock_hz) if machine is None else machine
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock ({machine.clock_hz:g} Hz) is not the "
                          f"{item.name}'s ({item.clock_hz:g} Hz)")
+    from .trace import UsageError
+    try:
+        machine.check()
+    except MachineError as error:
+        raise UsageError(str(error)) from None
     try:
         program = read(text, name=name, units="mm")
     except GCodeError as error:
@@ -123,6 +219,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None):
     moves = list(program.moves)
     if not moves:
         raise ProgramError(None, "the program has no moves")
+    estimate_steps(moves, machine, max_steps=max_steps)
     contours = []
     if any(move.side is not None for move in moves):
         segments, contours = program_segments(moves, machine, board)
@@ -134,18 +231,70 @@ def prepare(text, *, machine=None, board="icebreaker", name=None):
                start, contours)
 
 
+def _link_seconds(job):
+    frames, _ = job.frames()
+    return sum(len(f) for f in frames) * 10 / job.machine.baud
+
+
+def max_compress(job):
+    """The largest time compression ``job`` can be run at, and what sets it: ``(n, reason)``.
+
+    1. The step/dir timing: the fastest planned rate, ``n`` times, must not exceed the feed
+       generator's highest rate (:attr:`~sim.host.machine.Machine.max_rate`: one step every
+       ``dir_setup + step_width + 1`` clocks, :attr:`~sim.host.machine.Machine.
+       max_step_rate`).
+    2. The acceleration: ``n**2`` times the Q0.40 rate change must fit CONFIG's 32 bits.
+    3. The link: the frames, at ``baud``, must arrive at least as fast as the motion, ``n``
+       times faster, uses them (on average over the program).
+
+    1 is always allowed (the machine's own time), whatever the link."""
+    machine = job.machine
+    fastest = max((item.cruise for item in job.items), default=0)
+    limits = []
+    if fastest:
+        exact = machine.max_rate / (fastest * machine.steps_per_mm / machine.clock_hz
+                                    * (1 << 24))
+        n = max(1, math.floor(exact))
+        while n > 1 and machine.rate(fastest * n) > machine.max_rate:
+            n -= 1
+        limits.append((n, f"the step/dir timing: the fastest planned feed, "
+                          f"{fastest * 60:g} mm/min ({fastest * machine.steps_per_mm:.0f} "
+                          f"steps/s), times it must stay within "
+                          f"{machine.max_step_rate:.0f} steps/s"))
+    limits.append((max(1, math.isqrt(((1 << 32) - 1) // machine.accel_q40)),
+                   f"the acceleration: {machine.accel_q40} a clock (Q0.40) times its square "
+                   f"must fit CONFIG's 32 bits"))
+    link = _link_seconds(job)
+    if link:
+        limits.append((max(1, math.floor(job.seconds / link)),
+                       f"the link: {link:.3f} s of frames at {machine.baud} baud for "
+                       f"{job.seconds:.3f} s of machining"))
+    return min(limits, key=lambda item: item[0])
+
+
+def check_compress(job, compress):
+    """Raise :exc:`sim.host.trace.UsageError` (one line: the largest value allowed and what
+    sets it) unless ``compress`` is a positive integer :func:`max_compress` allows."""
+    from .trace import UsageError
+    if isinstance(compress, bool) or not isinstance(compress, int) or compress < 1:
+        raise UsageError(f"--compress must be a positive integer, not {compress!r}")
+    limit, reason = max_compress(job)
+    if compress > limit:
+        raise UsageError(f"--compress {compress}: this program allows at most {limit}, set by "
+                         f"{reason}")
+
+
 def auto_compress(job):
     """The time compression a simulation of ``job`` may use: a power of two that keeps the
     fastest planned step rate at most half what the step/dir timing allows, and the serial
-    link at most half as busy as the motion (so that the queue does not run dry). 1 when the
-    program is too fast for any."""
+    link at most half as busy as the motion (so that the queue does not run dry), and within
+    :func:`max_compress`. 1 when the program is too fast for any."""
     machine = job.machine
     fastest = max((item.cruise for item in job.items), default=0) * machine.steps_per_mm
     by_rate = machine.max_step_rate / (2 * fastest) if fastest else 1
-    frames, _ = job.frames()
-    link_seconds = sum(len(f) for f in frames) * 10 / machine.baud
+    link_seconds = _link_seconds(job)
     by_link = job.seconds / (2 * link_seconds) if link_seconds else 1
-    limit = max(1, min(by_rate, by_link))
+    limit = max(1, min(by_rate, by_link, max_compress(job)[0]))
     return 1 << int(math.floor(math.log2(limit)))
 
 
@@ -171,7 +320,9 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
             progress=None):
     """Run ``job`` on ``engine`` (one of :data:`ENGINES`); return the :class:`Result`.
 
-    ``compress`` is the time compression of an RTL run (default :func:`auto_compress`); ``vcd``
+    ``compress`` is the time compression of an RTL run (default :func:`auto_compress`); it is
+    checked on every engine, the model included (which times its steps by the plan, whatever
+    the compression): more than :func:`max_compress` allows is refused. ``vcd``
     a path for the waveform (RTL engines; with ``vcd_clocks``, on Verilator, of the first
     that many clocks only); ``progress`` a callable taking the steps made so far,
     called now and then (Verilator, Amaranth).
@@ -181,9 +332,14 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     RunError
         If the RTL's steps differ from the model's, a frame is not ``DONE``, the final
         position read back is not the program's end, or the run does not end in time.
+    sim.host.trace.UsageError
+        For a ``compress`` beyond :func:`max_compress`, or a run whose planned clocks exceed
+        :data:`MAX_CLOCKS` of the engine (before anything runs).
     """
     if engine not in ENGINES:
         raise ValueError(f"Engine must be one of {', '.join(ENGINES)}, not {engine!r}")
+    if compress is not None:
+        check_compress(job, compress)
     expected = job.steps
     if engine == "model":
         if vcd is not None:
@@ -198,6 +354,11 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     bound = MAX_CLOCKS[engine]
     planned = job.seconds / compress * machine.clock_hz
     link = sum(len(f) for f in frames) * 10 * divisor
+    if planned + link > bound:
+        from .trace import UsageError
+        raise UsageError(f"this program takes about {planned + link:,.0f} clocks at a time "
+                         f"compression of {compress}, more than the {bound:,} that --engine "
+                         f"{engine} runs (about ten minutes)")
     max_clocks = int(min(bound, 2 * (planned + link) + 10 * machine.clock_hz / compress
                          + 1_000_000))
     controller = registry.make_controller(job.board, machine)
@@ -321,11 +482,15 @@ def deviation(job, steps):
 
 
 def _speeds(steps, times, spm):
-    speeds, previous = [], 0.0
+    """The feed (mm/min) at each step: its length over the time since the step before (NaN
+    for none); an ``array('d')``, 8 bytes a step."""
+    from array import array
+    speeds, previous = array("d"), 0.0
+    axial, diagonal = 60 / spm, 60 * math.sqrt(2) / spm
     for (dx, dy), t in zip(steps, times):
-        length = (math.sqrt(2) if dx and dy else 1.0) / spm
         interval = t - previous
-        speeds.append(length / interval * 60 if interval > 0 else float("nan"))
+        speeds.append((diagonal if dx and dy else axial) / interval if interval > 0
+                      else math.nan)
         previous = t
     return speeds
 
@@ -431,17 +596,72 @@ def summary_text(data, out_dir=None):
     return "\n".join(lines) + "\n"
 
 
-def write_outputs(job, result, out_dir):
-    """Write ``steps.txt``, ``toolpath.png`` and ``summary.json`` into ``out_dir``; return the
-    summary dict."""
+def staging_dir(out_dir):
+    """A fresh, empty folder beside ``out_dir`` (``.<name>.<random>.tmp`` in its parent, made
+    here with its parents) for a run's outputs to be written into, then moved into place by
+    :func:`write_outputs`: two runs into one ``out_dir`` never mix their files.
+
+    Raises
+    ------
+    OSError
+        When the parent cannot be made or written to (before anything runs)."""
+    import uuid
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "steps.txt").write_text("".join(f"{dx} {dy}\n" for dx, dy in result.steps))
+    for folder in (out_dir, *out_dir.parents):
+        if folder.exists() and not folder.is_dir():
+            raise NotADirectoryError(20, f"{folder} is not a directory", str(folder))
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    staging = out_dir.parent / f".{out_dir.name}.{uuid.uuid4().hex}.tmp"
+    staging.mkdir()                          # the umask's mode, as the folder it replaces
+    return staging
+
+
+def _move_into_place(staging, out_dir):
+    """Put the folder ``staging`` where ``out_dir`` is: a rename, the old ``out_dir`` (if
+    any) renamed aside first and removed after; retried when another run swaps at once."""
+    import shutil
+    import uuid
+    while True:
+        try:
+            staging.replace(out_dir)        # an empty or missing out_dir: one rename
+            return
+        except OSError:
+            if not out_dir.is_dir():
+                if out_dir.exists():
+                    raise
+                continue                    # another run has just moved it aside
+        aside = out_dir.with_name(f".{out_dir.name}.{uuid.uuid4().hex[:8]}.old")
+        try:
+            out_dir.replace(aside)
+        except FileNotFoundError:
+            continue
+        try:
+            staging.replace(out_dir)
+        except OSError:
+            continue
+        finally:
+            shutil.rmtree(aside, ignore_errors=True)
+        return
+
+
+def write_outputs(job, result, out_dir, *, staging=None):
+    """Write ``steps.txt``, ``toolpath.png`` and ``summary.json`` into ``out_dir``; return the
+    summary dict.
+
+    The files are written into ``staging`` (default a fresh :func:`staging_dir`; the run's
+    waveform may already be there), and that folder then replaces ``out_dir`` whole: its
+    earlier contents are gone, and a run never mixes its files with another's."""
+    out_dir = Path(out_dir)
+    staging = staging_dir(out_dir) if staging is None else Path(staging)
+    lines = {(dx, dy): f"{dx} {dy}\n" for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+    with open(staging / "steps.txt", "w") as handle:
+        handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)
     from .plot import plot_toolpath
     plot_toolpath(job, result.steps, _speeds(result.steps, result.times,
                                              job.machine.steps_per_mm),
-                  out_dir / "toolpath.png",
+                  staging / "toolpath.png",
                   title=f"{job.name}: {len(result.steps)} steps, {result.engine}")
-    (out_dir / "summary.json").write_text(json.dumps(data, indent=2) + "\n")
+    (staging / "summary.json").write_text(json.dumps(data, indent=2) + "\n")
+    _move_into_place(staging, out_dir)
     return data

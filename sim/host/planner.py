@@ -422,14 +422,33 @@ def frames(segments, items, machine, *, compress=1):
     With ``compress`` (a simulation's time compression) every rate is ``compress`` times the
     planned one and the acceleration ``compress**2`` times: the same ramps, ``compress`` times
     faster; the steps do not change.
+
+    Raises
+    ------
+    ProgramError
+        When a value does not fit its field (nothing is clamped): a rate beyond FEED's 24 bits
+        (Q0.24), a ramp-down step beyond its 24 bits, the compressed acceleration beyond
+        CONFIG's 32 bits (Q0.40).
     """
     if isinstance(compress, bool) or not isinstance(compress, int) or compress < 1:
         raise ValueError(f"Time compression must be a positive integer, not {compress!r}")
-    out, lines = [protocol.config(min(machine.accel_q40 * compress ** 2, (1 << 32) - 1))], [None]
+    accel = machine.accel_q40 * compress ** 2
+    if accel >= 1 << 32:
+        raise ProgramError(None, f"a time compression of {compress} makes the acceleration "
+                                 f"{accel} a clock (Q0.40), beyond CONFIG's 32-bit field")
+    out, lines = [protocol.config(accel)], [None]
     for segment, item in zip(segments, items):
-        out.append(protocol.feed(machine.rate(item.cruise * compress),
-                                 machine.rate(item.exit * compress),
-                                 min(item.decelerate, (1 << 24) - 1)))
+        if item.decelerate >= 1 << 24:
+            raise ProgramError(segment.line, f"the move has {len(segment.steps)} steps: its "
+                                             f"ramp-down starts at step {item.decelerate}, "
+                                             f"beyond FEED's 24-bit field (at most "
+                                             f"{(1 << 24) - 1})")
+        try:
+            rates = machine.rate(item.cruise * compress), machine.rate(item.exit * compress)
+        except ValueError as error:          # MachineError: never clamped
+            raise ProgramError(segment.line, f"{error} (time compression {compress})") \
+                from None
+        out.append(protocol.feed(*rates, item.decelerate))
         out.append(_move_frame(segment))
         lines += [segment.line, segment.line]
     out.append(protocol.stop())

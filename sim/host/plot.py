@@ -3,7 +3,7 @@
 
 import math
 
-__all__ = ["plot_profile", "plot_toolpath"]
+__all__ = ["plot_profile", "plot_toolpath", "decimate", "MAX_POINTS"]
 
 
 def _arc_points(centre, radius, start, end, cw, full):
@@ -61,61 +61,119 @@ def plot_profile(prepared, moves, path, *, title=None):
     axes.plot([prepared.start[0]], [prepared.start[1]], marker="o", color="tab:red")
     axes.set_aspect("equal")
     axes.grid(True, linewidth=0.3)
-    axes.legend(loc="best")
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, fontsize="small")
     axes.set_title(title or f"radius {r}, {prepared.treatment} corners, {len(moves)} steps")
     figure.savefig(path, dpi=120, bbox_inches="tight")
     pyplot.close(figure)
 
 
+#: Points a drawn collection holds at most: a path with more is decimated (:func:`decimate`)
+#: before it is drawn; the figure, about 1000 pixels across, cannot show more.
+MAX_POINTS = 4000
+
+
+def decimate(points, limit=MAX_POINTS):
+    """At most ``limit`` of ``points`` (a sequence of ``(x, y)``), the first and the last among
+    them, in order: every ``k``-th point, ``k`` the smallest stride that keeps within the
+    limit (all of them when they are few enough). Returns a list."""
+    points = list(points)
+    if len(points) <= limit:
+        return points
+    stride = -(-(len(points) - 1) // (limit - 1))
+    kept = points[::stride]
+    if kept[-1] != points[-1] or (len(points) - 1) % stride:
+        kept.append(points[-1])
+    return kept
+
+
+def _polylines(paths, limit=MAX_POINTS):
+    """Paths (lists of points) joined where one starts at the previous one's end, the whole
+    decimated to about ``limit`` points: a list of polylines for one LineCollection."""
+    joined = []
+    for path in paths:
+        if joined and joined[-1][-1] == path[0]:
+            joined[-1].extend(path[1:])
+        else:
+            joined.append(list(path))
+    total = sum(len(line) for line in joined)
+    if total <= limit:
+        return joined
+    share = limit / total
+    return [decimate(line, max(2, int(len(line) * share))) for line in joined]
+
+
+def _move_path(move):
+    start = tuple(float(c) for c in move.start)
+    end = tuple(float(c) for c in move.end)
+    if move.kind == "arc":
+        centre = tuple(float(c) for c in move.centre)
+        radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
+        return _arc_points(centre, radius, start, end, move.cw, start == end)
+    return [start, end]
+
+
 def plot_toolpath(job, steps, speeds, path, *, title=None):
     """``kontur run``'s ``toolpath.png``: the programmed contour (black; rapid moves dotted),
     the offset path of every compensated contour (its exact equidistant, blue, dashed), and
-    the traced steps (a line through every point visited) coloured by the feed at each step
-    (mm/min), in millimetres."""
+    the traced steps (a line through the points visited) coloured by the feed (mm/min), in
+    millimetres.
+
+    Drawn in bounded time and memory whatever the program's length: one collection for each
+    class (feed moves, rapid moves, offset paths, steps), each of at most about
+    :data:`MAX_POINTS` points (decimated: the steps in runs of equal length, each run one
+    segment coloured by its slowest feed), the legend in a fixed place below the axes."""
     import matplotlib
     matplotlib.use("Agg")
+    import numpy
     from matplotlib import pyplot
     from matplotlib.collections import LineCollection
 
     spm = job.machine.steps_per_mm
     figure, axes = pyplot.subplots(figsize=(9, 8))
-    for number, move in enumerate(job.moves):
-        start = tuple(float(c) for c in move.start)
-        end = tuple(float(c) for c in move.end)
-        if move.kind == "arc":
-            centre = tuple(float(c) for c in move.centre)
-            radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
-            xs, ys = zip(*_arc_points(centre, radius, start, end, move.cw, start == end))
-        else:
-            xs, ys = zip(start, end)
-        axes.plot(xs, ys, color="black", linewidth=1.2,
-                  linestyle=":" if move.kind == "rapid" else "-",
-                  label="programmed contour" if number == 0 else None)
-    for number, contour in enumerate(getattr(job, "contours", ())):
+    for kind, style, label in (("feed", "-", "programmed contour"),
+                               ("rapid", ":", "rapid moves")):
+        paths = [_move_path(move) for move in job.moves
+                 if (move.kind == "rapid") == (kind == "rapid")]
+        if paths:
+            axes.add_collection(LineCollection(_polylines(paths), colors="black",
+                                               linewidths=1.2, linestyles=style, label=label))
+    offsets = []
+    for contour in getattr(job, "contours", ()):
         prepared = contour.prepared
-        for index, piece in enumerate(prepared.pieces):
+        for piece in prepared.pieces:
             start = [float(c) / spm for c in contour.on_machine(piece.start)]
             end = [float(c) / spm for c in contour.on_machine(piece.end)]
             if piece.kind == "line":
-                xs, ys = zip(start, end)
+                offsets.append([tuple(start), tuple(end)])
             else:
                 centre = [float(c) / spm for c in contour.on_machine(piece.centre)]
-                xs, ys = zip(*_arc_points(centre, float(piece.radius(prepared.radius)) / spm,
-                                          start, end, piece.cw, piece.start == piece.end))
-            axes.plot(xs, ys, color="tab:blue", linestyle="--", linewidth=1,
-                      label="offset path" if number == index == 0 else None)
-    x, y = job.start
-    points = [(x / spm, y / spm)]
-    for dx, dy in steps:
-        x, y = x + dx, y + dy
-        points.append((x / spm, y / spm))
-    if steps:
-        segments = [[points[i], points[i + 1]] for i in range(len(steps))]
-        finite = [v for v in speeds if v == v]
+                offsets.append(_arc_points(centre, float(piece.radius(prepared.radius)) / spm,
+                                           start, end, piece.cw, piece.start == piece.end))
+    if offsets:
+        axes.add_collection(LineCollection(_polylines(offsets), colors="tab:blue",
+                                           linestyles="--", linewidths=1,
+                                           label="offset path"))
+    import itertools
+    moves = numpy.fromiter(itertools.chain.from_iterable(steps), dtype=numpy.int8,
+                           count=2 * len(steps)).reshape(-1, 2)
+    positions = numpy.cumsum(moves, axis=0, dtype=numpy.int64)
+    del moves
+    start = numpy.array([job.start], dtype=numpy.int64)
+    points = numpy.vstack([start, start + positions[[-1]]]) / spm if len(steps) else start / spm
+    if len(steps):
+        stride = max(1, -(-len(steps) // MAX_POINTS))
+        ends = numpy.append(numpy.arange(0, len(steps), stride), len(steps))
+        kept = numpy.vstack([start, start + positions[ends[1:] - 1]]) / spm
+        del positions
+        segments = numpy.stack([kept[:-1], kept[1:]], axis=1)
+        feed = numpy.nan_to_num(numpy.asarray(speeds, dtype=float), nan=0.0)
+        colours = numpy.minimum.reduceat(feed, ends[:-1]) if len(feed) else \
+            numpy.zeros(len(segments))
         lines = LineCollection(segments, cmap="viridis", linewidths=2.0)
-        lines.set_array([v if v == v else 0.0 for v in speeds])
-        if finite:
-            lines.set_clim(0, max(finite))
+        lines.set_array(colours)
+        finite = feed[numpy.isfinite(numpy.asarray(speeds, dtype=float))] if len(feed) else feed
+        if len(finite):
+            lines.set_clim(0, finite.max())
         axes.add_collection(lines)
         figure.colorbar(lines, ax=axes, label="feed (mm/min)", shrink=0.8)
     axes.plot([points[0][0]], [points[0][1]], marker="o", color="tab:red", label="start")
@@ -125,7 +183,7 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
     axes.grid(True, linewidth=0.3)
     axes.set_xlabel("X (mm)")
     axes.set_ylabel("Y (mm)")
-    axes.legend(loc="best")
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=5, fontsize="small")
     axes.set_title(title or f"{len(steps)} steps")
     figure.savefig(path, dpi=120, bbox_inches="tight")
     pyplot.close(figure)

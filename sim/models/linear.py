@@ -87,18 +87,9 @@ def steps(x, y, *, variant="exact", width=16):
     check_line(x, y, width)
     sx, sy = (-1 if x < 0 else 1), (-1 if y < 0 else 1)
     x_long = abs(x) >= abs(y)
-    result = []
-    for row in table(x, y, variant):
-        long_x = long_y = 0
-        if x_long:
-            long_x = 1
-        else:
-            long_y = 1
-        diagonal = row["move"] == "D"
-        dx = 1 if (long_x or diagonal) else 0
-        dy = 1 if (long_y or diagonal) else 0
-        result.append((sx * dx, sy * dy))
-    return result
+    # Two step tuples, shared by every step of the segment (a long program holds millions).
+    axial, diagonal = ((sx, 0) if x_long else (0, sy)), (sx, sy)
+    return [diagonal if row["move"] == "D" else axial for row in table(x, y, variant)]
 
 
 class LinearInterpolatorModel:
