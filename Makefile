@@ -42,7 +42,7 @@ test-fast: setup         # Amaranth simulator and models only, no cocotb, no pro
 	PYTHONWARNINGS=error $(BIN)/python -m pytest -n $(JOBS) tests -m "not cocotb and not formal"
 
 bench: setup            # writes BENCHMARKS.md from one run (half an hour on 2 idle cores)
-	PYTHONWARNINGS=error $(BIN)/python -m constraints.bench report --out BENCHMARKS.md
+	PYTHONWARNINGS=error $(BIN)/python -m kontur.bench report --out BENCHMARKS.md
 
 bitstream: setup         # the controller for BOARD (icebreaker, ulx3s) and MACHINE; never programs
 	$(BIN)/kontur build --board $(BOARD) --top controller $(if $(MACHINE),--machine $(MACHINE))

@@ -71,7 +71,7 @@ FREE_PINS = [ICEBreakerPlatform().connectors[conn].mapping[pin]
 def bench_platform(top):
     """Return a new :class:`ICEBreakerPlatform` with a ``shift_in`` resource for ``top`` (any
     :class:`~hdl.top.ShiftInTop`, see :func:`constraints.shift_in.resource`)."""
-    from .shift_in import resource
+    from constraints.shift_in import resource
     board = ICEBreakerPlatform()
     board.add_resources(resource(top, FREE_PINS, _LVCMOS))
     return board

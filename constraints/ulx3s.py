@@ -47,7 +47,7 @@ FREE_PINS = [ULX3S_85F_Platform().connectors[_GPIO].mapping[f"{n}{side}"]
 
 def bench_platform(top):
     """Return a new :class:`ULX3S_85F_Platform` with a ``shift_in`` resource for ``top``."""
-    from .shift_in import resource
+    from constraints.shift_in import resource
     board = ULX3S_85F_Platform()
     board.add_resources(resource(top, FREE_PINS, Attrs(IO_TYPE="LVCMOS33")))
     return board

@@ -2,7 +2,7 @@
 kinds and number widths, and the iCEBreaker demo's program.
 
 Pure Python, no Amaranth (as ``hdl.circular_timing``): the RTL (``hdl.equidistant``,
-``hdl.top``) and the golden models and host (``sim.models.equidistant``, ``sim.host.demo``)
+``hdl.top``) and the golden models and host (``sim.models.equidistant``, ``kontur.demo``)
 import these one definitions, so the two sides cannot disagree on them. It describes
 parameters and data only, not behaviour.
 """
@@ -98,7 +98,7 @@ class Formats:
 
 #: The iCEBreaker demo's program: a closed octagon, one relative move ``(x, y)`` in each
 #: octant, chosen where SU 1571551's device strays (``hdl.top.DemoTop`` plays it,
-#: ``sim.host.demo`` plots it).
+#: ``kontur.demo`` plots it).
 OCTAGON = ((14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4))
 
 

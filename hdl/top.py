@@ -21,7 +21,7 @@ from .motion.player import check_timing
 __all__ = ["BareAccumulator", "ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
 #: The demo program: a closed octagon, one segment in each octant, relative moves: the frames
-#: of :data:`hdl.spec.OCTAGON`, which ``sim/host/demo.py`` plots.
+#: of :data:`hdl.spec.OCTAGON`, which ``kontur/demo.py`` plots.
 OCTAGON = [{"x": x, "y": y} for x, y in spec.OCTAGON]
 
 

@@ -16,9 +16,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from . import processes
-from .runners import SimulatorError, _locked, verilator_environment
-from .testbench.host import Run, parse_events, write_frames
+from sim import processes
+from sim.runners import SimulatorError, _locked, verilator_environment
+from sim.testbench.hostlink import Run, parse_events, write_frames
 
 __all__ = ["FastRun", "Run"]
 

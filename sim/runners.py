@@ -20,9 +20,9 @@ from pathlib import Path
 
 from amaranth import Module, ResetInserter, Shape, Signal
 
-from . import processes
-from .processes import SimulatorError
-from .stimulus import Driver, check_outcomes, entry, eventful
+from sim import processes
+from sim.processes import SimulatorError
+from sim.stimulus import Driver, check_outcomes, entry, eventful
 
 __all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
            "unpack_status", "verilator_environment", "ensure_simulator"]
@@ -293,9 +293,9 @@ class CocotbBuild:
 
     def run_controller(self, frames, *, divisor, window, max_clocks, vcd=None):
         """Run ``frames`` through this build of a machine controller with the host of
-        :class:`sim.testbench.host.HostLink` (the cocotb test
-        :mod:`sim.testbench.controller_run`); return its :class:`sim.testbench.host.Run`."""
-        from .testbench.host import Run, parse_events, write_frames
+        :class:`sim.testbench.hostlink.HostLink` (the cocotb test
+        :mod:`sim.testbench.controller_run`); return its :class:`sim.testbench.hostlink.Run`."""
+        from sim.testbench.hostlink import Run, parse_events, write_frames
 
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")

@@ -17,7 +17,7 @@ from it (:func:`entry`), plus any named state the caller asked for.
 
 from dataclasses import dataclass, field, asdict
 
-from .models.engine import ABORTED, DONE, REFUSED
+from sim.models.engine import ABORTED, DONE, REFUSED
 
 __all__ = ["Job", "Driver", "OUTPUTS", "entry", "eventful", "check_outcomes", "run_model", "plan_resets", "record_steps",
            "record_moves", "record_outcomes", "first_difference"]

@@ -2,7 +2,7 @@
 
 It shows what a new variant takes: a component with a :class:`~hdl.line.LineCoreSignature`,
 a cycle model with ``evaluate``/``cycle``/``reset``/``state``, a step function, and one
-:func:`sim.registry.register` call (:data:`VARIANT`). The trajectory is a staircase: every X
+:func:`kontur.registry.register` call (:data:`VARIANT`). The trajectory is a staircase: every X
 step first, then every Y step, one step per permission; a step is never diagonal.
 """
 
@@ -13,7 +13,7 @@ from hdl.engine import permit
 from hdl.line import LineCoreSignature
 from sim.models.engine import permit as permit_model
 from sim.models.linear import check_line
-from sim.registry import Variant
+from kontur.registry import Variant
 
 __all__ = ["StaircaseCore", "StaircaseCoreModel", "staircase", "VARIANT"]
 
@@ -122,6 +122,6 @@ def staircase(payload, width):
     return [(1 if x > 0 else -1, 0)] * abs(x) + [(0, 1 if y > 0 else -1)] * abs(y)
 
 
-#: The variant, for :func:`sim.registry.register`.
+#: The variant, for :func:`kontur.registry.register`.
 VARIANT = Variant("line", "staircase", "stand-in: every X step, then every Y step",
                   StaircaseCore, StaircaseCoreModel, staircase)

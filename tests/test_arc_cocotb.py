@@ -13,7 +13,7 @@ import random
 import cocotb
 import pytest
 
-from sim import registry
+from kontur import registry
 from sim.models.arc import points_ahead, round_sqrt
 from sim.runners import CocotbBuild
 from sim.stimulus import Driver, Job, record_outcomes, record_steps

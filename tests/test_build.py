@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-import constraints.build
-from sim import registry
-from sim.host.cli import main
+import kontur.build
+from kontur import registry
+from kontur.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -24,7 +24,7 @@ def built(monkeypatch):
         designs.append(top)
         return {"bitstream": str(Path(build_dir) / "top.bin"), "log": "log", "utilisation": {},
                 "fmax": {}, "seed": seed, "seconds": 0.0}
-    monkeypatch.setattr(constraints.build, "place_and_route", place_and_route)
+    monkeypatch.setattr(kontur.build, "place_and_route", place_and_route)
     return designs
 
 

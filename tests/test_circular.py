@@ -8,7 +8,7 @@ import unittest
 from hdl.arc import ArcEngine, ArcPlanner
 from hdl.circular import (CircularInterpolator, CircularInterpolatorFast, FaithfulArcCore,
                           FastArcCore, FaithfulTiming)
-from sim import registry
+from kontur import registry
 from sim.models.arc import arc_plan, arc_steps, points_ahead, setup_latency
 from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
                                  core_inputs, f4_initial, floor_f, native_steps)

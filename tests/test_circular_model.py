@@ -6,7 +6,7 @@ import unittest
 from unittest import mock
 
 from hdl.circular_timing import FaithfulTiming
-from sim import registry
+from kontur import registry
 from sim.models.arc import arc_steps, check_arc, points_ahead, round_sqrt
 from sim.geometry import radial_error, walk
 from sim.models import circular

@@ -8,14 +8,14 @@ import pytest
 
 from sim.models.arc import arc_steps
 from sim.models.linear import steps
-from sim.waves import sample_vcd
+from kontur.waves import sample_vcd
 
 from .conftest import selected_simulators
 from .utils import BUILD_DIR
 
 
 def kontur(*args):
-    return subprocess.run([sys.executable, "-m", "sim.host.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "kontur.cli", *map(str, args)],
                           capture_output=True, text=True, timeout=600)
 
 
@@ -169,7 +169,7 @@ def _interruptible():
 
 
 def start(*args, env=None):
-    return subprocess.Popen([sys.executable, "-m", "sim.host.cli", *map(str, args)],
+    return subprocess.Popen([sys.executable, "-m", "kontur.cli", *map(str, args)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env, preexec_fn=_interruptible)
 
@@ -261,7 +261,7 @@ def test_bad_vcd_is_refused_before_anything_runs(tmp_path):
         cases[str(locked / "a.vcd")] = "not writable"
     for engine in ("icarus", "verilator", "amaranth"):
         for vcd, reason in cases.items():
-            run = subprocess.run([sys.executable, "-m", "sim.host.cli", "trace", "line", "3",
+            run = subprocess.run([sys.executable, "-m", "kontur.cli", "trace", "line", "3",
                                   "1", "--engine", engine, "--vcd", vcd], capture_output=True,
                                  text=True, env=env, timeout=60)
             assert run.returncode == 2 and run.stdout == "", (engine, vcd)

@@ -3,7 +3,7 @@
 Whatever the arguments, ``kontur`` ends with status 0 and only ``dx dy`` lines (or ``cycle dx
 dy`` lines with ``--cycles``) on standard output, or with status 2, nothing on standard
 output and the reason as the last line of standard error; never with a traceback, never with
-another status. The runs are in-process (``sim.host.cli.main``) on the model, so that
+another status. The runs are in-process (``kontur.cli.main``) on the model, so that
 thousands of argument lists take seconds; the RTL engines' part of the contract is in
 ``tests/test_cli.py``.
 """
@@ -15,7 +15,7 @@ import re
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sim.host import cli
+from kontur import cli
 from sim.models.linear import steps
 
 NUMBER = st.one_of(

@@ -12,11 +12,11 @@ from pathlib import Path
 
 import pytest
 
-from sim import registry
-from sim.host.cli import main
-from sim.host.machine import Machine
-from sim.host.machining import deviation, execute, prepare
-from sim.host.planner import ProgramError
+from kontur import registry
+from kontur.cli import main
+from kontur.machine import Machine
+from kontur.machining import deviation, execute, prepare
+from kontur.planner import ProgramError
 
 from .conftest import selected_simulators
 
@@ -24,7 +24,7 @@ from .conftest import selected_simulators
 BOARD = "ulx3s"
 CLOCK = registry.board(BOARD).clock_hz
 
-PLATE = Path(__file__).resolve().parent.parent / "sim" / "host" / "programs" / "plate.ngc"
+PLATE = Path(__file__).resolve().parent.parent / "kontur" / "programs" / "plate.ngc"
 
 #: A small compensated contour on a coarse machine: quick on any simulator.
 TINY = """G21 G90
@@ -106,7 +106,7 @@ class ModelTestCase(unittest.TestCase):
         self.check_offset(job, 0, 0)
 
     def test_summary_names_the_contour(self):
-        from sim.host.machining import summary
+        from kontur.machining import summary
         job = plate_job(cutter_radius=3)
         data = summary(job, execute(job, "model"))
         self.assertEqual(data["cutter_radius_mm"], 3)
@@ -134,7 +134,7 @@ class ModelTestCase(unittest.TestCase):
                                               **machine), board=board)
 
     def test_cutter_radius_is_checked(self):
-        from sim.host.machine import MachineError
+        from kontur.machine import MachineError
         for value in (-1, float("nan"), "3", True):
             with self.subTest(value=value), self.assertRaisesRegex(MachineError,
                                                                    "cutter_radius"):

@@ -9,10 +9,10 @@ import unittest
 from hdl.motion.controller import MotionController
 from hdl.motion.dispatch import EngineUnit, raw_bits
 from hdl.motion.link import ERROR, LINE, OUTCOME, QUERY, STATUS
-from sim import registry
-from sim.host import protocol
+from kontur import registry
+from hdl.motion import protocol
 
-from sim.testbench.host import run_amaranth, steps_of
+from sim.testbench.hostlink import run_amaranth, steps_of
 
 from .utils import waves_path
 

@@ -18,13 +18,13 @@ import pytest
 
 from hdl.motion.controller import MotionController
 from hdl.motion.link import ERROR, OUTCOME, STATUS
-from sim import registry
-from sim.host import protocol
-from sim.host.machine import Machine
-from sim.host.planner import frames as program_frames
-from sim.host.planner import lattice, plan
+from kontur import registry
+from hdl.motion import protocol
+from kontur.machine import Machine
+from kontur.planner import frames as program_frames
+from kontur.planner import lattice, plan
 from sim.runners import CocotbBuild
-from sim.testbench.host import run_cocotb, steps_of
+from sim.testbench.hostlink import run_cocotb, steps_of
 
 from .conftest import cocotb_build_root, selected_simulators
 

@@ -11,7 +11,7 @@ from amaranth.lib.wiring import In, Out
 from hdl.engine import (EngineSignature, FeedSignature, MotionSignature, Outcome, StatusLayout,
                         StatusUnit)
 from hdl.motion import FeedDivider, StepDirStage
-from sim import registry
+from kontur import registry
 from sim.models.engine import ABORTED, DONE, REFUSED, StatusModel
 from sim.runners import run_amaranth
 from sim.stimulus import (Job, check_outcomes, first_difference, record_outcomes,
@@ -26,7 +26,7 @@ def _profile_frames():
     """A program for the profile kind at width 8: a pie slice (lines and an arc), its corners
     rounded, and an open zigzag after it."""
     from pathlib import Path
-    from sim.host.gcode import read
+    from kontur.gcode import read
     from sim.models.equidistant import Formats, prepare, profile_from_moves
     programs = Path(__file__).resolve().parent / "programs"
     frames = []

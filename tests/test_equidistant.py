@@ -12,8 +12,8 @@ from hdl.engine import EngineSignature
 from hdl.equidistant import EquidistantEngine, Formats, Kind, SerialMultiplier
 from hdl.motion import FeedDivider, StepDirStage
 from hdl.linear import LinearCore
-from sim import registry
-from sim.host.gcode import read
+from kontur import registry
+from kontur.gcode import read
 from sim.models import equidistant as model
 from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
 from sim.models.engine import ABORTED, DONE, REFUSED

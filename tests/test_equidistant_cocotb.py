@@ -14,8 +14,8 @@ from pathlib import Path
 import cocotb
 import pytest
 
-from sim import registry
-from sim.host.gcode import read
+from kontur import registry
+from kontur.gcode import read
 from sim.models.equidistant import Formats, KIND, prepare, profile_from_moves
 from sim.runners import CocotbBuild
 from sim.stimulus import Job, record_outcomes, record_steps

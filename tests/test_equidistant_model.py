@@ -5,7 +5,7 @@ import unittest
 from fractions import Fraction
 from pathlib import Path
 
-from sim.host.gcode import read
+from kontur.gcode import read
 from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
 from sim.models.equidistant import (DETECTIONS, KIND, PATH_BOUND, TREATMENTS,
                                     EquidistantEngineModel, Formats, InputError,

@@ -3,7 +3,7 @@
 import unittest
 from fractions import Fraction
 
-from sim.host.gcode import GCodeError, Move, interpret, parse, read
+from kontur.gcode import GCodeError, Move, interpret, parse, read
 
 
 class ParseTestCase(unittest.TestCase):

@@ -15,7 +15,7 @@ import random
 import cocotb
 import pytest
 
-from sim import registry
+from kontur import registry
 from sim.runners import CocotbBuild
 from sim.stimulus import Job, plan_resets, record_outcomes, record_steps
 from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern

@@ -6,7 +6,7 @@ import unittest
 
 from hdl.line import LineEngine
 from hdl.linear import LinearCore, LinearInterpolator
-from sim import registry
+from kontur import registry
 from sim.models.errors import InputError
 from sim.models.linear import LinearInterpolatorModel, patent_inputs, steps, table
 from sim.runners import run_amaranth

@@ -6,7 +6,7 @@ import unittest
 
 from sim.geometry import walk
 from sim.models.errors import InputError
-from sim import registry
+from kontur import registry
 from sim.models.linear import check_line, patent_inputs, steps, table
 from sim.stimulus import Job, record_moves, record_steps, run_model
 

@@ -12,7 +12,7 @@ from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCO
                              PAYLOAD_BYTES, PROFILE, QUERY, STATUS, STOP, SYNC, FrameDecoder,
                              FrameEncoder, host_lengths, profile_bytes)
 from hdl.motion.queue import FrameQueue
-from sim.host import protocol
+from hdl.motion import protocol
 
 from .utils import simulate, used
 

@@ -1,13 +1,13 @@
 # amaranth: UnusedElaboratable=no
-"""The machine's configuration (:class:`sim.host.machine.Machine`) takes exactly what the
+"""The machine's configuration (:class:`kontur.machine.Machine`) takes exactly what the
 gateware takes: every value the controller's constructor, the UART's bit time or the feed
 generator's fields refuse is refused when the machine is made, naming the key."""
 
 import pytest
 
 from hdl.motion.uart import divisor_for
-from sim import registry
-from sim.host.machine import Machine, MachineError
+from kontur import registry
+from kontur.machine import Machine, MachineError
 
 CLOCK = registry.board("icebreaker").clock_hz
 

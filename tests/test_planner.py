@@ -5,8 +5,8 @@ import unittest
 from collections import namedtuple
 from fractions import Fraction
 
-from sim.host.machine import Machine, MachineError
-from sim.host.planner import ProgramError, _on_sweep, frames, lattice, plan
+from kontur.machine import Machine, MachineError
+from kontur.planner import ProgramError, _on_sweep, frames, lattice, plan
 
 Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 600))
 

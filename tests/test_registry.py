@@ -8,9 +8,9 @@ import unittest
 from unittest import mock
 
 from hdl.circular_timing import FaithfulTiming
-from sim import registry
-from sim.host import cli
-from sim.host.trace import trace
+from kontur import registry
+from kontur import cli
+from kontur.trace import trace
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model
 

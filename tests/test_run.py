@@ -13,18 +13,18 @@ from pathlib import Path
 
 import pytest
 
-from sim import registry
-from sim.host.cli import main
-from sim.host.machine import Machine
-from sim.host.machining import auto_compress, deviation, execute, prepare, summary
-from sim.host.planner import ProgramError
+from kontur import registry
+from kontur.cli import main
+from kontur.machine import Machine
+from kontur.machining import auto_compress, deviation, execute, prepare, summary
+from kontur.planner import ProgramError
 
 from .conftest import selected_simulators
 
 #: The iCEBreaker controller's clock (the programs here run on its controller).
 CLOCK = registry.board("icebreaker").clock_hz
 
-PART = Path(__file__).resolve().parent.parent / "sim" / "host" / "programs" / "bracket.ngc"
+PART = Path(__file__).resolve().parent.parent / "kontur" / "programs" / "bracket.ngc"
 
 #: A short program of every kind of move: a few thousand clocks of motion, quick on any engine.
 SHORT = """(short)

@@ -3,8 +3,8 @@
 The programs are generated (hypothesis): lines and rapids, arcs by ``I J`` and by ``R``, both
 ways, tiny (sweeps and lines shorter than a step) and large, full circles and near ones, G20
 and G21, G90 and G91. A small evaluator here reads the generated text (it shares nothing with
-:mod:`sim.host.gcode`) and gives each move's exact geometry in millimetres; the model's run
-(:func:`~sim.host.machining.prepare`, :func:`~sim.host.machining.execute`) must then:
+:mod:`kontur.gcode`) and gives each move's exact geometry in millimetres; the model's run
+(:func:`~kontur.machining.prepare`, :func:`~kontur.machining.execute`) must then:
 
 1. visit only points within 1.5 steps of the programmed path of the move they belong to (a
    line segment), 1.75 on an arc (a curve: its circle within its sweep, its nearer end
@@ -32,10 +32,10 @@ from pathlib import Path
 
 from hypothesis import given, settings, strategies as st
 
-from sim.host.cli import main
-from sim.host.machine import Machine
-from sim.host.machining import deviation, execute, prepare, summary, summary_text
-from sim.host.planner import ProgramError
+from kontur.cli import main
+from kontur.machine import Machine
+from kontur.machining import deviation, execute, prepare, summary, summary_text
+from kontur.planner import ProgramError
 
 MACHINE = Machine(clock_hz=6e6)             # the iCEBreaker's clock, the default machine
 SPM = 80

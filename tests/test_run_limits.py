@@ -9,12 +9,12 @@ import re
 
 import pytest
 
-from sim import registry
-from sim.host import machining
-from sim.host.cli import main
-from sim.host.machine import Machine, MachineError
-from sim.host.machining import prepare
-from sim.host.planner import ProgramError
+from kontur import registry
+from kontur import machining
+from kontur.cli import main
+from kontur.machine import Machine, MachineError
+from kontur.machining import prepare
+from kontur.planner import ProgramError
 
 CLOCK = registry.board("icebreaker").clock_hz
 
@@ -117,7 +117,7 @@ def test_huge_arc_refused_before_any_step(program, tmp_path):
 
     def held():
         resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
-    run = subprocess.run([sys.executable, "-m", "sim.host.cli", "run",
+    run = subprocess.run([sys.executable, "-m", "kontur.cli", "run",
                           str(program("G21 G90\nG2 X0 Y0 I200000 J0 F100\n")),
                           "--out", str(tmp_path / "o")],
                          capture_output=True, text=True, timeout=60, preexec_fn=held)
@@ -154,7 +154,7 @@ def test_decimate():
 
 
 def machining_plot():
-    from sim.host import plot
+    from kontur import plot
     return plot
 
 
@@ -218,7 +218,7 @@ def test_bad_inputs_and_outputs_refused_before_running(program, tmp_path, capsys
     def never(*args, **kwargs):
         raise AssertionError("ran")
     monkeypatch.setattr(machining, "execute", never)
-    monkeypatch.setattr("sim.host.trace.trace_profile", never)
+    monkeypatch.setattr("kontur.trace.trace_profile", never)
     path = program(LINE)
     # a program that is not UTF-8, for trace profile
     bad = program(b"G1 X1 Y1 \xff\xfe\n", name="bad.ngc", mode="wb")

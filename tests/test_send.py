@@ -24,12 +24,12 @@ import pytest
 import serial
 
 from hdl.motion.link import ARC, LINE
-from sim import registry
-from sim.host import protocol
-from sim.host.machine import Machine
-from sim.host.machining import prepare
-from sim.host.send import SendError, SendInterrupted, send
-from sim.host.cli import main
+from kontur import registry
+from hdl.motion import protocol
+from kontur.machine import Machine
+from kontur.machining import prepare
+from kontur.send import SendError, SendInterrupted, send
+from kontur.cli import main
 
 #: The iCEBreaker controller's clock (the programs here run on its controller).
 CLOCK = registry.board("icebreaker").clock_hz
@@ -45,7 +45,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 class FakeMachine:
     """A serial port with a machine behind it: frames decoded by
-    :class:`sim.host.protocol.CommandParser`, an OUTCOME for each queued frame (``outcome``
+    :class:`hdl.motion.protocol.CommandParser`, an OUTCOME for each queued frame (``outcome``
     maps frame numbers to other outcomes, ``drop`` answers that frame with an ERROR of
     ``error_code`` instead; numbers counted from ``first``), STATUS with the position the moves
     add up to (``offset`` added once a frame has moved; the board starts ``at``), ``free``
@@ -319,7 +319,7 @@ class SendTestCase(unittest.TestCase):
         # A G42 contour's PROFILE frames stream under the same window; the machine behind the
         # port moves by their steps (the equidistant engine's, here given as an offset).
         from hdl.motion.link import PROFILE
-        plate = ROOT / "sim" / "host" / "programs" / "plate.ngc"
+        plate = ROOT / "kontur" / "programs" / "plate.ngc"
         board = registry.board("ulx3s")
         job = prepare(plate.read_text(), machine=Machine(clock_hz=board.clock_hz, queue_frames=4,
                                                          cutter_radius=3), board="ulx3s")
@@ -388,7 +388,7 @@ def test_the_gateware_reports_its_queue_length_when_idle():
     # reset): STATUS.free is the frames the queue holds, queue_frames itself, not its block
     # RAM's bytes (a power of two); not moving, at (0, 0).
     from hdl.motion.controller import MotionController
-    from sim.testbench.host import run_amaranth
+    from sim.testbench.hostlink import run_amaranth
     clock, baud = 1e6, 125_000                              # 8 clocks a bit
     for frames in (12, 5):
         controller = MotionController(line=registry.make_engine("line", width=12),
@@ -529,7 +529,7 @@ def test_interrupted_before_the_first_frame():
 
 
 def test_stop_catches_the_signals_and_gives_them_back():
-    from sim.host.send import Stop
+    from kontur.send import Stop
     before = {number: signal.getsignal(number) for number in Stop.SIGNALS}
     signal.signal(signal.SIGINT, signal.default_int_handler)   # as from a terminal (a test
     signal.signal(signal.SIGTERM, signal.SIG_DFL)              # worker may ignore SIGINT)
@@ -638,7 +638,7 @@ def test_signal_stops_the_machine(signum, tmp_path):
     # and kontur says so (with the position the board reports) and ends with 128 + signal.
     machine = FakeMachine(32)
     with PtyBoard(machine, pace=0.1) as board:
-        command = [sys.executable, "-m", "sim.host.cli"] + _send_command(
+        command = [sys.executable, "-m", "kontur.cli"] + _send_command(
             tmp_path, board, program=LONG, timeout="5")
         run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, cwd=ROOT, preexec_fn=_default_signals)

@@ -6,7 +6,7 @@ import random
 import unittest
 
 from hdl.serial import SerialArcCore, SerialLineCore, SerialNode, word_length
-from sim import registry
+from kontur import registry
 from sim.models.arc import points_ahead
 from sim.models.errors import InputError
 from sim.models.serial import SerialNodeModel

@@ -68,7 +68,7 @@ def _interrupt(args, tmp_path, signum, wanted):
     program = tmp_path / "p.ngc"
     program.write_text(PROGRAM)
     env = dict(os.environ, KONTUR_BUILD=str(tmp_path / "builds"))
-    run = subprocess.Popen([sys.executable, "-m", "sim.host.cli", *args], cwd=tmp_path,
+    run = subprocess.Popen([sys.executable, "-m", "kontur.cli", *args], cwd=tmp_path,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                            preexec_fn=_interruptible)
     try:

@@ -6,7 +6,7 @@ import random
 import unittest
 
 from hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
-from sim import registry
+from kontur import registry
 from sim.models.arc import points_ahead
 from sim.runners import run_amaranth
 from sim.stimulus import Job, first_difference, record_steps, run_model

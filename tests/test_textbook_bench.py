@@ -6,7 +6,7 @@ import math
 import unittest
 from unittest import mock
 
-from sim import accuracy, registry
+from kontur import accuracy, registry
 from sim.models.serial import word_length
 from sim.models.textbook import dda_capacity
 

@@ -4,7 +4,7 @@ import math
 import random
 import unittest
 
-from sim import registry
+from kontur import registry
 from sim.geometry import radial_error, walk
 from sim.models.arc import check_arc, plan_arc, points_ahead, round_sqrt
 from sim.models.circular import native_path

@@ -16,8 +16,8 @@ from hdl.line import LineEngine
 from hdl.linear import LinearCore
 from hdl.motion import ProgramPlayer
 from hdl.top import OCTAGON, DemoTop, PinnedTop, ShiftInTop
-from sim import registry
-from sim.host import demo
+from kontur import registry
+from kontur import demo
 from sim.models.errors import InputError
 from sim.models.linear import steps
 
@@ -366,7 +366,7 @@ class DemoTopTestCase(unittest.TestCase):
             PinnedTop(ShiftInTop(RecordingEngine()), 0)
         with self.assertRaisesRegex(ValueError,
                 r"^Board must be one of 'icebreaker', 'ulx3s', not 'nexys'$"):
-            from constraints.build import build
+            from kontur.build import build
             build("nexys", "build/none")
         with self.assertRaisesRegex(ValueError, r"^The ulx3s has no demo player; build the "
                                                 r"controller$"):
@@ -383,8 +383,8 @@ def check_build(case, name, bitstream, logic, board_mhz):
     file is written, the design fits (``logic``: the device's logic cells), and every clock
     closes, the board's own (``board_mhz``) and the controller's (the board's divided by
     ``Board.divide``)."""
-    from constraints.build import build
-    from sim import registry
+    from kontur.build import build
+    from kontur import registry
 
     board = registry.board(name)
     with tempfile.TemporaryDirectory() as build_dir:

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from sim import registry
-from sim.host.gcode import read
+from kontur import registry
+from kontur.gcode import read
 from sim.models.equidistant import Formats, prepare, profile_from_moves
-from sim.waves import sample_vcd
+from kontur.waves import sample_vcd
 
 from .conftest import selected_simulators
 from .utils import BUILD_DIR
@@ -20,7 +20,7 @@ PROGRAMS = Path(__file__).resolve().parent / "programs"
 
 
 def kontur(*args):
-    return subprocess.run([sys.executable, "-m", "sim.host.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "kontur.cli", *map(str, args)],
                           capture_output=True, text=True, timeout=900)
 
 

@@ -2,7 +2,7 @@
 """Waveform regression: the RTL's dump, reduced to a per-clock trace, against golden traces.
 
 The patents' worked tables are read back from the RTL's VCD and compared with goldens
-transcribed from the patents. The named scenarios of :data:`sim.waves.SCENARIOS` run on
+transcribed from the patents. The named scenarios of :data:`kontur.waves.SCENARIOS` run on
 Amaranth's simulator, Icarus and Verilator; each simulator's own dump gives the same trace, the
 golden ``tests/golden/<scenario>.trace`` (reviewed, see docs/formal.md), and the engine's
 outputs in it are the golden cycle model's. A broken core changes the trace, and the failure
@@ -17,13 +17,13 @@ import pytest
 from amaranth.sim import Simulator
 
 from hdl.circular import CircularInterpolator
-from sim import registry
+from kontur import registry
 from sim.models.circular import core_inputs, f4_initial, floor_f
 from sim.models.codes import from_code, mask, ones_decode
 from sim.runners import run_amaranth
 from sim.stimulus import Job
 from sim.stimulus import first_difference, run_model
-from sim.waves import (GTKW_VIEWS, SCENARIOS, check_trace, gtkw_view, sample_vcd,
+from kontur.waves import (GTKW_VIEWS, SCENARIOS, check_trace, gtkw_view, sample_vcd,
                        scenario_job, scenario_trace)
 
 from .broken import literal_transfer_core, opposite_tie_core

@@ -4,7 +4,7 @@ A frame is ``SYNC type length payload crc``: the sync byte ``0xA5``, a type byte
 length, the payload (little-endian fields) and the CRC-16/CCITT (polynomial 0x1021, initial
 value 0xFFFF, as :func:`binascii.crc_hqx` computes it) of ``type length payload``, most
 significant byte first. The constants here are the protocol: the host side
-(:mod:`sim.host.protocol`) imports them.
+(:mod:`hdl.motion.protocol`) imports them.
 
 Host to machine. Queued frames (:data:`QUEUED`) go into the frame queue in the order they
 arrive and each ends with exactly one ``OUTCOME`` reply, in that order; immediate frames act

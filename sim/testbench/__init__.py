@@ -18,8 +18,8 @@ import os
 from cocotb.clock import Clock
 from cocotb.triggers import ReadOnly, RisingEdge, Timer
 
-from ..runners import unpack_status
-from ..stimulus import Driver, entry, eventful, first_difference
+from sim.runners import unpack_status
+from sim.stimulus import Driver, entry, eventful, first_difference
 
 __all__ = ["EngineBench", "Scoreboard", "random_gaps", "random_pattern"]
 

@@ -139,14 +139,14 @@ def _lattice(value, letter, line):
 
 
 def profile_from_moves(moves, *, tolerance=0):
-    """The compensated contour of a program's moves (:class:`sim.host.gcode.Move` or anything
+    """The compensated contour of a program's moves (:class:`kontur.gcode.Move` or anything
     with its attributes): the moves made while G41 or G42 is in effect.
 
     ``tolerance`` is how far (steps: the difference of the radii) an arc's end point may lie
     off the circle through its start; 0 (the default, a program in lattice units) wants it
     exactly on it. The machine controller's programs in millimetres, rounded to the lattice,
     have their arcs' ends up to about a step off (the host checks them against the machine's
-    tolerance first, :mod:`sim.host.compensation`): the end point stays where it is, where the
+    tolerance first, :mod:`kontur.compensation`): the end point stays where it is, where the
     next element begins, and the arc is the circle through its start.
 
     Raises

@@ -18,7 +18,7 @@ import argparse
 import signal
 import sys
 
-from .. import registry
+from kontur import registry
 
 __all__ = ["main"]
 
@@ -37,7 +37,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _limits_epilog(kind):
-    from .trace import MAX_CLOCKS, MAX_STEPS, SPEED, STEP_MODEL_SPEED, WIDTHS
+    from kontur.trace import MAX_CLOCKS, MAX_STEPS, SPEED, STEP_MODEL_SPEED, WIDTHS
     default = registry.KINDS[kind].default_width
     engines = ", ".join(f"{engine} {MAX_CLOCKS[engine]:,} clocks (~{SPEED[engine]:,}/s)"
                         for engine in MAX_CLOCKS)
@@ -66,7 +66,7 @@ def _add_kind(kinds, kind):
     helps = "; ".join(f"{name}: {registry.variant(kind, name).help}" for name in variants)
     parser.add_argument("--variant", choices=variants, default=item.default_variant,
                         help=f"core variant (default {item.default_variant}; {helps})")
-    from ..runners import ENGINES
+    from sim.runners import ENGINES
     parser.add_argument("--engine", choices=ENGINES, default="model", help=_ENGINES_HELP)
     parser.add_argument("--width", type=int, default=None, help="register width in bits")
     parser.add_argument("--vcd", metavar="FILE", default=None,
@@ -80,8 +80,8 @@ def _add_kind(kinds, kind):
 
 def _add_program(kinds, kind):
     """``kontur trace profile FILE --radius R``: a contour of a G-code program."""
-    from ..models.equidistant import DETECTIONS, TREATMENTS
-    from ..runners import ENGINES
+    from sim.models.equidistant import DETECTIONS, TREATMENTS
+    from sim.runners import ENGINES
     item = registry.KINDS[kind]
     variants = registry.variants(kind)
     parser = kinds.add_parser(kind, help=item.help, description=item.help,
@@ -122,7 +122,7 @@ def _check_plot(path):
 
     from matplotlib.figure import Figure
 
-    from .trace import UsageError
+    from kontur.trace import UsageError
     path = Path(path)
     formats = Figure().canvas.get_supported_filetypes()
     extension = path.suffix[1:].lower()
@@ -139,7 +139,7 @@ def _check_plot(path):
 
 
 def _trace_program(args, out):
-    from .trace import UsageError, trace_profile
+    from kontur.trace import UsageError, trace_profile
     try:
         with open(args.file, encoding="utf-8") as handle:
             text = handle.read()
@@ -155,7 +155,7 @@ def _trace_program(args, out):
                         max_clocks=args.max_clocks, treatment=args.corner,
                         detection=args.detect)
     if args.plot:
-        from .plot import plot_profile
+        from kontur.plot import plot_profile
         plot_profile(run.prepared, run.moves, args.plot)
     lines = [f"{cycle} {dx} {dy}" if args.cycles else f"{dx} {dy}" for cycle, dx, dy in run.moves]
     if lines:
@@ -212,7 +212,7 @@ def _machine_options(parser):
 
 
 def _add_machining(commands):
-    from .machining import ENGINES
+    from kontur.machining import ENGINES
     run = commands.add_parser(
         "run", help="run a G-code program through the whole machine controller",
         description="Run a G-code program through the whole machine controller (over its "
@@ -237,7 +237,7 @@ def _add_machining(commands):
                           "allow; the steps do not change). Checked on every engine, the "
                           "model's too: more than the step/dir timing, the acceleration's "
                           "field or the link allows is refused with the largest allowed")
-    from .machining import BYTES_PER_STEP, MAX_CLOCKS, MAX_STEPS
+    from kontur.machining import BYTES_PER_STEP, MAX_CLOCKS, MAX_STEPS
     run.add_argument("--max-steps", type=int, default=None, metavar="N",
                      help=f"refuse a program whose steps, estimated from the G-code before "
                           f"any is computed (a line |dx| + |dy|, an arc its share of 8R + 8), "
@@ -266,9 +266,9 @@ def _add_machining(commands):
 
 
 def _job(args):
-    from .machine import Machine, MachineError
-    from .machining import prepare
-    from .trace import UsageError
+    from kontur.machine import Machine, MachineError
+    from kontur.machining import prepare
+    from kontur.trace import UsageError
     board = registry.board(args.board)
     try:
         with open(args.file, encoding="utf-8") as handle:
@@ -306,8 +306,8 @@ def _run(args, out):
     import shutil
     from pathlib import Path
 
-    from .machining import check_compress, execute, staging_dir, summary_text, write_outputs
-    from .trace import UsageError
+    from kontur.machining import check_compress, execute, staging_dir, summary_text, write_outputs
+    from kontur.trace import UsageError
     if args.compress is not None and args.compress < 1:
         raise UsageError(f"--compress must be a positive integer, not {args.compress}")
     if args.max_steps is not None and args.max_steps < 1:
@@ -340,8 +340,8 @@ def _run(args, out):
 def _send(args, out):
     import math
 
-    from .send import SendInterrupted, Stop, open_port, send
-    from .trace import UsageError
+    from kontur.send import SendInterrupted, Stop, open_port, send
+    from kontur.trace import UsageError
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
     job = _job(args)
@@ -369,7 +369,7 @@ def _send(args, out):
 def _trace(args, out):
     if registry.KINDS[args.kind].program:
         return _trace_program(args, out)
-    from .trace import trace
+    from kontur.trace import trace
     fields = registry.KINDS[args.kind].fields
     payload = {name: int(getattr(args, name)) for name in fields}
     moves = trace(args.kind, payload, variant=args.variant, engine=args.engine,
@@ -384,11 +384,11 @@ def _trace(args, out):
 def _bench(args, out):
     status = 0
     if args.what in (None, "accuracy"):
-        from ..accuracy import main as accuracy
+        from kontur.accuracy import main as accuracy
         status |= accuracy(out)
     for what in ("area", "speed"):
         if args.what in (None, what):
-            from constraints.bench import main as bench
+            from kontur.bench import main as bench
             if args.what is None:
                 out.write("\n")
             status |= bench([what], out)
@@ -396,7 +396,7 @@ def _bench(args, out):
 
 
 def _build(args, out):
-    from constraints.build import main as build
+    from kontur.build import main as build
     return build(["--board", args.board, "--top", args.top]
                  + (["--build-dir", args.build_dir] if args.build_dir else [])
                  + (["--machine", args.machine] if args.machine else []))
@@ -408,7 +408,7 @@ def main(argv=None):
     ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` end the command the same way (every child process's
     group ended, :mod:`sim.processes`) with status ``128 +`` the signal's number and one line.
     """
-    from .. import processes
+    from sim import processes
     with processes.signals_handled():
         try:
             return _main(argv)
@@ -436,7 +436,7 @@ def _main(argv):
         if args.command == "trace":
             return _trace(args, sys.stdout)
         if args.command == "demo":
-            from .demo import demo
+            from kontur.demo import demo
             return demo(sys.stdout)
         if args.command == "bench":
             return _bench(args, sys.stdout)
@@ -448,9 +448,9 @@ def _main(argv):
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2
     except Exception as error:
-        from ..models.errors import InputError
-        from .planner import ProgramError
-        from .trace import UsageError
+        from sim.models.errors import InputError
+        from kontur.planner import ProgramError
+        from kontur.trace import UsageError
         if isinstance(error, ProgramError):
             sys.stderr.write(f"kontur: {getattr(args, 'file', None) or 'program'}: {error}\n")
             return 2

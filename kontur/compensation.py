@@ -1,12 +1,12 @@
 """G41 / G42 in the machine controller: compensated contours through Siimut's equidistant engine.
 
 :func:`program_segments` puts a program with compensated contours on the step lattice for a
-board whose controller has the equidistant engine (:attr:`sim.registry.Board.profile`): the
-moves outside the contours as :func:`sim.host.planner.lattice` puts them, and every contour
+board whose controller has the equidistant engine (:attr:`kontur.registry.Board.profile`): the
+moves outside the contours as :func:`kontur.planner.lattice` puts them, and every contour
 (the moves made while G41 or G42 is in effect) as the engine's frames, one
-:class:`~sim.host.planner.Segment` of kind ``"profile"`` each, with the steps the engine makes
-in it (its step model, :func:`sim.registry.outcomes`), so that the look-ahead planner
-(:func:`~sim.host.planner.plan`) gives every frame its FEED like a line's or an arc's.
+:class:`~kontur.planner.Segment` of kind ``"profile"`` each, with the steps the engine makes
+in it (its step model, :func:`kontur.registry.outcomes`), so that the look-ahead planner
+(:func:`~kontur.planner.plan`) gives every frame its FEED like a line's or an arc's.
 
 A contour on the lattice. Its points and arc centres are rounded to the nearest step, as every
 move's are; an arc's radius is that of its start point, and its end's radius may differ by
@@ -44,15 +44,15 @@ from collections import namedtuple
 from dataclasses import dataclass, replace
 from fractions import Fraction
 
-from .. import registry
-from ..models import equidistant
-from .planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
+from kontur import registry
+from sim.models import equidistant
+from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
 __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine"]
 
 #: A move on the lattice, as :func:`sim.models.equidistant.profile_from_moves` reads it.
 _LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
-#: A move in millimetres, as :func:`sim.host.planner.lattice` reads it (the approach).
+#: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
 _Move = namedtuple("_Move", "line kind start end centre cw feed")
 
 
@@ -91,7 +91,7 @@ def runs(moves):
 
 def needs_engine(moves, board):
     """Raise :exc:`ProgramError` (naming the first compensated line) when ``moves`` have G41 or
-    G42 and ``board`` (a name or :class:`sim.registry.Board`) has no equidistant engine."""
+    G42 and ``board`` (a name or :class:`kontur.registry.Board`) has no equidistant engine."""
     item = registry.board(board)
     first = next((move for move in moves if move.side is not None), None)
     if first is None or item.profile is not None:
@@ -249,9 +249,9 @@ def _settle_tangents(segments):
 
 def program_segments(moves, machine, board):
     """The segments of a whole program with compensated contours (``moves`` in millimetres,
-    :class:`sim.host.gcode.Move`) for ``board``'s controller (a name or a
-    :class:`sim.registry.Board` with an equidistant engine): ``(segments, contours)``, the
-    :class:`~sim.host.planner.Segment` list and the :class:`Contour` of each contour.
+    :class:`kontur.gcode.Move`) for ``board``'s controller (a name or a
+    :class:`kontur.registry.Board` with an equidistant engine): ``(segments, contours)``, the
+    :class:`~kontur.planner.Segment` list and the :class:`Contour` of each contour.
 
     Raises
     ------

@@ -321,8 +321,8 @@ def _profile_columns(width):
 def _profile_frames(text, radius, width):
     """The frames of a G-code program prepared at the cutter ``radius`` (the host's
     :func:`~sim.models.equidistant.prepare`)."""
-    from .host.gcode import read
-    from .models.equidistant import Formats, prepare, profile_from_moves
+    from kontur.gcode import read
+    from sim.models.equidistant import Formats, prepare, profile_from_moves
     shape = profile_from_moves(read(text).moves)
     return prepare(shape, radius, formats=Formats(width)).frames
 
@@ -424,14 +424,14 @@ SCENARIOS = _scenarios()
 def scenario_job(scenario):
     """The :class:`~sim.stimulus.Job` of a scenario: its frames back to back, every step
     permitted, every outcome taken at once."""
-    from .stimulus import Job
+    from sim.stimulus import Job
     return Job(frames=[dict(f) for f in scenario.frames], max_cycles=20_000)
 
 
 def scenario_engine(scenario, core=None):
     """The RTL engine of a scenario; ``core`` replaces the variant's core (a test's broken
     one)."""
-    from . import registry
+    from kontur import registry
     if core is None:
         return registry.make_engine(scenario.kind, scenario.variant, width=scenario.width)
     return registry.KINDS[scenario.kind].engine(core)
@@ -441,7 +441,7 @@ def scenario_trace(scenario, simulator, vcd, *, core=None, build_root=None):
     """Run ``scenario`` on ``simulator`` (``"amaranth"``, ``"icarus"``, ``"verilator"``),
     dumping to ``vcd``; return ``(record, columns, rows)``: the run's record and its canonical
     trace (``clock`` first, one row per clock of the record)."""
-    from .runners import CocotbBuild, run_amaranth
+    from sim.runners import CocotbBuild, run_amaranth
 
     engine = scenario_engine(scenario, core)
     job = scenario_job(scenario)
@@ -490,7 +490,7 @@ def gtkw_view(name):
     """The text of the GTKWave save file ``docs/<name>.gtkw`` (:data:`GTKW_VIEWS`): the
     engine's ports (the signals of its own scope), then the core's elements."""
     title, columns, label = GTKW_VIEWS[name]
-    lines = [f"[*] kontur: {title}", "[*] made by sim.waves.gtkw_view; open with "
+    lines = [f"[*] kontur: {title}", "[*] made by kontur.waves.gtkw_view; open with "
              "gtkwave FILE.vcd docs/" + name + ".gtkw", "@28", "engine.clk"]
     ports = [c for c in columns if c.path.count(".") == 1]
     groups = (("engine ports", ports), (label, [c for c in columns if c not in ports]))

@@ -1,17 +1,17 @@
 """``kontur build``: a board's bitstream, with the figures of its build.
 
 Two tops (:data:`TOPS`): ``controller``, the machine controller
-(:class:`hdl.top.ControllerTop` around :func:`sim.registry.make_controller`: frames over the
+(:class:`hdl.top.ControllerTop` around :func:`kontur.registry.make_controller`: frames over the
 board's USB serial port, step/dir/enable on its header), and ``player``, the board's demo
 (:class:`hdl.top.DemoTop` on the iCEBreaker: the octagon played in a loop through a line
 engine, no host needed). The board's platform comes from the registry
-(:data:`sim.registry.BOARDS`); the tools are those of :func:`constraints.flow.toolchain_env`
+(:data:`kontur.registry.BOARDS`); the tools are those of :func:`constraints.flow.toolchain_env`
 (the yowasp builds from PyPI by default). Nothing is ever programmed.
 """
 
 import sys
 
-from .flow import ROOT, SEED, ToolchainError, place_and_route
+from constraints.flow import ROOT, SEED, ToolchainError, place_and_route
 
 __all__ = ["TOPS", "build", "machine_file", "summary", "main"]
 
@@ -25,8 +25,8 @@ def _top(item, top, machine):
             raise ValueError(f"The {item.name} has no demo player; build the controller")
         return item.demo()
     from hdl.top import ControllerTop
-    from sim import registry
-    from sim.host.machine import Machine
+    from kontur import registry
+    from kontur.machine import Machine
     if machine is None:
         machine = Machine(clock_hz=item.clock_hz)
     return ControllerTop(registry.make_controller(item.name, machine), divide=item.divide)
@@ -36,9 +36,9 @@ def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=No
     """Build the bitstream of ``top`` (one of :data:`TOPS`) for ``board`` in ``build_dir``;
     return the build's figures.
 
-    ``machine`` (a :class:`sim.host.machine.Machine`, clocked as the board) gives the
+    ``machine`` (a :class:`kontur.machine.Machine`, clocked as the board) gives the
     controller its serial rate, queue and step/dir timing; by default the
-    :class:`~sim.host.machine.Machine` defaults. Runs ``platform.build(...,
+    :class:`~kontur.machine.Machine` defaults. Runs ``platform.build(...,
     do_program=False)`` (Yosys, nextpnr with ``--seed seed``, the packer). Returns
     ``{"board", "top", "bitstream", "log", "logic", "utilisation", "fmax", "seed",
     "seconds"}`` (see :func:`constraints.flow.place_and_route`); with ``out``, also writes a
@@ -51,7 +51,7 @@ def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=No
     :exc:`constraints.flow.ToolchainError`
         If a tool is missing or fails.
     """
-    from sim import registry
+    from kontur import registry
     item = registry.board(board)
     if top not in TOPS:
         raise ValueError(f"Top must be one of {', '.join(map(repr, TOPS))}, not {top!r}")
@@ -86,19 +86,19 @@ def summary(result):
 
 
 def machine_file(board, path):
-    """The :class:`~sim.host.machine.Machine` of the machine file ``path`` for ``board``'s
+    """The :class:`~kontur.machine.Machine` of the machine file ``path`` for ``board``'s
     clock, its link and queue checked as the controller takes them (a queue of 2 to 255 frames,
     STATUS's byte; a baud the clock makes within 2 %): the values the bitstream is built
     with.
 
     Raises
     ------
-    :exc:`sim.host.machine.MachineError`
+    :exc:`kontur.machine.MachineError`
         For a file that cannot be read, an unknown key or a value the machine or its controller
         cannot take (the message names the file and the key).
     """
-    from sim import registry
-    from sim.host.machine import Machine, MachineError
+    from kontur import registry
+    from kontur.machine import Machine, MachineError
     item = registry.board(board)
     machine = Machine.from_toml(path, clock_hz=item.clock_hz)
     try:
@@ -108,13 +108,13 @@ def machine_file(board, path):
 
 
 def main(argv=None):
-    """``python -m constraints.build [--board B] [--top T] [--build-dir DIR] [--machine
+    """``python -m kontur.build [--board B] [--top T] [--build-dir DIR] [--machine
     FILE]``; returns the exit status: 0 built, 2 for a bad option or machine file (one line on
     standard error, nothing built), 1 when a tool failed."""
     import argparse
-    from sim import registry
-    from sim.host.machine import MachineError
-    parser = argparse.ArgumentParser(prog="python -m constraints.build",
+    from kontur import registry
+    from kontur.machine import MachineError
+    parser = argparse.ArgumentParser(prog="python -m kontur.build",
                                      description="Build a board's bitstream (never programs).")
     parser.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker")
     parser.add_argument("--top", choices=TOPS, default="controller")

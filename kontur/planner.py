@@ -25,11 +25,11 @@ import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from .. import registry
-from ..models.arc import check_arc
-from ..models.errors import InputError
-from . import protocol
-from .gcode import sweep
+from kontur import registry
+from sim.models.arc import check_arc
+from sim.models.errors import InputError
+from hdl.motion import protocol
+from kontur.gcode import sweep
 
 __all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
            "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",

@@ -1,6 +1,6 @@
 """Trace one command on any engine: the golden model, Amaranth's simulator, Icarus, Verilator.
 
-Every kind of command and variant comes from :mod:`sim.registry`. :func:`trace` checks the
+Every kind of command and variant comes from :mod:`kontur.registry`. :func:`trace` checks the
 request before anything is built or run (:func:`plan`), runs the single frame on the chosen
 engine and returns its moves. Bad input is refused the same way everywhere: the model raises
 :exc:`InputError` before running; the RTL raises its ``REFUSED`` outcome, which is turned into
@@ -13,10 +13,10 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import registry
-from ..models.errors import InputError
-from ..runners import ENGINES, ROOT
-from ..stimulus import Job, record_moves, run_model
+from kontur import registry
+from sim.models.errors import InputError
+from sim.runners import ENGINES, ROOT
+from sim.stimulus import Job, record_moves, run_model
 
 __all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "MAX_STEPS", "SPEED",
            "STEP_MODEL_SPEED", "trace_profile", "ProfileRun"]
@@ -78,7 +78,7 @@ def _step_bound(kind, payload, width):
     """An upper bound on the steps of a command the model accepts."""
     if kind == "line":
         return max(abs(payload["x"]), abs(payload["y"]))
-    from ..models.arc import round_sqrt
+    from sim.models.arc import round_sqrt
     radius = round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
     return 8 * radius + 8                  # at most 2R steps in each of 5 quadrant runs
 
@@ -93,7 +93,7 @@ def _clocks_per_step(variant, params):
 def _latency(kind, width):
     if kind == "line":
         return 2
-    from ..models.arc import setup_latency
+    from sim.models.arc import setup_latency
     return setup_latency(width) + 2
 
 
@@ -204,10 +204,10 @@ def trace(kind, payload, **options):
             raise InputError(f"{name.upper()} = {value} does not fit the frame's "
                              f"{engine.coord_width}-bit signed coordinates")
     if run.engine == "amaranth":
-        from ..runners import run_amaranth
+        from sim.runners import run_amaranth
         record = run_amaranth(engine, job, vcd=run.vcd, sparse=True)
     else:
-        from ..runners import CocotbBuild
+        from sim.runners import CocotbBuild
         build = CocotbBuild(engine, run.engine, build_root(), waves=run.vcd is not None,
                             quiet=True)
         record = build.run(job, vcd=run.vcd, sparse=True)
@@ -247,7 +247,7 @@ def _profile_clocks(prepared, clocks_per_step):
 
 
 def _parts(prepared):
-    from ..models.equidistant import trace_elements
+    from sim.models.equidistant import trace_elements
     return trace_elements(prepared)
 
 
@@ -260,7 +260,7 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     Raises
     ------
     UsageError
-        For a program the reader cannot read (:exc:`sim.host.gcode.GCodeError`, naming the
+        For a program the reader cannot read (:exc:`kontur.gcode.GCodeError`, naming the
         line), an unknown engine, variant, treatment or detection, a width outside
         :data:`WIDTHS`, a ``vcd`` that cannot be written or is asked of the model, a radius
         that is not a non-negative integer, or a run longer than ``max_clocks``.
@@ -271,9 +271,9 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     RuntimeError
         If the RTL refuses a frame of the prepared program.
     """
-    from ..models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
+    from sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
                                       profile_from_moves)
-    from .gcode import GCodeError, read
+    from kontur.gcode import GCodeError, read
     params = dict(params or {})
     if engine not in ENGINES:
         raise UsageError(f"engine must be one of {', '.join(ENGINES)}, not {engine!r}")
@@ -327,10 +327,10 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     else:
         rtl = registry.make_engine("profile", item.name, width=width, **params)
         if engine == "amaranth":
-            from ..runners import run_amaranth
+            from sim.runners import run_amaranth
             record = run_amaranth(rtl, job, vcd=vcd)
         else:
-            from ..runners import CocotbBuild
+            from sim.runners import CocotbBuild
             build = CocotbBuild(rtl, engine, build_root(), waves=vcd is not None, quiet=True)
             record = build.run(job, vcd=vcd)
     if any(entry.get("error") for entry in record):

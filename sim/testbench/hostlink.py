@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 from hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
 
-from ..host.protocol import Reply, ReplyParser
-from ..processes import SimulatorError
+from hdl.motion.protocol import Reply, ReplyParser
+from sim.processes import SimulatorError
 
 __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
            "run_cocotb", "read_frames", "write_frames"]
@@ -29,7 +29,7 @@ __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_
 @dataclass
 class Run:
     """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
-    ``replies`` ``(clock, Reply)`` (:class:`sim.host.protocol.Reply`), the clocks simulated
+    ``replies`` ``(clock, Reply)`` (:class:`hdl.motion.protocol.Reply`), the clocks simulated
     and the seconds it took (a build apart)."""
     steps: list
     replies: list

@@ -1,13 +1,13 @@
 """``kontur run``: a G-code program through the whole machine controller.
 
 :func:`prepare` reads the program (millimetres, :mod:`.gcode`), puts it on the step lattice and
-plans its feed (:mod:`.planner`) for a board's controller (:func:`sim.registry.make_controller`:
+plans its feed (:mod:`.planner`) for a board's controller (:func:`kontur.registry.make_controller`:
 its engines, clock and link) and writes its frames. :func:`execute` runs those frames:
 
 * ``model``: the golden step-level models of the engines (the steps), with the times of the
   feed plan;
 * ``amaranth``, ``icarus``: the controller's RTL in Amaranth's simulator or on Icarus (cocotb),
-  the host's side of the serial link clock by clock in Python (:class:`sim.testbench.host.
+  the host's side of the serial link clock by clock in Python (:class:`sim.testbench.hostlink.
   HostLink`): for short programs;
 * ``verilator``: the controller's RTL built with ``sim/fastrun.cpp``, the host inside the
   simulation (:class:`sim.fastrun.FastRun`): millions of clocks a second.
@@ -15,7 +15,7 @@ its engines, clock and link) and writes its frames. :func:`execute` runs those f
 Every RTL run is checked against the model: the same steps in the same order, every frame
 answered ``DONE``, the final position read back equal to the program's end. A run may
 compress time (``compress``: every rate that many times the planned one, the acceleration its
-square; see :func:`sim.host.planner.frames`): the steps do not change, and the summary states
+square; see :func:`kontur.planner.frames`): the steps do not change, and the summary states
 both the simulated time and the machining time it stands for.
 
 :func:`write_outputs` writes ``steps.txt`` (one ``dx dy`` line per step, the format of ``kontur
@@ -34,11 +34,11 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
 
-from .. import registry
-from .compensation import program_segments, references
-from .gcode import GCodeError, read, sweep
-from .machine import Machine, MachineError
-from .planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
+from kontur import registry
+from kontur.compensation import program_segments, references
+from kontur.gcode import GCodeError, read, sweep
+from kontur.machine import Machine, MachineError
+from kontur.planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
            "estimate_steps", "deviation", "write_outputs", "summary_text", "RunError",
@@ -72,11 +72,11 @@ class Job:
     name: str
     board: str
     machine: Machine
-    moves: list                       # the program's moves (mm), sim.host.gcode.Move
-    segments: list                    # on the lattice, sim.host.planner.Segment
-    items: list                       # the feed plan, sim.host.planner.PlanItem
+    moves: list                       # the program's moves (mm), kontur.gcode.Move
+    segments: list                    # on the lattice, kontur.planner.Segment
+    items: list                       # the feed plan, kontur.planner.PlanItem
     start: tuple = (0, 0)             # steps
-    contours: list = field(default_factory=list)    # sim.host.compensation.Contour
+    contours: list = field(default_factory=list)    # kontur.compensation.Contour
 
     @property
     def steps(self):
@@ -165,7 +165,7 @@ def _figure(number, unit=1):
 
 
 def estimate_steps(moves, machine, *, max_steps=None):
-    """An upper bound on the steps of ``moves`` (mm, :class:`sim.host.gcode.Move`), computed
+    """An upper bound on the steps of ``moves`` (mm, :class:`kontur.gcode.Move`), computed
     from the program alone, before any step is (see :func:`_move_steps`).
 
     Raises
@@ -191,7 +191,7 @@ def estimate_steps(moves, machine, *, max_steps=None):
 
 def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None):
     """Read, place on the lattice and plan a program for ``board``'s controller (a board's
-    name, or a :class:`sim.registry.Board`); return the :class:`Job`.
+    name, or a :class:`kontur.registry.Board`); return the :class:`Job`.
 
     Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
     and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
@@ -199,7 +199,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     Raises
     ------
     ProgramError
-        For a program the machine refuses, naming its line (:class:`~sim.host.gcode.
+        For a program the machine refuses, naming its line (:class:`~kontur.gcode.
         GCodeError` for one it cannot read), or one with too many steps.
     """
     item = registry.board(board)
@@ -207,7 +207,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock ({machine.clock_hz:g} Hz) is not the "
                          f"{item.name}'s ({item.clock_hz:g} Hz)")
-    from .trace import UsageError
+    from kontur.trace import UsageError
     try:
         machine.check()
     except MachineError as error:
@@ -240,8 +240,8 @@ def max_compress(job):
     """The largest time compression ``job`` can be run at, and what sets it: ``(n, reason)``.
 
     1. The step/dir timing: the fastest planned rate, ``n`` times, must not exceed the feed
-       generator's highest rate (:attr:`~sim.host.machine.Machine.max_rate`: one step every
-       ``dir_setup + step_width + 1`` clocks, :attr:`~sim.host.machine.Machine.
+       generator's highest rate (:attr:`~kontur.machine.Machine.max_rate`: one step every
+       ``dir_setup + step_width + 1`` clocks, :attr:`~kontur.machine.Machine.
        max_step_rate`).
     2. The acceleration: ``n**2`` times the Q0.40 rate change must fit CONFIG's 32 bits.
     3. The link: the frames, at ``baud``, must arrive at least as fast as the motion, ``n``
@@ -273,9 +273,9 @@ def max_compress(job):
 
 
 def check_compress(job, compress):
-    """Raise :exc:`sim.host.trace.UsageError` (one line: the largest value allowed and what
+    """Raise :exc:`kontur.trace.UsageError` (one line: the largest value allowed and what
     sets it) unless ``compress`` is a positive integer :func:`max_compress` allows."""
-    from .trace import UsageError
+    from kontur.trace import UsageError
     if isinstance(compress, bool) or not isinstance(compress, int) or compress < 1:
         raise UsageError(f"--compress must be a positive integer, not {compress!r}")
     limit, reason = max_compress(job)
@@ -332,7 +332,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     RunError
         If the RTL's steps differ from the model's, a frame is not ``DONE``, the final
         position read back is not the program's end, or the run does not end in time.
-    sim.host.trace.UsageError
+    kontur.trace.UsageError
         For a ``compress`` beyond :func:`max_compress`, or a run whose planned clocks exceed
         :data:`MAX_CLOCKS` of the engine (before anything runs).
     """
@@ -345,8 +345,8 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
         if vcd is not None:
             raise ValueError("a waveform comes from an RTL run, not the model")
         return Result("model", expected, _plan_times(job), job.end)
-    from ..testbench.host import steps_of
-    from .protocol import query
+    from sim.testbench.hostlink import steps_of
+    from hdl.motion.protocol import query
     compress = auto_compress(job) if compress is None else compress
     frames, _ = job.frames(compress)
     machine = job.machine
@@ -355,7 +355,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     planned = job.seconds / compress * machine.clock_hz
     link = sum(len(f) for f in frames) * 10 * divisor
     if planned + link > bound:
-        from .trace import UsageError
+        from kontur.trace import UsageError
         raise UsageError(f"this program takes about {planned + link:,.0f} clocks at a time "
                          f"compression of {compress}, more than the {bound:,} that --engine "
                          f"{engine} runs (about ten minutes)")
@@ -367,18 +367,18 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     sent = frames + [query()]
     started = time.monotonic()
     if engine == "verilator":
-        from ..fastrun import FastRun
+        from sim.fastrun import FastRun
         fast = FastRun(controller, _root(build_root, "fastrun"), waves=vcd is not None)
         started = time.monotonic()                      # the build apart
         run = fast.run(sent, divisor=divisor, window=machine.queue_frames,
                        max_clocks=max_clocks, vcd=vcd, vcd_clocks=vcd_clocks,
                        progress=progress)
     elif engine == "amaranth":
-        from ..testbench.host import run_amaranth
+        from sim.testbench.hostlink import run_amaranth
         run = run_amaranth(controller, sent, divisor=divisor, window=machine.queue_frames,
                            max_clocks=max_clocks, vcd=vcd, progress=progress)
     else:
-        from ..runners import CocotbBuild
+        from sim.runners import CocotbBuild
         build = CocotbBuild(controller, engine, _root(build_root, "cocotb"),
                             waves=vcd is not None, quiet=True)
         started = time.monotonic()
@@ -417,7 +417,7 @@ def _check(job, run, steps, expected, count):
 
 
 def _root(build_root, what):
-    from .trace import build_root as default_root
+    from kontur.trace import build_root as default_root
     return Path(build_root or default_root()) / what
 
 
@@ -657,7 +657,7 @@ def write_outputs(job, result, out_dir, *, staging=None):
     with open(staging / "steps.txt", "w") as handle:
         handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)
-    from .plot import plot_toolpath
+    from kontur.plot import plot_toolpath
     plot_toolpath(job, result.steps, _speeds(result.steps, result.times,
                                              job.machine.steps_per_mm),
                   staging / "toolpath.png",

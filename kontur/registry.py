@@ -13,7 +13,7 @@ and model; nothing else lists variants.
 
 from dataclasses import dataclass
 
-from .models.errors import InputError
+from sim.models.errors import InputError
 
 __all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "InputError", "register", "variant",
            "variants", "make_engine", "make_model", "board", "make_controller", "check", "steps",
@@ -164,7 +164,7 @@ def make_controller(board_name, machine):
     """The machine controller of a board (:class:`hdl.motion.controller.MotionController`)
     with its engines (the equidistant engine too where the board has one), its clock, and the
     serial rate, queue length and step/dir timing of ``machine`` (a
-    :class:`sim.host.machine.Machine`, whose ``clock_hz`` must be the board's).
+    :class:`kontur.machine.Machine`, whose ``clock_hz`` must be the board's).
     """
     from hdl.motion.controller import MotionController
     item = board(board_name)
@@ -217,12 +217,12 @@ def outcomes(kind_name, frames, variant_name=None, *, width=None):
 # ---- the kinds and variants of kontur ----------------------------------------------------
 
 def _line_check(payload, width):
-    from .models.linear import check_line
+    from sim.models.linear import check_line
     check_line(payload["x"], payload["y"], width)
 
 
 def _arc_check(payload, width):
-    from .models.arc import check_arc
+    from sim.models.arc import check_arc
     check_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"], width)
 
 
@@ -232,7 +232,7 @@ def _line_engine(core):
 
 
 def _line_engine_model(core):
-    from .models.line import LineEngineModel
+    from sim.models.line import LineEngineModel
     return LineEngineModel(core)
 
 
@@ -242,7 +242,7 @@ def _arc_engine(core):
 
 
 def _arc_engine_model(core):
-    from .models.arc import ArcEngineModel
+    from sim.models.arc import ArcEngineModel
     return ArcEngineModel(core)
 
 
@@ -252,18 +252,18 @@ def _linear(variant_name):
         return LinearCore(variant=variant_name, **params)
 
     def model(**params):
-        from .models.linear import LinearCoreModel
+        from sim.models.linear import LinearCoreModel
         return LinearCoreModel(variant=variant_name, **params)
 
     def trajectory(payload, width):
-        from .models.linear import steps as linear_steps
+        from sim.models.linear import steps as linear_steps
         return linear_steps(payload["x"], payload["y"], variant=variant_name, width=width)
 
     return core, model, trajectory
 
 
 def _arc_trajectory(payload, width):
-    from .models.arc import arc_steps
+    from sim.models.arc import arc_steps
     return arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
                      cw=payload["cw"], width=width)
 
@@ -274,7 +274,7 @@ def _faithful_core(**params):
 
 
 def _faithful_model(**params):
-    from .models.circular import FaithfulArcCoreModel
+    from sim.models.circular import FaithfulArcCoreModel
     return FaithfulArcCoreModel(**params)
 
 
@@ -284,7 +284,7 @@ def _fast_core(**params):
 
 
 def _fast_model(**params):
-    from .models.circular import FastArcCoreModel
+    from sim.models.circular import FastArcCoreModel
     return FastArcCoreModel(**params)
 
 
@@ -294,19 +294,19 @@ def _profile_engine(core):
 
 
 def _profile_engine_model(core):
-    from .models.equidistant import EquidistantEngineModel
+    from sim.models.equidistant import EquidistantEngineModel
     return EquidistantEngineModel(core)
 
 
 def _profile_check(frames, width):
-    from .models.equidistant import Formats, frame_outcomes
+    from sim.models.equidistant import Formats, frame_outcomes
     for number, (outcome, _) in enumerate(frame_outcomes(frames, Formats(width))):
         if outcome:
             raise InputError(f"frame {number} is refused")
 
 
 def _profile_trajectory(frames, width):
-    from .models.equidistant import Formats, frame_outcomes
+    from sim.models.equidistant import Formats, frame_outcomes
     return frame_outcomes(frames, Formats(width))
 
 
@@ -321,9 +321,9 @@ def _profile_core(name):
 
     def model(*, width, **params):
         if name == "fast":
-            from .models.circular import FastArcCoreModel
+            from sim.models.circular import FastArcCoreModel
             return FastArcCoreModel(width=width + 2, **params)
-        from .models.circular import FaithfulArcCoreModel
+        from sim.models.circular import FaithfulArcCoreModel
         return FaithfulArcCoreModel(width=width + 2, **params)
 
     return core, model
@@ -346,26 +346,26 @@ def _textbook(core_name, model_name, **fixed):
 
 
 def _separate_line_steps(payload, width):
-    from .models.textbook import separate_line_steps
+    from sim.models.textbook import separate_line_steps
     return separate_line_steps(payload["x"], payload["y"], width=width)
 
 
 def _separate_arc_steps(payload, width):
-    from .models.textbook import separate_arc_steps
+    from sim.models.textbook import separate_arc_steps
     return separate_arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
                               cw=payload["cw"], width=width)
 
 
 def _dda_steps(preset):
     def trajectory(payload, width, capacity="segment"):
-        from .models.textbook import dda_steps
+        from sim.models.textbook import dda_steps
         return dda_steps(payload["x"], payload["y"], width=width, preset=preset,
                          capacity=capacity)
     return trajectory
 
 
 def _arc_radius(payload):
-    from .models.arc import round_sqrt
+    from sim.models.arc import round_sqrt
     return round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
 
 
@@ -374,7 +374,7 @@ def _separate_line_clocks(payload, width, **params):
 
 
 def _dda_clocks(payload, width, capacity="segment", **params):
-    from .models.textbook import dda_capacity          # N iterations, a clock each
+    from sim.models.textbook import dda_capacity          # N iterations, a clock each
     return (1 << dda_capacity(payload["x"], payload["y"], width=width, capacity=capacity)) + 2
 
 
@@ -383,12 +383,12 @@ def _separate_arc_clocks(payload, width, **params):
 
 
 def _serial_line_clocks(payload, width, **params):
-    from .models.serial import word_length
+    from sim.models.serial import word_length
     return word_length(width) * (abs(payload["x"]) + abs(payload["y"]) + 2) + 2
 
 
 def _serial_arc_clocks(payload, width, **params):
-    from .models.serial import word_length           # up to 5 runs: 3 words more each
+    from sim.models.serial import word_length           # up to 5 runs: 3 words more each
     return word_length(width) * (8 * _arc_radius(payload) + 16)
 
 

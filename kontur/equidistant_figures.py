@@ -1,5 +1,5 @@
 """Figures of the equidistant interpolator, measured now: ``python -m
-sim.host.equidistant_figures accuracy|formats|timing|fpga`` (docs/equidistant.md quotes them).
+kontur.equidistant_figures accuracy|formats|timing|fpga`` (docs/equidistant.md quotes them).
 
 * ``accuracy``: every test program (``tests/programs``), both sides, both corner treatments,
   radii 0 to 8, both detections: the farthest visited point from the exact equidistant, the
@@ -15,13 +15,13 @@ import random
 import sys
 from pathlib import Path
 
-from ..models.equidistant import (DETECTIONS, TREATMENTS, Formats, ProfileError, check_trace,
+from sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, ProfileError, check_trace,
                                   prepare, profile_from_moves)
-from .gcode import read
+from kontur.gcode import read
 
 __all__ = ["main"]
 
-PROGRAMS = Path(__file__).resolve().parent.parent.parent / "tests" / "programs"
+PROGRAMS = Path(__file__).resolve().parent.parent / "tests" / "programs"
 RADII = (0, 1, 2, 3, 5, 8)
 
 
@@ -124,9 +124,9 @@ def formats(out):
 
 
 def timing(out):
-    from ..models.circular import FaithfulArcCoreModel, FastArcCoreModel
-    from ..models.equidistant import EquidistantEngineModel
-    from ..stimulus import Job, run_model
+    from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+    from sim.models.equidistant import EquidistantEngineModel
+    from sim.stimulus import Job, run_model
     out.write("Cycle model, width 16, a step permitted every clock, r = 3, arc corners: clocks "
               "of the whole\nprogram, steps, idle clocks between the first and the last step, "
               "clock of the first step\n\n")
@@ -146,8 +146,8 @@ def timing(out):
 
 
 def fpga(out):
-    from constraints import bench
-    from .. import registry
+    from kontur import bench
+    from kontur import registry
 
     def design(name, width):
         return ("profile engine", width, name,
@@ -177,7 +177,7 @@ def main(argv=None, out=None):
     out = sys.stdout if out is None else out
     jobs = {"accuracy": accuracy, "formats": formats, "timing": timing, "fpga": fpga}
     if len(argv) != 1 or argv[0] not in jobs:
-        sys.stderr.write(f"usage: python -m sim.host.equidistant_figures "
+        sys.stderr.write(f"usage: python -m kontur.equidistant_figures "
                          f"{'|'.join(jobs)}\n")
         return 2
     return jobs[argv[0]](out)

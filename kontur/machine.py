@@ -15,12 +15,12 @@ cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them ne
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
---board``; :data:`sim.registry.BOARDS`), given to :meth:`Machine.from_toml` by the caller.
+--board``; :data:`kontur.registry.BOARDS`), given to :meth:`Machine.from_toml` by the caller.
 
 Every value is checked once against what the gateware takes (the same for every engine, the
 model included): :exc:`MachineError` names the key and its range. ``queue_frames`` when the
 machine is made; the baud and acceleration, which depend on the clock, by :meth:`Machine.check`
-(called by :func:`sim.host.machining.prepare` once the clock is the board's).
+(called by :func:`kontur.machining.prepare` once the clock is the board's).
 
 1. ``queue_frames``: an integer from 2 to 255 (:class:`hdl.motion.controller.
    MotionController`).
@@ -129,7 +129,7 @@ class Machine:
     def check(self):
         """Raise :exc:`MachineError` (naming the key and its range) for a value the gateware
         at this clock cannot take: the baud (:meth:`check_baud`), the acceleration
-        (:attr:`accel_q40`). Called by :func:`sim.host.machining.prepare` for every engine,
+        (:attr:`accel_q40`). Called by :func:`kontur.machining.prepare` for every engine,
         once the clock is known to be the board's; return the machine."""
         self.check_baud()
         self.accel_q40                                  # noqa: B018 (raises if out of range)

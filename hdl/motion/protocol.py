@@ -5,6 +5,10 @@ the CRC is :func:`binascii.crc_hqx` (CRC-16/CCITT, initial value 0xFFFF), which 
 ``crc16_byte`` reproduces bit for bit. A PROFILE frame (:func:`profile`) packs a frame of the
 equidistant engine with the engine's own layout (:meth:`hdl.equidistant.EquidistantEngine.Frame`),
 so host and gateware cannot disagree on a bit of it.
+
+Pure Python beside the gateware it speaks to: the host (:mod:`kontur.send`,
+:mod:`kontur.planner`) and the simulated host of the RTL runs (:mod:`sim.testbench.hostlink`)
+both use it, so it stands below both.
 """
 
 import binascii

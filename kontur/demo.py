@@ -3,7 +3,7 @@ part program.
 
 Every figure printed is measured in this run: the golden models and the RTL (Amaranth's
 simulator, Icarus, Verilator) trace the same commands and are compared clock for clock; the
-part programs run through the whole controller on Verilator: ``sim/host/programs/bracket.ngc``
+part programs run through the whole controller on Verilator: ``kontur/programs/bracket.ngc``
 on the iCEBreaker's, and ``plate.ngc``, with cutter-radius compensation (G42), on the ULX3S's
 (which has the equidistant engine); their plots, waveforms and summaries are written into
 ``build/demo/bracket/`` and ``build/demo/plate/``.
@@ -16,10 +16,10 @@ from pathlib import Path
 
 from hdl.spec import OCTAGON           # a closed octagon, one segment in each octant
 
-from .. import registry
-from ..geometry import radial_error, segment_deviation, walk
-from ..runners import ROOT, CocotbBuild, run_amaranth
-from ..stimulus import Job, first_difference, record_moves, run_model
+from kontur import registry
+from sim.geometry import radial_error, segment_deviation, walk
+from sim.runners import ROOT, CocotbBuild, run_amaranth
+from sim.stimulus import Job, first_difference, record_moves, run_model
 
 __all__ = ["demo", "ascii_plot", "OCTAGON", "PROGRAM"]
 
@@ -198,8 +198,8 @@ def _controller_section(out, program=PART, board="icebreaker", *, number=5, radi
                         out_dir=None):
     """The machine controller on Verilator: a part program through ``board``'s whole top level
     (with cutter-radius compensation at ``radius`` mm when it is given)."""
-    from .machine import Machine
-    from .machining import RunError, execute, prepare, summary_text, write_outputs
+    from kontur.machine import Machine
+    from kontur.machining import RunError, execute, prepare, summary_text, write_outputs
     item = registry.board(board)
     out_dir = Path(out_dir or ROOT / "build" / "demo" / program.stem)
     what = "" if radius is None else f", cutter compensation at R{radius:g}"

@@ -1,6 +1,6 @@
 """``kontur send FILE.ngc --port DEVICE``: a program streamed to a board's controller.
 
-The program is prepared as for ``kontur run`` (:func:`sim.host.machining.prepare`: read,
+The program is prepared as for ``kontur run`` (:func:`kontur.machining.prepare`: read,
 on the lattice, planned, its frames), checked whole before anything moves, then:
 
 1. The handshake: a ``QUERY``, whose ``STATUS`` must come within the timeout and show the board
@@ -32,7 +32,7 @@ import time
 
 from hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
 
-from . import protocol
+from hdl.motion import protocol
 
 __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT"]
 
