@@ -3,6 +3,7 @@
 (the tools replaced by a stand-in that keeps the design: nothing is placed or routed here), and
 machine files the controller cannot take refused before anything is built."""
 
+import os
 import subprocess
 from pathlib import Path
 
@@ -71,8 +72,11 @@ def test_bad_machine_file_refused_before_building(text, built, tmp_path, capsys)
 
 def test_make_bitstream_passes_the_machine_file():
     # make -n prints the recipe: the machine file reaches kontur build.
-    run = subprocess.run(["make", "-n", "-o", "setup", "bitstream", "BOARD=ulx3s",
-                          "MACHINE=m.toml"], cwd=ROOT, capture_output=True, text=True, timeout=30)
+    # (Under `make test` the outer make's level and flags would add "Entering directory" lines.)
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKELEVEL", "MAKEFLAGS", "MFLAGS")}
+    run = subprocess.run(["make", "-n", "--no-print-directory", "-o", "setup", "bitstream",
+                          "BOARD=ulx3s", "MACHINE=m.toml"], cwd=ROOT, capture_output=True,
+                         text=True, timeout=30, env=env)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip().splitlines()[-1].endswith(
         "kontur build --board ulx3s --top controller --machine m.toml")
