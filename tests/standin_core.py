@@ -115,9 +115,8 @@ class StaircaseCoreModel:
         return outputs, state
 
 
-def staircase(payload, width):
+def staircase(x, y, *, width=16):
     """The staircase's steps, ``(dx, dy)``."""
-    x, y = payload["x"], payload["y"]
     check_line(x, y, width)
     return [(1 if x > 0 else -1, 0)] * abs(x) + [(0, 1 if y > 0 else -1)] * abs(y)
 
