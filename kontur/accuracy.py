@@ -108,14 +108,14 @@ def _period(kind, name, frames, **params):
     return ends[-1] - ends[0], steps
 
 
-def line_comparison(limit=64):
-    """Rows per line variant: max deviation over every end point with ``|X|, |Y| <= limit``
-    (step model), then steps and clocks per segment on :data:`COMPARISON_LINES` (cycle model,
-    back to back, a permission in every clock)."""
+def line_comparison(limit=64, names=None):
+    """Rows per line variant (those of ``names``, every one without): max deviation over every
+    end point with ``|X|, |Y| <= limit`` (step model), then steps and clocks per segment on
+    :data:`COMPARISON_LINES` (cycle model, back to back, a permission in every clock)."""
     rows = []
     ends = [(x, y) for x in range(-limit, limit + 1) for y in range(-limit, limit + 1)
             if (x, y) != (0, 0)]
-    for name in registry.variants("line"):
+    for name in registry.variants("line") if names is None else names:
         worst = 0.0
         for x, y in ends:
             path = registry.steps("line", {"x": x, "y": y}, name)
@@ -127,12 +127,12 @@ def line_comparison(limit=64):
     return rows
 
 
-def arc_comparison(limit=500):
-    """Rows per arc variant: max radial error over the full circles of every integer radius up
+def arc_comparison(limit=500, names=None):
+    """Rows per arc variant (those of ``names``, every one without): max radial error over the full circles of every integer radius up
     to ``limit`` (step model), then steps and clocks per circle on :data:`COMPARISON_CIRCLES`
     (cycle model, back to back, a permission in every clock)."""
     rows = []
-    for name in registry.variants("arc"):
+    for name in registry.variants("arc") if names is None else names:
         worst = 0.0
         for r in range(1, limit + 1):
             frame = {"x0": r, "y0": 0, "x1": r, "y1": 0, "cw": 0}

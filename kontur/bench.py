@@ -40,7 +40,7 @@ def area_designs():
                     label = f"{kind} {what}"
                     if what == "core":
                         factory = (lambda k=kind, n=name, w=width:
-                                   registry.variant(k, n).core(width=w))
+                                   registry.make_core(k, n, width=w))
                     else:
                         factory = (lambda k=kind, n=name, w=width:
                                    registry.make_engine(k, n, width=w))
@@ -218,7 +218,7 @@ def report_designs(widths=WIDTHS):
                     continue
                 at = registry.KINDS[kind].default_width
             for name in registry.variants(kind):
-                core = (lambda k=kind, n=name, w=at: registry.variant(k, n).core(width=w))
+                core = (lambda k=kind, n=name, w=at: registry.make_core(k, n, width=w))
                 engine = (lambda k=kind, n=name, w=at: registry.make_engine(k, n, width=w))
                 probe = core()
                 steps = _steps_per_clock(getattr(probe, "interpolator", probe))

@@ -5,19 +5,45 @@ cycle model: ``line`` (:class:`hdl.line.LineEngine`), ``arc`` (:class:`hdl.arc.A
 ``profile`` (:class:`hdl.equidistant.EquidistantEngine`, whose commands are a *program*: the
 frames of a contour, prepared by the host from G-code).
 A *variant* of a kind is a core that plugs into that engine, with the core's cycle model, its
-step-level model and the parameters it takes. A *board* has a platform (``constraints/``) and a
-demo top. ``kontur trace``, ``bench``, ``demo``, ``build`` and the tests all read this module,
-so a new variant is added by one :func:`register` call here and the file that holds its core
-and model; nothing else lists variants.
+step-level model, the parameters it takes and what the generic tests hold it to. A *board*
+has a platform (``constraints/``) and a demo top.
+
+The registry is the composition root, on the top floor: it names the classes and functions
+of ``hdl/``, ``sim/models/`` and ``constraints/`` directly, and the tables at the end of this
+module (:data:`KIND_TABLE`, :data:`VARIANT_TABLE`, :data:`BOARD_TABLE`) are declarations, one
+entry each. ``kontur trace``, ``bench``, ``demo``, ``build`` and the tests all read them, so a
+new variant is added by the file that holds its core and model and one :class:`Variant` entry;
+nothing else lists variants (the tests derive their lists from :func:`variants`).
 """
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
+from hdl.arc import ArcEngine
+from hdl.circular import FaithfulArcCore, FastArcCore
+from hdl.equidistant import EquidistantEngine
+from hdl.line import LineEngine
+from hdl.linear import LinearCore
+from hdl.motion.controller import MotionController
+from hdl.serial import SerialArcCore, SerialLineCore
+from hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
+from hdl.top import DemoTop
+from sim.models.arc import ArcEngineModel, arc_steps, check_arc, round_sqrt
+from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+from sim.models.equidistant import EquidistantEngineModel, Formats, frame_outcomes
 from sim.models.errors import InputError
+from sim.models.line import LineEngineModel
+from sim.models.linear import LinearCoreModel, check_line
+from sim.models.linear import steps as linear_steps
+from sim.models.serial import SerialArcCoreModel, SerialLineCoreModel, word_length
+from sim.models.textbook import (DdaCoreModel, SeparateArcCoreModel, SeparateLineCoreModel,
+                                 dda_capacity, dda_steps, separate_arc_steps,
+                                 separate_line_steps)
 
-__all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "InputError", "register", "variant",
-           "variants", "make_engine", "make_model", "board", "make_controller", "check", "steps",
-           "outcomes"]
+__all__ = ["Kind", "Variant", "Board", "KINDS", "VARIANTS", "BOARDS", "KIND_TABLE",
+           "VARIANT_TABLE", "BOARD_TABLE", "InputError", "register", "kind", "variant",
+           "variants", "make_core", "make_engine", "make_model", "board", "make_controller",
+           "check", "steps", "outcomes"]
 
 
 @dataclass(frozen=True)
@@ -25,10 +51,11 @@ class Kind:
     """A kind of command and the engine that runs it.
 
     ``engine`` and ``model`` are called as ``engine(core)`` and ``model(core_model)``;
-    ``fields`` are the frame's integer fields in command-line order; ``check(payload, width)``
-    raises :exc:`InputError` for a command the engine refuses. For a ``program`` kind the
-    payload is a list of frames, and a variant's ``steps(frames, width)`` gives every frame's
-    ``(outcome, steps)``.
+    ``fields`` are the frame's integer fields in command-line order; ``check(*values, width)``
+    raises :exc:`InputError` for a command the engine refuses, ``values`` being the payload's
+    ``checked`` fields in that order (for a ``program`` kind, ``check(frames, width)``). For a
+    ``program`` kind the payload is a list of frames, and a variant's ``steps(frames, width)``
+    gives every frame's ``(outcome, steps)``.
     """
     name: str
     help: str
@@ -39,17 +66,32 @@ class Kind:
     default_variant: str
     default_width: int
     program: bool = False
+    checked: tuple = ()
 
 
 @dataclass(frozen=True)
 class Variant:
-    """A core of a kind: ``core(width=, **params)`` builds the RTL core, ``model(width=,
-    **params)`` its cycle model, ``steps(payload, width)`` returns the step-level trajectory;
-    ``params`` names the parameters besides ``width`` that it takes. ``clocks(payload, width,
-    **params)``, if given, is an upper bound on the clocks the core takes for a command at full
-    feed (its own setup included, the front end's not); without it a core makes one step per
-    clock (or per generator period) and no more steps than the longer projection of a line or
-    ``8R + 8`` for an arc."""
+    """A core of a kind.
+
+    1. ``core(width=, **fixed, **params)`` builds the RTL core, ``model(width=, **fixed,
+       **params)`` its cycle model; ``steps(**payload, width=, **fixed, **params)`` returns the
+       step-level trajectory, a list of ``(dx, dy)`` (for a ``program`` kind ``steps(frames,
+       width)``, every frame's ``(outcome, steps)``). ``fixed`` are the parameters that make
+       this variant of a class that serves several (``LinearCore(variant="exact")``).
+    2. ``params`` names the parameters besides ``width`` that a user may give.
+    3. ``margin``: the core is that many bits wider than the kind's coordinates (the
+       equidistant engine's arc core: 2).
+    4. ``clocks(payload, width, **params)``, if given, is an upper bound on the clocks the core
+       takes for a command at full feed (its own setup included, the front end's not); without
+       it a core makes one step per clock (or per generator period) and no more steps than the
+       longer projection of a line or ``8R + 8`` for an arc.
+    5. What the generic tests hold it to: ``widths``, the register widths the engine suites
+       (cocotb, both simulators) run it at (empty: the kind's default width alone);
+       ``accuracy``, the bound of its path's deviation in steps (``kontur bench accuracy``:
+       the largest distance of a visited point from the segment, or the radial error of an
+       arc), which the accuracy bench's test checks for every variant; ``None`` where the
+       deviation has no bound independent of the command's length.
+    """
     kind: str
     name: str
     help: str
@@ -59,6 +101,10 @@ class Variant:
     params: tuple = ()
     min_width: int = 2
     clocks: object = None
+    fixed: dict = field(default_factory=dict)
+    margin: int = 0
+    widths: tuple = ()
+    accuracy: float = None
 
 
 @dataclass(frozen=True)
@@ -138,16 +184,28 @@ def _arguments(item, width, params):
     return {"width": width, **params}
 
 
+def _built(item, factory, width, params):
+    arguments = _arguments(item, width, params)
+    arguments["width"] += item.margin
+    return factory(**item.fixed, **arguments)
+
+
+def make_core(kind_name, variant_name=None, *, width=None, **params):
+    """The RTL core of a variant alone (``margin`` bits wider than ``width``)."""
+    item = variant(kind_name, variant_name)
+    return _built(item, item.core, width, params)
+
+
 def make_engine(kind_name, variant_name=None, *, width=None, **params):
     """The RTL engine of a kind around the core of a variant."""
     item = variant(kind_name, variant_name)
-    return KINDS[kind_name].engine(item.core(**_arguments(item, width, params)))
+    return KINDS[kind_name].engine(_built(item, item.core, width, params))
 
 
 def make_model(kind_name, variant_name=None, *, width=None, **params):
     """The cycle model of :func:`make_engine` with the same arguments."""
     item = variant(kind_name, variant_name)
-    return KINDS[kind_name].model(item.model(**_arguments(item, width, params)))
+    return KINDS[kind_name].model(_built(item, item.model, width, params))
 
 
 def board(name):
@@ -166,7 +224,6 @@ def make_controller(board_name, machine):
     serial rate, queue length and step/dir timing of ``machine`` (a
     :class:`kontur.machine.Machine`, whose ``clock_hz`` must be the board's).
     """
-    from hdl.motion.controller import MotionController
     item = board(board_name)
     if machine.clock_hz != item.clock_hz:
         raise ValueError(f"The machine's clock is {machine.clock_hz:g} Hz, the {item.name}'s "
@@ -183,7 +240,17 @@ def make_controller(board_name, machine):
 
 def check(kind_name, payload, width):
     """Raise :exc:`InputError` if the engine of a kind refuses ``payload`` at ``width``."""
-    kind(kind_name).check(payload, width)
+    item = kind(kind_name)
+    if item.program:
+        item.check(payload, width)
+    else:
+        item.check(*(payload[name] for name in item.checked), width)
+
+
+def _trajectory(item, payload, width, params):
+    if KINDS[item.kind].program:
+        return item.steps(payload, width, **params)
+    return item.steps(**payload, width=width, **item.fixed, **params)
 
 
 def steps(kind_name, payload, variant_name=None, *, width=None, **params):
@@ -194,8 +261,9 @@ def steps(kind_name, payload, variant_name=None, *, width=None, **params):
     arguments = _arguments(item, width, params)
     width = arguments.pop("width")
     if kind(kind_name).program:
-        return [step for _, path in item.steps(payload, width, **arguments) for step in path]
-    return item.steps(payload, width, **arguments)
+        return [step for _, path in _trajectory(item, payload, width, arguments)
+                for step in path]
+    return _trajectory(item, payload, width, arguments)
 
 
 def outcomes(kind_name, frames, variant_name=None, *, width=None):
@@ -204,168 +272,30 @@ def outcomes(kind_name, frames, variant_name=None, *, width=None):
     item = variant(kind_name, variant_name)
     width = _arguments(item, width, {})["width"]
     if kind(kind_name).program:
-        return item.steps(frames, width)
+        return _trajectory(item, frames, width, {})
     result = []
     for frame in frames:
         try:
-            result.append((0, item.steps(frame, width)))
+            result.append((0, _trajectory(item, frame, width, {})))
         except InputError:
             result.append((1, []))
     return result
 
 
-# ---- the kinds and variants of kontur ----------------------------------------------------
+# ---- what the tables need besides the classes and functions they name --------------------
 
-def _line_check(payload, width):
-    from sim.models.linear import check_line
-    check_line(payload["x"], payload["y"], width)
-
-
-def _arc_check(payload, width):
-    from sim.models.arc import check_arc
-    check_arc(payload["x0"], payload["y0"], payload["x1"], payload["y1"], width)
-
-
-def _line_engine(core):
-    from hdl.line import LineEngine
-    return LineEngine(core)
-
-
-def _line_engine_model(core):
-    from sim.models.line import LineEngineModel
-    return LineEngineModel(core)
-
-
-def _arc_engine(core):
-    from hdl.arc import ArcEngine
-    return ArcEngine(core)
-
-
-def _arc_engine_model(core):
-    from sim.models.arc import ArcEngineModel
-    return ArcEngineModel(core)
-
-
-def _linear(variant_name):
-    def core(**params):
-        from hdl.linear import LinearCore
-        return LinearCore(variant=variant_name, **params)
-
-    def model(**params):
-        from sim.models.linear import LinearCoreModel
-        return LinearCoreModel(variant=variant_name, **params)
-
-    def trajectory(payload, width):
-        from sim.models.linear import steps as linear_steps
-        return linear_steps(payload["x"], payload["y"], variant=variant_name, width=width)
-
-    return core, model, trajectory
-
-
-def _arc_trajectory(payload, width):
-    from sim.models.arc import arc_steps
-    return arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
-                     cw=payload["cw"], width=width)
-
-
-def _faithful_core(**params):
-    from hdl.circular import FaithfulArcCore
-    return FaithfulArcCore(**params)
-
-
-def _faithful_model(**params):
-    from sim.models.circular import FaithfulArcCoreModel
-    return FaithfulArcCoreModel(**params)
-
-
-def _fast_core(**params):
-    from hdl.circular import FastArcCore
-    return FastArcCore(**params)
-
-
-def _fast_model(**params):
-    from sim.models.circular import FastArcCoreModel
-    return FastArcCoreModel(**params)
-
-
-def _profile_engine(core):
-    from hdl.equidistant import EquidistantEngine
-    return EquidistantEngine(core)
-
-
-def _profile_engine_model(core):
-    from sim.models.equidistant import EquidistantEngineModel
-    return EquidistantEngineModel(core)
+def _profile_outcomes(frames, width):
+    """Every frame's ``(outcome, steps)`` on the equidistant engine at ``width``."""
+    return frame_outcomes(frames, Formats(width))
 
 
 def _profile_check(frames, width):
-    from sim.models.equidistant import Formats, frame_outcomes
-    for number, (outcome, _) in enumerate(frame_outcomes(frames, Formats(width))):
+    for number, (outcome, _) in enumerate(_profile_outcomes(frames, width)):
         if outcome:
             raise InputError(f"frame {number} is refused")
 
 
-def _profile_trajectory(frames, width):
-    from sim.models.equidistant import Formats, frame_outcomes
-    return frame_outcomes(frames, Formats(width))
-
-
-def _profile_core(name):
-    """An arc core for the equidistant engine: two bits wider than its coordinates."""
-    def core(*, width, **params):
-        if name == "fast":
-            from hdl.circular import FastArcCore
-            return FastArcCore(width=width + 2, **params)
-        from hdl.circular import FaithfulArcCore
-        return FaithfulArcCore(width=width + 2, **params)
-
-    def model(*, width, **params):
-        if name == "fast":
-            from sim.models.circular import FastArcCoreModel
-            return FastArcCoreModel(width=width + 2, **params)
-        from sim.models.circular import FaithfulArcCoreModel
-        return FaithfulArcCoreModel(width=width + 2, **params)
-
-    return core, model
-
-
-def _textbook(core_name, model_name, **fixed):
-    """Factories of a core of ``hdl.textbook`` or ``hdl.serial`` (its name starts with
-    ``Serial``) and of its cycle model, with ``fixed`` parameters."""
-    module = "serial" if core_name.startswith("Serial") else "textbook"
-
-    def core(**params):
-        from importlib import import_module
-        return getattr(import_module(f"hdl.{module}"), core_name)(**fixed, **params)
-
-    def model(**params):
-        from importlib import import_module
-        return getattr(import_module(f"sim.models.{module}"), model_name)(**fixed, **params)
-
-    return core, model
-
-
-def _separate_line_steps(payload, width):
-    from sim.models.textbook import separate_line_steps
-    return separate_line_steps(payload["x"], payload["y"], width=width)
-
-
-def _separate_arc_steps(payload, width):
-    from sim.models.textbook import separate_arc_steps
-    return separate_arc_steps(payload["x0"], payload["y0"], payload["x1"], payload["y1"],
-                              cw=payload["cw"], width=width)
-
-
-def _dda_steps(preset):
-    def trajectory(payload, width, capacity="segment"):
-        from sim.models.textbook import dda_steps
-        return dda_steps(payload["x"], payload["y"], width=width, preset=preset,
-                         capacity=capacity)
-    return trajectory
-
-
 def _arc_radius(payload):
-    from sim.models.arc import round_sqrt
     return round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
 
 
@@ -374,7 +304,7 @@ def _separate_line_clocks(payload, width, **params):
 
 
 def _dda_clocks(payload, width, capacity="segment", **params):
-    from sim.models.textbook import dda_capacity          # N iterations, a clock each
+    # N iterations, a clock each
     return (1 << dda_capacity(payload["x"], payload["y"], width=width, capacity=capacity)) + 2
 
 
@@ -383,23 +313,16 @@ def _separate_arc_clocks(payload, width, **params):
 
 
 def _serial_line_clocks(payload, width, **params):
-    from sim.models.serial import word_length
     return word_length(width) * (abs(payload["x"]) + abs(payload["y"]) + 2) + 2
 
 
 def _serial_arc_clocks(payload, width, **params):
-    from sim.models.serial import word_length           # up to 5 runs: 3 words more each
-    return word_length(width) * (8 * _arc_radius(payload) + 16)
+    return word_length(width) * (8 * _arc_radius(payload) + 16)   # up to 5 runs: 3 words more
 
 
 def _icebreaker_platform():
-    from constraints import icebreaker
+    from constraints import icebreaker          # amaranth_boards: only when a board is built
     return icebreaker.platform()
-
-
-def _icebreaker_demo():
-    from hdl.top import DemoTop
-    return DemoTop()
 
 
 def _ulx3s_platform():
@@ -407,55 +330,80 @@ def _ulx3s_platform():
     return ulx3s.platform()
 
 
-register(Kind("line", "segment from the origin to (X, Y)", _line_engine, _line_engine_model,
-              ("x", "y"), _line_check, "exact", 16))
-register(Kind("arc", "arc around the origin from (X0, Y0) to (X1, Y1), a full circle when they "
-                     "are equal", _arc_engine, _arc_engine_model,
-              ("x0", "y0", "x1", "y1", "cw"), _arc_check, "faithful", 24))
-register(Variant("line", "device", "SU 1571551 as its device is drawn: counter-fed increments",
-                 *_linear("device"), params=("period",)))
-register(Variant("line", "exact", "SU 1571551's equation (1): constant increments",
-                 *_linear("exact"), params=("period",)))
-register(Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
-                 _faithful_core, _faithful_model, _arc_trajectory, params=("timing",)))
-register(Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
-                 _fast_core, _fast_model, _arc_trajectory, params=("period",)))
-register(Kind("profile", "a contour of a G-code program: the cutter's centre on its "
-                         "equidistant (T. Siimut, 1963)", _profile_engine, _profile_engine_model,
-              (), _profile_check, "fast", 8, program=True))
-register(Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
-                 *_profile_core("fast"), _profile_trajectory, params=("period",), min_width=4))
-register(Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
-                 *_profile_core("faithful"), _profile_trajectory, params=("timing",),
-                 min_width=4))
-register(Variant("line", "separate", "textbook: estimating function, separate steps",
-                 *_textbook("SeparateLineCore", "SeparateLineCoreModel"),
-                 _separate_line_steps, clocks=_separate_line_clocks))
-register(Variant("line", "dda", "textbook: DDA, registers preset to half their capacity",
-                 *_textbook("DdaCore", "DdaCoreModel", preset="half"),
-                 _dda_steps("half"), params=("capacity",), clocks=_dda_clocks))
-register(Variant("line", "dda-zero", "textbook: DDA, registers starting at zero",
-                 *_textbook("DdaCore", "DdaCoreModel", preset="zero"),
-                 _dda_steps("zero"), params=("capacity",), clocks=_dda_clocks))
-register(Variant("line", "serial", "textbook: the bit-serial linear-circular node",
-                 *_textbook("SerialLineCore", "SerialLineCoreModel"),
-                 _separate_line_steps, clocks=_serial_line_clocks))
-register(Variant("arc", "separate", "textbook: estimating function, separate steps",
-                 *_textbook("SeparateArcCore", "SeparateArcCoreModel"),
-                 _separate_arc_steps, clocks=_separate_arc_clocks))
-register(Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
-                 *_textbook("SerialArcCore", "SerialArcCoreModel"),
-                 _separate_arc_steps, clocks=_serial_arc_clocks))
-# The iCEBreaker's controller: the line engine at 16 bits (moves up to 65 535 steps, 819 mm at
-# 80 steps/mm) and the arc engine at its default 24 bits (radii up to 2**23 steps) fill 90 % of
-# the UP5K (4753 LC, since issue 8 made the arc engine smaller; before, only a 16-bit one
-# fitted). Its longest path (the turn queue's read into the feed generator's rate) closes at
-# 11.58 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
-register(Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform,
-               _icebreaker_demo, clock_hz=6e6, arc=("fast", 24), divide=2))
-# The ULX3S-85F holds both engines at their default widths and the equidistant engine of
-# cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and 7-8
-# through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the controller
-# runs at half the board's clock, 12.5 MHz.
-register(Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
-               line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2))
+# ---- the kinds, variants and boards of kontur --------------------------------------------
+
+#: Half a step: the patents' bound (SU 1571551's equation (1), 0.5 cos α for a line; SU
+#: 1665343's radial error). The estimating function's separate steps: half the diagonal of a
+#: step's square. The device as drawn and the DDA: less than one step.
+HALF, HALF_DIAGONAL, ONE = 0.5, 1 / math.sqrt(2), 1.0
+
+KIND_TABLE = (
+    Kind("line", "segment from the origin to (X, Y)", LineEngine, LineEngineModel,
+         ("x", "y"), check_line, "exact", 16, checked=("x", "y")),
+    Kind("arc", "arc around the origin from (X0, Y0) to (X1, Y1), a full circle when they "
+                "are equal", ArcEngine, ArcEngineModel,
+         ("x0", "y0", "x1", "y1", "cw"), check_arc, "faithful", 24,
+         checked=("x0", "y0", "x1", "y1")),
+    Kind("profile", "a contour of a G-code program: the cutter's centre on its equidistant "
+                    "(T. Siimut, 1963)", EquidistantEngine, EquidistantEngineModel,
+         (), _profile_check, "fast", 8, program=True),
+)
+
+VARIANT_TABLE = (
+    Variant("line", "device", "SU 1571551 as its device is drawn: counter-fed increments",
+            LinearCore, LinearCoreModel, linear_steps, fixed={"variant": "device"},
+            params=("period",), widths=(16, 32), accuracy=ONE),
+    Variant("line", "exact", "SU 1571551's equation (1): constant increments",
+            LinearCore, LinearCoreModel, linear_steps, fixed={"variant": "exact"},
+            params=("period",), widths=(16, 32), accuracy=HALF),
+    Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
+            FaithfulArcCore, FaithfulArcCoreModel, arc_steps, params=("timing",),
+            widths=(24, 32), accuracy=HALF),
+    Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
+            FastArcCore, FastArcCoreModel, arc_steps, params=("period",),
+            widths=(24, 32), accuracy=HALF),
+    Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
+            FastArcCore, FastArcCoreModel, _profile_outcomes, params=("period",), min_width=4,
+            margin=2),
+    Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
+            FaithfulArcCore, FaithfulArcCoreModel, _profile_outcomes, params=("timing",),
+            min_width=4, margin=2),
+    Variant("line", "separate", "textbook: estimating function, separate steps",
+            SeparateLineCore, SeparateLineCoreModel, separate_line_steps,
+            clocks=_separate_line_clocks, accuracy=HALF_DIAGONAL),
+    Variant("line", "dda", "textbook: DDA, registers preset to half their capacity",
+            DdaCore, DdaCoreModel, dda_steps, fixed={"preset": "half"},
+            params=("capacity",), clocks=_dda_clocks, accuracy=ONE),
+    Variant("line", "dda-zero", "textbook: DDA, registers starting at zero",
+            DdaCore, DdaCoreModel, dda_steps, fixed={"preset": "zero"},
+            params=("capacity",), clocks=_dda_clocks, accuracy=ONE),
+    Variant("line", "serial", "textbook: the bit-serial linear-circular node",
+            SerialLineCore, SerialLineCoreModel, separate_line_steps,
+            clocks=_serial_line_clocks, accuracy=HALF_DIAGONAL),
+    Variant("arc", "separate", "textbook: estimating function, separate steps",
+            SeparateArcCore, SeparateArcCoreModel, separate_arc_steps,
+            clocks=_separate_arc_clocks, accuracy=HALF_DIAGONAL),
+    Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
+            SerialArcCore, SerialArcCoreModel, separate_arc_steps,
+            clocks=_serial_arc_clocks, accuracy=HALF_DIAGONAL),
+)
+
+BOARD_TABLE = (
+    # The iCEBreaker's controller: the line engine at 16 bits (moves up to 65 535 steps, 819 mm
+    # at 80 steps/mm) and the arc engine at its default 24 bits (radii up to 2**23 steps) fill
+    # 90 % of the UP5K (4753 LC, since issue 8 made the arc engine smaller; before, only a
+    # 16-bit one fitted). Its longest path (the turn queue's read into the feed generator's
+    # rate) closes at 11.58 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
+    Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
+          clock_hz=6e6, arc=("fast", 24), divide=2),
+    # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
+    # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
+    # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
+    # controller runs at half the board's clock, 12.5 MHz.
+    Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
+          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2),
+)
+
+for _item in KIND_TABLE + VARIANT_TABLE + BOARD_TABLE:
+    register(_item)
+del _item

@@ -1,5 +1,12 @@
-"""Shared test configuration: simulator selection and build directories."""
+"""Shared test configuration: simulator selection, build directories, and extra variants.
 
+``KONTUR_EXTRA_VARIANTS`` (``module:NAME`` entries, comma-separated, e.g.
+``tests.standin_core:VARIANT``) registers more variants before the tests are collected, so
+that every generic suite (those that read :func:`kontur.registry.variants`) runs them too,
+with no list edited: ``tests/test_registry.py`` runs the suites so over its stand-in.
+"""
+
+import importlib
 import os
 
 import pytest
@@ -9,7 +16,29 @@ from sim.runners import SIMULATORS
 from .utils import BUILD_DIR
 
 
+def extra_variants():
+    """The variants named by ``$KONTUR_EXTRA_VARIANTS``."""
+    found = []
+    for entry in filter(None, os.environ.get("KONTUR_EXTRA_VARIANTS", "").split(",")):
+        module, _, name = entry.strip().partition(":")
+        if not name:
+            raise pytest.UsageError(f"KONTUR_EXTRA_VARIANTS entries are module:NAME, "
+                                    f"not {entry!r}")
+        found.append(getattr(importlib.import_module(module), name))
+    return found
+
+
+def register_extra_variants():
+    """Register the variants of ``$KONTUR_EXTRA_VARIANTS`` not registered yet (here, and in a
+    cocotb suite's simulator process, which reads the registry on its own)."""
+    from kontur import registry
+    for item in extra_variants():
+        if (item.kind, item.name) not in registry.VARIANTS:
+            registry.register(item)
+
+
 def pytest_configure(config):
+    register_extra_variants()
     config.addinivalue_line(
         "markers", "cocotb: runs the generated Verilog under cocotb (Icarus or Verilator)")
     config.addinivalue_line(

@@ -1,8 +1,9 @@
 """A stand-in line core, with its model and step-level trajectory, in one file.
 
 It shows what a new variant takes: a component with a :class:`~hdl.line.LineCoreSignature`,
-a cycle model with ``evaluate``/``cycle``/``reset``/``state``, a step function, and one
-:func:`kontur.registry.register` call (:data:`VARIANT`). The trajectory is a staircase: every X
+a cycle model with ``evaluate``/``cycle``/``reset``/``state``, a step function, a bound on its
+clocks (it makes more steps than a segment's longer projection), and one
+:class:`kontur.registry.Variant` entry (:data:`VARIANT`). The trajectory is a staircase: every X
 step first, then every Y step, one step per permission; a step is never diagonal.
 """
 
@@ -115,13 +116,19 @@ class StaircaseCoreModel:
         return outputs, state
 
 
-def staircase(payload, width):
+def staircase(x, y, *, width=16):
     """The staircase's steps, ``(dx, dy)``."""
-    x, y = payload["x"], payload["y"]
     check_line(x, y, width)
     return [(1 if x > 0 else -1, 0)] * abs(x) + [(0, 1 if y > 0 else -1)] * abs(y)
 
 
-#: The variant, for :func:`kontur.registry.register`.
+def staircase_clocks(payload, width, **params):
+    """Clocks at full feed: a step each, more than the longer projection (hence declared)."""
+    return abs(payload["x"]) + abs(payload["y"]) + 2
+
+
+#: The variant, for :func:`kontur.registry.register` (or ``KONTUR_EXTRA_VARIANTS=
+#: tests.standin_core:VARIANT``). Its path's deviation grows with the segment (the corner of
+#: the staircase): it declares no accuracy bound.
 VARIANT = Variant("line", "staircase", "stand-in: every X step, then every Y step",
-                  StaircaseCore, StaircaseCoreModel, staircase)
+                  StaircaseCore, StaircaseCoreModel, staircase, clocks=staircase_clocks)

@@ -19,10 +19,10 @@ from sim.runners import CocotbBuild
 from sim.stimulus import Driver, Job, record_outcomes, record_steps
 from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
-from .conftest import cocotb_build_root, selected_simulators
+from .conftest import cocotb_build_root, register_extra_variants, selected_simulators
 
 KIND = "arc"
-PATENT_VARIANTS = ("faithful", "fast")
+register_extra_variants()                 # in the simulator's process too
 
 
 def _parameters():
@@ -171,10 +171,13 @@ async def aborts(dut):
     assert outcomes.count(2) >= 2                     # aborted
 
 
-#: The patents' cores at the default width and at 32 bits; the textbook's at the default width
-#: (their other widths run on Amaranth's simulator): one build per simulator and case.
+#: Every variant at the widths it declares (:attr:`kontur.registry.Variant.widths`; the
+#: kind's default width where it declares none): the patents' cores at 24 and 32 bits, the
+#: textbook's at 24 (their other widths run on Amaranth's simulator). One build per
+#: simulator and case.
 CASES = [(variant, width) for variant in registry.variants(KIND)
-         for width in ((24, 32) if variant in PATENT_VARIANTS else (24,))]
+         for width in (registry.variant(KIND, variant).widths
+                       or (registry.KINDS[KIND].default_width,))]
 
 
 @pytest.mark.cocotb

@@ -31,7 +31,9 @@ from .conftest import cocotb_build_root, selected_simulators
 MACHINE = Machine(steps_per_mm=10, clock_hz=1e6, baud=125_000, dir_setup_us=1,
                   step_width_us=2, accel=2e5, max_feed=90_000, junction_deviation=0.05,
                   arc_tolerance=0.2, queue_frames=8)
-VARIANTS, WIDTHS = ("exact", "fast"), (16, 24)
+#: The engines of the iCEBreaker's controller (its variants and widths, line then arc), at
+#: this machine's clock.
+VARIANTS, WIDTHS = zip(registry.BOARDS["icebreaker"].line, registry.BOARDS["icebreaker"].arc)
 Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 60_000))
 
 

@@ -4,6 +4,8 @@
 import random
 import unittest
 
+import pytest
+
 from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
@@ -100,14 +102,6 @@ class SignatureTestCase(unittest.TestCase):
                 r"^Frame layout must be a data layout, not unsigned\(8\)$"):
             EngineSignature(unsigned(8))
 
-    def test_every_engine_has_the_signature(self):
-        for kind in registry.KINDS:
-            for name in registry.variants(kind):
-                engine = registry.make_engine(kind, name, width=8)
-                self.assertIsInstance(engine.signature, EngineSignature, (kind, name))
-                self.assertEqual(engine.signature.frame.size, engine.cmd.payload.shape().size)
-                Fragment.get(engine, None)           # and it elaborates
-
     def test_motion_and_feed_connect(self):
         engine = registry.make_engine("line", width=8)
         stage = StepDirStage(dir_setup=1, step_width=1)
@@ -184,77 +178,82 @@ FRAMES = {"line": [{"x": 7, "y": 3}, {"x": -5, "y": 12}, {"x": 0, "y": 0}, {"x":
                   {"x0": 4, "y0": -4, "x1": -4, "y1": -4, "cw": 1}],
           "profile": _profile_frames()}
 
+#: Every registered variant, one test case each (named ``kind-variant``, for ``-k``).
+EVERY_VARIANT = pytest.mark.parametrize(
+    "label, make_engine, make_model", list(feed_engines()),
+    ids=[label.replace(" ", "-") for label, _, _ in feed_engines()])
+
+
+def run_both(label, make_engine, make_model, job):
+    kind = label.split()[0]
+    expected = run_model(make_model(), job)
+    actual = run_amaranth(make_engine(), job)
+    assert first_difference(expected, actual) is None, label
+    return kind, actual
+
+
+# What every engine promises, checked on every registered variant.
+
+@EVERY_VARIANT
+def test_feed_permission_and_next_step_kind(label, make_engine, make_model):
+    # A step is made in exactly the clocks where the permission meets a due step, and the
+    # due step's kind was shown before it (in that same clock at the latest).
+    rng = random.Random(9)
+    tick = [int(rng.random() < 0.4) for _ in range(89)]
+    kind = label.split()[0]
+    job = Job(frames=FRAMES[kind], tick=tick)
+    _, record = run_both(label, make_engine, make_model, job)
+    steps = 0
+    for entry in record:
+        if entry["rst"]:
+            continue
+        permitted = entry["due"] and tick[entry["cycle"] % len(tick)]
+        assert bool(entry["step"]) == bool(permitted), (label, entry["cycle"])
+        if entry["step"]:
+            assert (entry["step"] == 0b11) == bool(entry["diagonal"]), (label, entry["cycle"])
+            steps += 1
+    assert steps > 20, label
+
+
+@EVERY_VARIANT
+def test_outcomes_under_back_pressure(label, make_engine, make_model):
+    # The status stream stalls at random; no outcome is lost, numbers count up, positions
+    # are the moves made, and the steps are those of the commands traced.
+    rng = random.Random(3)
+    stalls = [int(rng.random() < 0.3) for _ in range(53)]
+    kind = label.split()[0]
+    frames = FRAMES[kind] * 2
+    _, record = run_both(label, make_engine, make_model, Job(frames=frames, status_ready=stalls))
+    outcomes = record_outcomes(record)
+    assert [number for _, number, _, _ in outcomes] == list(range(len(frames)))
+    expected = [(DONE if outcome == 0 else REFUSED,
+                 [sum(dx for dx, _ in path), sum(dy for _, dy in path)])
+                for outcome, path in registry.outcomes(kind, frames, label.split()[1], width=8)]
+    assert [(outcome, position) for _, _, outcome, position in outcomes] == expected, label
+
+
+@EVERY_VARIANT
+def test_abort(label, make_engine, make_model):
+    # Aborts in the middle of commands: no step in an abort clock, the running command
+    # reports where it stopped, the waiting ones end with no step, and the engine goes on
+    # with the commands offered after.
+    kind = label.split()[0]
+    frames = FRAMES[kind] * 2
+    job = Job(frames=frames, aborts={25: 1, 60: 3, 140: 1, 141: 1})
+    _, record = run_both(label, make_engine, make_model, job)
+    for entry in record:
+        if not entry["rst"] and entry["cycle"] in (25, 60, 61, 62, 140, 141):
+            assert entry["step"] == 0, (label, entry["cycle"])
+    outcomes = record_outcomes(record)
+    aborted = [o for o in outcomes if o[2] == ABORTED]
+    assert len(aborted) >= 2, label
+    moved = [position for _, _, outcome, position in outcomes if outcome != REFUSED]
+    assert [sum(p[0] for p in moved), sum(p[1] for p in moved)] == \
+        [sum(dx for dx, _ in record_steps(record)), sum(dy for _, dy in record_steps(record))], \
+        label
+
 
 class EngineContractTestCase(unittest.TestCase):
-    """What every engine promises, checked on every registered variant."""
-
-    def run_both(self, label, make_engine, make_model, job):
-        kind = label.split()[0]
-        expected = run_model(make_model(), job)
-        actual = run_amaranth(make_engine(), job)
-        self.assertIsNone(first_difference(expected, actual), label)
-        return kind, actual
-
-    def test_feed_permission_and_next_step_kind(self):
-        # A step is made in exactly the clocks where the permission meets a due step, and the
-        # due step's kind was shown before it (in that same clock at the latest).
-        rng = random.Random(9)
-        tick = [int(rng.random() < 0.4) for _ in range(89)]
-        for label, make_engine, make_model in feed_engines():
-            kind = label.split()[0]
-            job = Job(frames=FRAMES[kind], tick=tick)
-            _, record = self.run_both(label, make_engine, make_model, job)
-            steps = 0
-            for entry in record:
-                if entry["rst"]:
-                    continue
-                permitted = entry["due"] and tick[entry["cycle"] % len(tick)]
-                self.assertEqual(bool(entry["step"]), bool(permitted), (label, entry["cycle"]))
-                if entry["step"]:
-                    self.assertEqual(entry["step"] == 0b11, bool(entry["diagonal"]),
-                                     (label, entry["cycle"]))
-                    steps += 1
-            self.assertGreater(steps, 20, label)
-
-    def test_outcomes_under_back_pressure(self):
-        # The status stream stalls at random; no outcome is lost, numbers count up, positions
-        # are the moves made, and the steps are those of the commands traced.
-        rng = random.Random(3)
-        stalls = [int(rng.random() < 0.3) for _ in range(53)]
-        for label, make_engine, make_model in feed_engines():
-            kind = label.split()[0]
-            frames = FRAMES[kind] * 2
-            _, record = self.run_both(label, make_engine, make_model,
-                                      Job(frames=frames, status_ready=stalls))
-            outcomes = record_outcomes(record)
-            self.assertEqual([number for _, number, _, _ in outcomes], list(range(len(frames))))
-            expected = [(DONE if outcome == 0 else REFUSED,
-                         [sum(dx for dx, _ in path), sum(dy for _, dy in path)])
-                        for outcome, path in registry.outcomes(kind, frames, label.split()[1],
-                                                               width=8)]
-            self.assertEqual([(outcome, position) for _, _, outcome, position in outcomes],
-                             expected, label)
-
-    def test_abort(self):
-        # Aborts in the middle of commands: no step in an abort clock, the running command
-        # reports where it stopped, the waiting ones end with no step, and the engine goes on
-        # with the commands offered after.
-        for label, make_engine, make_model in feed_engines():
-            kind = label.split()[0]
-            frames = FRAMES[kind] * 2
-            job = Job(frames=frames, aborts={25: 1, 60: 3, 140: 1, 141: 1})
-            _, record = self.run_both(label, make_engine, make_model, job)
-            for entry in record:
-                if not entry["rst"] and entry["cycle"] in (25, 60, 61, 62, 140, 141):
-                    self.assertEqual(entry["step"], 0, (label, entry["cycle"]))
-            outcomes = record_outcomes(record)
-            aborted = [o for o in outcomes if o[2] == ABORTED]
-            self.assertGreaterEqual(len(aborted), 2, label)
-            moved = [position for _, _, outcome, position in outcomes if outcome != REFUSED]
-            self.assertEqual([sum(p[0] for p in moved), sum(p[1] for p in moved)],
-                             [sum(dx for dx, _ in record_steps(record)),
-                              sum(dy for _, dy in record_steps(record))], label)
-
     def test_check_outcomes_catches(self):
         record = run_model(registry.make_model("line", width=8), Job(frames=FRAMES["line"]))
         last = max(i for i, entry in enumerate(record) if not entry["rst"] and entry["status"])
@@ -266,6 +265,14 @@ class EngineContractTestCase(unittest.TestCase):
         extra = [dict(entry, accepted=0) for entry in record]
         with self.assertRaisesRegex(AssertionError, r"^clock \d+: an outcome with no command$"):
             check_outcomes(extra)
+
+
+@EVERY_VARIANT
+def test_every_engine_has_the_signature(label, make_engine, make_model):
+    engine = make_engine()
+    assert isinstance(engine.signature, EngineSignature), label
+    assert engine.signature.frame.size == engine.cmd.payload.shape().size
+    Fragment.get(engine, None)           # and it elaborates
 
 
 if __name__ == "__main__":

@@ -20,10 +20,10 @@ from sim.runners import CocotbBuild
 from sim.stimulus import Job, plan_resets, record_outcomes, record_steps
 from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
-from .conftest import cocotb_build_root, selected_simulators
+from .conftest import cocotb_build_root, register_extra_variants, selected_simulators
 
 KIND = "line"
-PATENT_VARIANTS = ("device", "exact")
+register_extra_variants()                 # in the simulator's process too
 
 
 def _parameters():
@@ -136,10 +136,13 @@ async def long_segments_cut(dut):
     await play(dut, Job(frames=random_frames(rng, width, 20)), limit=3000)
 
 
-#: The patents' cores at the default width and at 32 bits; the textbook's at the default width
-#: (their other widths run on Amaranth's simulator): one build per simulator and case.
+#: Every variant at the widths it declares (:attr:`kontur.registry.Variant.widths`; the
+#: kind's default width where it declares none): the patents' cores at 16 and 32 bits, the
+#: textbook's at 16 (their other widths run on Amaranth's simulator). One build per
+#: simulator and case.
 CASES = [(variant, width) for variant in registry.variants(KIND)
-         for width in ((16, 32) if variant in PATENT_VARIANTS else (16,))]
+         for width in (registry.variant(KIND, variant).widths
+                       or (registry.KINDS[KIND].default_width,))]
 
 
 @pytest.mark.cocotb

@@ -3,9 +3,16 @@
 
 import contextlib
 import io
+import os
 import random
+import re
+import subprocess
+import sys
 import unittest
+from pathlib import Path
 from unittest import mock
+
+import pytest
 
 from hdl.circular_timing import FaithfulTiming
 from kontur import registry
@@ -27,10 +34,13 @@ def staircase_registered():
 
 class LookupTestCase(unittest.TestCase):
     def test_kinds_and_variants(self):
+        # What is registered is what the tables declare, in their order.
+        self.assertEqual(list(registry.KINDS), [kind.name for kind in registry.KIND_TABLE])
         self.assertEqual(list(registry.KINDS), ["line", "arc", "profile"])
-        self.assertEqual(registry.variants("line"),
-                         ("device", "exact", "separate", "dda", "dda-zero", "serial"))
-        self.assertEqual(registry.variants("arc"), ("faithful", "fast", "separate", "serial"))
+        for kind in registry.KINDS:
+            self.assertEqual(registry.variants(kind),
+                             tuple(item.name for item in registry.VARIANT_TABLE
+                                   if item.kind == kind))
         self.assertEqual(registry.variants("profile"), ("fast", "faithful"))
         self.assertEqual([kind.program for kind in registry.KINDS.values()],
                          [False, False, True])
@@ -41,9 +51,9 @@ class LookupTestCase(unittest.TestCase):
         with self.assertRaisesRegex(ValueError,
                 r"^Kind must be one of 'line', 'arc', 'profile', not 'spline'$"):
             registry.variants("spline")
+        names = ", ".join(f"'{name}'" for name in registry.variants("line"))
         with self.assertRaisesRegex(ValueError,
-                r"^line variant must be one of 'device', 'exact', 'separate', 'dda', "
-                r"'dda-zero', 'serial', not 'fast'$"):
+                rf"^line variant must be one of {re.escape(names)}, not 'fast'$"):
             registry.make_engine("line", "fast")
 
     def test_parameters_that_do_not_apply(self):
@@ -106,6 +116,51 @@ class NewVariantTestCase(unittest.TestCase):
                                            "staircase"]), 0)
             self.assertEqual(out.getvalue(), "1 0\n1 0\n0 -1\n")
         self.assertNotIn(("line", "staircase"), registry.VARIANTS)
+
+
+# ---- the generic suites over a variant they do not name ---------------------------------
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_suites_over_the_standin(*files, env=None):
+    """Run pytest over ``files`` with the stand-in added through ``KONTUR_EXTRA_VARIANTS``
+    and only its cases selected; the passed cases per file, and pytest's output."""
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:xdist", "-p", "no:cacheprovider", "-q",
+         "-rA", "-k", "staircase", *files],
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        env={**os.environ, "KONTUR_EXTRA_VARIANTS": "tests.standin_core:VARIANT",
+             **(env or {})})
+    passed = {}
+    for line in result.stdout.splitlines():
+        found = re.match(r"^PASSED (tests/\w+\.py)::\S*staircase", line)
+        if found:
+            passed[found[1]] = passed.get(found[1], 0) + 1
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
+    assert not re.search(r"^(FAILED|ERROR) ", result.stdout, re.M), result.stdout[-3000:]
+    return passed, result.stdout
+
+
+def test_generic_suites_take_a_new_variant():
+    # The engine contracts (model against RTL, feed, back pressure, aborts, signature) and the
+    # accuracy bench run the stand-in, which no test file names: every suite ran some case of
+    # it, and every one passed.
+    files = ("tests/test_engine.py", "tests/test_textbook_bench.py")
+    passed, output = run_suites_over_the_standin(*files)
+    assert set(passed) == set(files), output[-3000:]
+    assert passed["tests/test_engine.py"] >= 4, output[-3000:]
+    assert passed["tests/test_textbook_bench.py"] >= 1, output[-3000:]
+
+
+@pytest.mark.cocotb
+def test_cocotb_line_suite_takes_a_new_variant():
+    # The cocotb line suite, on Icarus alone (about a minute): the stand-in's Verilog against
+    # its model, at the kind's default width (it declares no widths).
+    passed, output = run_suites_over_the_standin("tests/test_line_cocotb.py",
+                                                 env={"SIM": "icarus"})
+    assert passed == {"tests/test_line_cocotb.py": 1}, output[-3000:]
+    assert "test_line_engine[icarus-staircase-16]" in output
 
 
 if __name__ == "__main__":

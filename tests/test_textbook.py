@@ -60,7 +60,9 @@ class EngineCase(unittest.TestCase):
 
 class LineEngineTestCase(EngineCase):
     kind = "line"
-    VARIANTS = (("separate", {}), ("dda", {}), ("dda-zero", {}))
+    #: The line variants whose cores are the textbook's (``hdl/textbook.py``).
+    VARIANTS = tuple((name, {}) for name in registry.variants("line")
+                     if registry.variant("line", name).core.__module__ == "hdl.textbook")
 
     def all_end_points(self, variant, width=16, limit=14, **params):
         frames = [{"x": x, "y": y} for x in range(-limit, limit + 1)
