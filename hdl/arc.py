@@ -1,5 +1,7 @@
 """Any arc from a quadrant core: the core signature, the planner, and the engine around them."""
 
+from types import SimpleNamespace
+
 from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
@@ -222,9 +224,27 @@ class ArcPlanner(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
+        n = self._plan_registers(m)
+        self._serial_datapath(m, n)
+        self._serial_check(n)
+        with m.FSM(name="planner"):
+            self._take_arc(m, n)
+            self._squares(m, n)
+            self._end_check(m, n)
+            self._square_root(m, n)
+            self._plan_offer(m, n)
+        return m
+
+    # The helpers below each elaborate one part of the serial datapath into ``m`` (the FSM's
+    # states in the order of its phases); ``n`` (a namespace) carries the signals that one part
+    # drives and another reads, under the names the parts give them.
+
+    def _plan_registers(self, m):
+        """The plan's registers (which the engine reads) and what the frame tells at once."""
         w = self._width
         frame = self.i.payload
         x0, y0, x1, y1 = (_Coordinate(v, w) for v in (frame.x0, frame.y0, frame.x1, frame.y1))
+        n = SimpleNamespace(w=w, frame=frame, x0=x0, y0=y0, x1=x1, y1=y1)
 
         # ---- the plan (registers the engine reads) -----------------------------------------
         cw = Signal()
@@ -247,6 +267,10 @@ class ArcPlanner(wiring.Component):
             self.o.payload.off_axis.eq(~end_on_axis), self.o.payload.distance.eq(end_x),
             self.o.payload.radius.eq(radius), self.o.payload.residue.eq(residue),
         ]
+        n.cw, n.start_quadrant, n.end_quadrant = cw, start_quadrant, end_quadrant
+        n.start_x, n.start_y, n.end_x, n.end_y = start_x, start_y, end_x, end_y
+        n.refused, n.runs, n.end_on_axis, n.radius, n.residue = \
+            refused, runs, end_on_axis, radius, residue
 
         # ---- what the frame tells at once --------------------------------------------------
         start_swapped = Signal()                     # native X = |y0|
@@ -254,8 +278,14 @@ class ArcPlanner(wiring.Component):
         end_signs = Signal(2)                        # of x1, y1
         too_wide = Signal()
         zero_radius = Signal()
+        n.start_swapped, n.end_swapped, n.end_signs = start_swapped, end_swapped, end_signs
+        n.too_wide, n.zero_radius = too_wide, zero_radius
+        return n
 
-        # ---- the serial datapath -----------------------------------------------------------
+    def _serial_datapath(self, m, n):
+        """The serial datapath: the multiplier bits, the magnitudes' bits they make, and the
+        shift-and-add sum of the squares."""
+        w = n.w
         second = Signal()                            # 0: x0² + y0², 1: x1² + y1²
         count = Signal(range(w + 1))
         mult_x = Signal(signed(w + 1))               # multiplicands: x0, y0, then x1, y1
@@ -266,10 +296,14 @@ class ArcPlanner(wiring.Component):
         lower = Signal(w)                            # r2's low half
         r2_high = Signal(w + 2)                      # r2's high half
         remainder = Signal(w + 3)                    # r2 - root²
+        n.second, n.count, n.mult_x, n.mult_y, n.seen_x, n.seen_y = \
+            second, count, mult_x, mult_y, seen_x, seen_y
+        n.upper, n.lower, n.r2_high, n.remainder = upper, lower, r2_high, remainder
 
         # The multiplier bits of this pass, and the magnitudes' bits they make: -v keeps the
         # bits of v up to its lowest one and inverts the rest. Each is formed a clock ahead, in
         # a flip-flop, from the bit that comes next (so that the adder starts from registers).
+        start_x, start_y, end_x, end_y = n.start_x, n.start_y, n.end_x, n.end_y
         out_x = Mux(second, end_x[0], start_x[0])
         out_y = Mux(second, end_y[0], start_y[0])
         bit_x, bit_y = Signal(), Signal()
@@ -279,9 +313,11 @@ class ArcPlanner(wiring.Component):
         seen_after_y = seen_y | out_y
         m.d.sync += [bit_x.eq(next_x ^ (mult_x[-1] & seen_after_x)),
                      bit_y.eq(next_y ^ (mult_y[-1] & seen_after_y))]
-        swapped = Mux(second, end_swapped, start_swapped)
+        swapped = Mux(second, n.end_swapped, n.start_swapped)
         native_x = Mux(swapped, bit_y, bit_x)        # the bits entering the native registers
         native_y = Mux(swapped, bit_x, bit_y)
+        n.bit_x, n.bit_y, n.seen_after_x, n.seen_after_y = bit_x, bit_y, seen_after_x, seen_after_y
+        n.native_x, n.native_y = native_x, native_y
 
         # Each clock adds the magnitudes whose multiplier bit is set, |v| = (v ^ s) + s, to
         # the upper half and shifts the whole sum down one place; after `w` clocks it holds
@@ -291,7 +327,12 @@ class ArcPlanner(wiring.Component):
         partial = Signal(w + 2)
         m.d.comb += partial.eq(upper + operand(bit_x, mult_x) + operand(bit_y, mult_y)
                                + (bit_x & mult_x[-1]) + (bit_y & mult_y[-1]))
+        n.partial = partial
 
+    def _serial_check(self, n):
+        """The registers of the end point's check, of the order of start and end in one
+        quadrant and of the distance's differences, formed a bit at a time in the second pass."""
+        upper, lower, partial = n.upper, n.lower, n.partial
         # The end point's check, -M < D <= M for D = r2 - S (M = max(x1, y1)), split at bit w:
         # with r2 = R·2**w + r and S = T·2**w + t (r, t < 2**w) and H = R - T, D + M > 0 is
         # H + qa >= 0 for qa = (r - t + M - 1) // 2**w, and M - D >= 0 is H <= qb for
@@ -313,135 +354,164 @@ class ArcPlanner(wiring.Component):
         f_carry = Signal()
 
         on_circle = Signal()
-        with m.FSM(name="planner"):
-            with m.State("Idle"):
-                m.d.comb += self.i.ready.eq(1)
-                with m.If(self.i.valid):
-                    q0 = _quadrant_of_signs(x0.positive, x0.sign, y0.positive, y0.sign,
-                                            frame.cw)
-                    q1 = _quadrant_of_signs(x1.positive, x1.sign, y1.positive, y1.sign,
-                                            frame.cw)
-                    swapped_1 = _swapped(q1, frame.cw)
-                    m.d.sync += [
-                        cw.eq(frame.cw), start_quadrant.eq(q0), end_quadrant.eq(q1),
-                        start_swapped.eq(_swapped(q0, frame.cw)), end_swapped.eq(swapped_1),
-                        end_on_axis.eq(Mux(swapped_1, x1.zero, y1.zero)),
-                        end_signs.eq(Cat(x1.sign, y1.sign)),
-                        too_wide.eq(x0.over | y0.over | x1.over | y1.over),
-                        zero_radius.eq(x0.zero & y0.zero),
-                        start_x.eq(frame.x0[:w]), start_y.eq(frame.y0[:w]),
-                        end_x.eq(frame.x1[:w]), end_y.eq(frame.y1[:w]),
-                        mult_x.eq(frame.x0[:w + 1]), mult_y.eq(frame.y0[:w + 1]),
-                        upper.eq(0), second.eq(0), count.eq(0), seen_x.eq(0), seen_y.eq(0),
-                        above[0].eq(0), above[1].eq(0), below[0].eq(1), below[1].eq(1),
-                        x_longer.eq(1), y_above.eq(0), y_equal.eq(1), x_below.eq(0),
-                        e_carry.eq(1), f_carry.eq(1),
-                    ]
-                    m.d.sync += [bit_x.eq(frame.x0[0]), bit_y.eq(frame.y0[0])]
-                    m.next = "Square"
-            with m.State("Square"):
+        n.r_bit, n.t_bit, n.above, n.below, n.x_longer = r_bit, t_bit, above, below, x_longer
+        n.y_above, n.y_equal, n.x_below, n.e_carry, n.f_carry, n.on_circle = \
+            y_above, y_equal, x_below, e_carry, f_carry, on_circle
+
+    def _take_arc(self, m, n):
+        """Idle: take an arc, load its coordinates and flags, start the first pass."""
+        w, frame, x0, y0, x1, y1 = n.w, n.frame, n.x0, n.y0, n.x1, n.y1
+        with m.State("Idle"):
+            m.d.comb += self.i.ready.eq(1)
+            with m.If(self.i.valid):
+                q0 = _quadrant_of_signs(x0.positive, x0.sign, y0.positive, y0.sign,
+                                        frame.cw)
+                q1 = _quadrant_of_signs(x1.positive, x1.sign, y1.positive, y1.sign,
+                                        frame.cw)
+                swapped_1 = _swapped(q1, frame.cw)
                 m.d.sync += [
-                    upper.eq(partial[1:]),
-                    seen_x.eq(seen_after_x), seen_y.eq(seen_after_y),
-                    count.eq(count + 1),
+                    n.cw.eq(frame.cw), n.start_quadrant.eq(q0), n.end_quadrant.eq(q1),
+                    n.start_swapped.eq(_swapped(q0, frame.cw)), n.end_swapped.eq(swapped_1),
+                    n.end_on_axis.eq(Mux(swapped_1, x1.zero, y1.zero)),
+                    n.end_signs.eq(Cat(x1.sign, y1.sign)),
+                    n.too_wide.eq(x0.over | y0.over | x1.over | y1.over),
+                    n.zero_radius.eq(x0.zero & y0.zero),
+                    n.start_x.eq(frame.x0[:w]), n.start_y.eq(frame.y0[:w]),
+                    n.end_x.eq(frame.x1[:w]), n.end_y.eq(frame.y1[:w]),
+                    n.mult_x.eq(frame.x0[:w + 1]), n.mult_y.eq(frame.y0[:w + 1]),
+                    n.upper.eq(0), n.second.eq(0), n.count.eq(0), n.seen_x.eq(0),
+                    n.seen_y.eq(0),
+                    n.above[0].eq(0), n.above[1].eq(0), n.below[0].eq(1), n.below[1].eq(1),
+                    n.x_longer.eq(1), n.y_above.eq(0), n.y_equal.eq(1), n.x_below.eq(0),
+                    n.e_carry.eq(1), n.f_carry.eq(1),
                 ]
-                with m.If(~second):
+                m.d.sync += [n.bit_x.eq(frame.x0[0]), n.bit_y.eq(frame.y0[0])]
+                m.next = "Square"
+
+    def _squares(self, m, n):
+        """Square: the two passes, ``r2 = x0² + y0²`` then ``S = x1² + y1²``; in the second,
+        the check's carries, the order of start and end and the distance's differences."""
+        w, partial, lower = n.w, n.partial, n.lower
+        start_x, start_y, end_x, end_y = n.start_x, n.start_y, n.end_x, n.end_y
+        bit_x, bit_y, above, below = n.bit_x, n.bit_y, n.above, n.below
+        r_bit, t_bit = n.r_bit, n.t_bit
+        with m.State("Square"):
+            m.d.sync += [
+                n.upper.eq(partial[1:]),
+                n.seen_x.eq(n.seen_after_x), n.seen_y.eq(n.seen_after_y),
+                n.count.eq(n.count + 1),
+            ]
+            with m.If(~n.second):
+                m.d.sync += [
+                    lower.eq(Cat(lower[1:], partial[0])),
+                    start_x.eq(Cat(start_x[1:], n.native_x)),
+                    start_y.eq(Cat(start_y[1:], n.native_y)),
+                ]
+            with m.Else():
+                ex, ey, sx, sy = n.native_x, n.native_y, start_x[0], start_y[0]
+                e_sum = ey + ~ex + n.e_carry
+                f_sum = sx + ~sy + n.f_carry
+                for k, bit in enumerate((bit_x, bit_y)):
                     m.d.sync += [
-                        lower.eq(Cat(lower[1:], partial[0])),
-                        start_x.eq(Cat(start_x[1:], native_x)),
-                        start_y.eq(Cat(start_y[1:], native_y)),
+                        above[k].eq((r_bit + ~t_bit + bit + above[k])[1:]),
+                        below[k].eq((t_bit + ~r_bit + bit + below[k])[1:]),
+                    ]
+                m.d.sync += [
+                    lower.eq(Cat(lower[1:], lower[0])),
+                    start_x.eq(Cat(start_x[1:], sx)), start_y.eq(Cat(start_y[1:], sy)),
+                    end_x.eq(Cat(end_x[1:w], f_sum[0])), end_y.eq(Cat(end_y[1:], e_sum[0])),
+                    n.e_carry.eq(e_sum[1]), n.f_carry.eq(f_sum[1]),
+                    n.x_longer.eq(Mux(bit_x != bit_y, bit_x, n.x_longer)),
+                    n.y_above.eq(Mux(ey != sy, ey, n.y_above)),
+                    n.y_equal.eq(n.y_equal & (ey == sy)),
+                    n.x_below.eq(Mux(ex != sx, sx, n.x_below)),
+                ]
+            with m.If(n.count == w - 1):
+                m.d.sync += [n.count.eq(0), n.seen_x.eq(0), n.seen_y.eq(0)]
+                with m.If(~n.second):
+                    m.d.sync += [
+                        n.r2_high.eq(partial[1:]), n.upper.eq(0), n.second.eq(1),
+                        n.mult_x.eq(Cat(end_x[:w], n.end_signs[0])),
+                        n.mult_y.eq(Cat(end_y, n.end_signs[1])),
+                        bit_x.eq(end_x[0]), bit_y.eq(end_y[0]),
                     ]
                 with m.Else():
-                    ex, ey, sx, sy = native_x, native_y, start_x[0], start_y[0]
-                    e_sum = ey + ~ex + e_carry
-                    f_sum = sx + ~sy + f_carry
-                    for k, bit in enumerate((bit_x, bit_y)):
-                        m.d.sync += [
-                            above[k].eq((r_bit + ~t_bit + bit + above[k])[1:]),
-                            below[k].eq((t_bit + ~r_bit + bit + below[k])[1:]),
-                        ]
-                    m.d.sync += [
-                        lower.eq(Cat(lower[1:], lower[0])),
-                        start_x.eq(Cat(start_x[1:], sx)), start_y.eq(Cat(start_y[1:], sy)),
-                        end_x.eq(Cat(end_x[1:w], f_sum[0])), end_y.eq(Cat(end_y[1:], e_sum[0])),
-                        e_carry.eq(e_sum[1]), f_carry.eq(f_sum[1]),
-                        x_longer.eq(Mux(bit_x != bit_y, bit_x, x_longer)),
-                        y_above.eq(Mux(ey != sy, ey, y_above)),
-                        y_equal.eq(y_equal & (ey == sy)),
-                        x_below.eq(Mux(ex != sx, sx, x_below)),
-                    ]
-                with m.If(count == w - 1):
-                    m.d.sync += [count.eq(0), seen_x.eq(0), seen_y.eq(0)]
-                    with m.If(~second):
-                        m.d.sync += [
-                            r2_high.eq(partial[1:]), upper.eq(0), second.eq(1),
-                            mult_x.eq(Cat(end_x[:w], end_signs[0])),
-                            mult_y.eq(Cat(end_y, end_signs[1])),
-                            bit_x.eq(end_x[0]), bit_y.eq(end_y[0]),
-                        ]
-                    with m.Else():
-                        m.next = "Check end"
-            with m.State("Check end"):
-                high = Signal(signed(w + 3))         # H = R - T (upper holds T)
-                m.d.comb += high.eq(r2_high - upper)
-                carry_above = above[~x_longer]
-                carry_below = below[~x_longer]
+                    m.next = "Check end"
+
+    def _end_check(self, m, n):
+        """Check end: the high halves meet in one subtraction; the end is on the circle or
+        not."""
+        w, above, below = n.w, n.above, n.below
+        with m.State("Check end"):
+            high = Signal(signed(w + 3))             # H = R - T (upper holds T)
+            m.d.comb += high.eq(n.r2_high - n.upper)
+            carry_above = above[~n.x_longer]
+            carry_below = below[~n.x_longer]
+            m.d.sync += [
+                n.on_circle.eq(((high == -1) & (carry_above == 2))
+                               | ((high == 0) & (carry_above != 0) & (carry_below != 0))
+                               | ((high == 1) & (carry_below == 2))),
+                n.upper.eq(0), n.remainder.eq(0),
+            ]
+            m.next = "Root"
+
+    def _square_root(self, m, n):
+        """Root: the square root of ``r2`` and its remainder, two radicand bits a clock."""
+        w, lower, r2_high, remainder = n.w, n.lower, n.r2_high, n.remainder
+        with m.State("Root"):                        # two radicand bits a clock, from the top
+            root = n.upper
+            shifted = Cat(r2_high[-2:], remainder)
+            trial = Cat(Const(1, 2), root)
+            fits = shifted >= trial
+            m.d.sync += [
+                Cat(lower, r2_high).eq(Cat(lower, r2_high) << 2),
+                remainder.eq(Mux(fits, shifted - trial, shifted)),
+                root.eq(Cat(fits, root)),
+                n.count.eq(n.count + 1),
+            ]
+            with m.If(n.count == w):
+                m.next = "Plan"
+
+    def _plan_offer(self, m, n):
+        """Plan, Offer, Hold: the plan formed once the plan before is let go, its distance
+        formed as it is offered, and the plan held until it is transferred."""
+        w, remainder, runs, radius = n.w, n.remainder, n.runs, n.radius
+        with m.State("Plan"):                        # once the plan before is let go
+            root = n.upper
+            round_up = remainder > root              # sqrt(r2) >= root + 1/2
+            rn = Signal(w + 1)
+            # (the increment beside the comparison, not after it: one carry chain deep)
+            m.d.comb += rn.eq(Mux(round_up, root + 1, root))
+            start_quadrant, end_quadrant = n.start_quadrant, n.end_quadrant
+            ahead = (end_quadrant == start_quadrant) & (n.y_above | (n.y_equal & n.x_below))
+            turns = Mux(n.cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
+            quadrants = Mux((turns == 0) & ~ahead, 4, turns)
+            with m.If(~self.keep):
                 m.d.sync += [
-                    on_circle.eq(((high == -1) & (carry_above == 2))
-                                 | ((high == 0) & (carry_above != 0) & (carry_below != 0))
-                                 | ((high == 1) & (carry_below == 2))),
-                    upper.eq(0), remainder.eq(0),
+                    n.refused.eq(n.too_wide | n.zero_radius | rn[w] | ~n.on_circle),
+                    runs.eq(quadrants + 1 - n.end_on_axis),
+                    radius.eq(rn[:w]),
+                    n.residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
                 ]
-                m.next = "Root"
-            with m.State("Root"):                    # two radicand bits a clock, from the top
-                root = upper
-                shifted = Cat(r2_high[-2:], remainder)
-                trial = Cat(Const(1, 2), root)
-                fits = shifted >= trial
-                m.d.sync += [
-                    Cat(lower, r2_high).eq(Cat(lower, r2_high) << 2),
-                    remainder.eq(Mux(fits, shifted - trial, shifted)),
-                    root.eq(Cat(fits, root)),
-                    count.eq(count + 1),
-                ]
-                with m.If(count == w):
-                    m.next = "Plan"
-            with m.State("Plan"):                    # once the plan before is let go
-                root = upper
-                round_up = remainder > root          # sqrt(r2) >= root + 1/2
-                rn = Signal(w + 1)
-                # (the increment beside the comparison, not after it: one carry chain deep)
-                m.d.comb += rn.eq(Mux(round_up, root + 1, root))
-                ahead = (end_quadrant == start_quadrant) & (y_above | (y_equal & x_below))
-                turns = Mux(cw, start_quadrant - end_quadrant, end_quadrant - start_quadrant)[:2]
-                quadrants = Mux((turns == 0) & ~ahead, 4, turns)
-                with m.If(~self.keep):
-                    m.d.sync += [
-                        refused.eq(too_wide | zero_radius | rn[w] | ~on_circle),
-                        runs.eq(quadrants + 1 - end_on_axis),
-                        radius.eq(rn[:w]),
-                        residue.eq(Mux(round_up, remainder - 2 * root - 1, remainder)),
-                    ]
-                    m.next = "Offer"
-            with m.State("Offer"):
-                # The plan is offered; its distance is formed in this clock, which the engine
-                # reads only as the plan begins, a clock after its first run is taken at the
-                # earliest: from the start (F + E) if the last run is the first, else from the
-                # axis point (Rn + E).
-                e = Signal(signed(w + 1))            # E = end Y - end X
-                f = Signal(signed(w + 1))            # F = start X - start Y
-                m.d.comb += [e.eq(Cat(end_y, ~e_carry)), f.eq(Cat(end_x[:w], ~f_carry)),
-                             self.o.valid.eq(1)]
-                m.d.sync += end_x.eq(Mux(runs == 1, f, radius) + e)
-                with m.If(self.o.ready):
-                    m.next = "Idle"
-                with m.Else():
-                    m.next = "Hold"
-            with m.State("Hold"):
-                m.d.comb += self.o.valid.eq(1)
-                with m.If(self.o.ready):
-                    m.next = "Idle"
-        return m
+                m.next = "Offer"
+        with m.State("Offer"):
+            # The plan is offered; its distance is formed in this clock, which the engine
+            # reads only as the plan begins, a clock after its first run is taken at the
+            # earliest: from the start (F + E) if the last run is the first, else from the
+            # axis point (Rn + E).
+            e = Signal(signed(w + 1))                # E = end Y - end X
+            f = Signal(signed(w + 1))                # F = start X - start Y
+            m.d.comb += [e.eq(Cat(n.end_y, ~n.e_carry)), f.eq(Cat(n.end_x[:w], ~n.f_carry)),
+                         self.o.valid.eq(1)]
+            m.d.sync += n.end_x.eq(Mux(runs == 1, f, radius) + e)
+            with m.If(self.o.ready):
+                m.next = "Idle"
+            with m.Else():
+                m.next = "Hold"
+        with m.State("Hold"):
+            m.d.comb += self.o.valid.eq(1)
+            with m.If(self.o.ready):
+                m.next = "Idle"
 
 
 class ArcEngine(wiring.Component):
@@ -541,7 +611,23 @@ class ArcEngine(wiring.Component):
             self.cmd.ready.eq(self.planner.i.ready & accepting),
         ]
 
-        # ---- the arc being traced ---------------------------------------------------------
+        n = SimpleNamespace(w=w, core=core, status=status, planner_o=planner_o,
+                            next_plan=next_plan, native=core.step)
+        self._sequencer_registers(n)
+        self._distance_to_end(m, n)
+        self._sequencer_control(m, n)
+        self._hand_over(m, n)
+        self._sequencer(m, n)
+        self._status(m, n)
+        return m
+
+    # The helpers below each elaborate one part of the engine into ``m``; ``n`` (a namespace)
+    # carries the signals that one part drives and another reads, under the names the parts
+    # give them.
+
+    def _sequencer_registers(self, n):
+        """The arc being traced: what the sequencer keeps of the running run."""
+        w = n.w
         active = Signal()                 # an arc's run is running
         later_runs = Signal(3)            # its runs still to start after the running one
         to_offer = Signal(3)              # its runs not yet handed to the core
@@ -558,27 +644,46 @@ class ArcEngine(wiring.Component):
         reach = Signal(2)
         swap = Signal()
         direction = Signal(2)
+        n.active, n.later_runs, n.to_offer, n.first_offered = \
+            active, later_runs, to_offer, first_offered
+        n.clockwise, n.quadrant, n.off_axis = clockwise, quadrant, off_axis
+        n.distance, n.reach, n.swap, n.direction = distance, reach, swap, direction
 
-        native = core.step
-        last_run = active & (later_runs == 0)
+    def _distance_to_end(self, m, n):
+        """The distance to the end: the step that lands on it, found from registers, stops the
+        core (the sequencer loads the distance and counts it down)."""
+        native = n.native
+        n.last_run = n.active & (n.later_runs == 0)
         reached = Signal()
+        m.d.comb += [
+            # The step lands on the end (X falls by native[0], Y rises by native[1]): one LUT
+            # after the step, the rest from registers.
+            reached.eq(Mux(native[0] & native[1], n.reach[1], native.any() & n.reach[0])),
+            n.core.stop.eq(reached),
+        ]
+
+    def _sequencer_control(self, m, n):
+        """The sequencer's events: the arc done, the next plan begun, a later quadrant
+        started, a refused plan taken."""
+        core, active, later_runs = n.core, n.active, n.later_runs
         arc_done = Signal()
         begin = Signal()                  # the next plan's first run starts: the plan is taken
         following = Signal()              # a later quadrant of this arc starts
         refuse = Signal()
         m.d.comb += [
-            # The step lands on the end (X falls by native[0], Y rises by native[1]): one LUT
-            # after the step, the rest from registers.
-            reached.eq(Mux(native[0] & native[1], reach[1], native.any() & reach[0])),
-            core.stop.eq(reached),
-            arc_done.eq(last_run & core.done & ~self.abort),
+            arc_done.eq(n.last_run & core.done & ~self.abort),
             begin.eq(core.start & ~(active & (later_runs != 0))),
             following.eq(core.start & active & (later_runs != 0)),
-            refuse.eq(planner_o.valid & next_plan.refused & ~core.busy & ~status.hold
+            refuse.eq(n.planner_o.valid & n.next_plan.refused & ~core.busy & ~n.status.hold
                       & ~self.abort),
-            planner_o.ready.eq(begin | refuse),
+            n.planner_o.ready.eq(begin | refuse),
         ]
+        n.arc_done, n.begin, n.following, n.refuse = arc_done, begin, following, refuse
 
+    def _hand_over(self, m, n):
+        """The runs handed to the core."""
+        core, next_plan, to_offer, first_offered = n.core, n.next_plan, n.to_offer, n.first_offered
+        begin = n.begin
         # Runs handed to the core, in order: this arc's later quadrants (each from the axis),
         # then the next plan's first run. Once that is prepared in the core, the plan's own
         # first axis run is offered from the plan itself: the core takes it in the clock it
@@ -592,7 +697,7 @@ class ArcEngine(wiring.Component):
         plan_axis = ~own_axis & first_offered       # the next plan's, in the clock it begins
         m.d.comb += [
             offer_axis.eq(own_axis | (first_offered & (next_plan.runs > 1))),
-            offer_first.eq(~own_axis & ~first_offered & planner_o.valid & ~next_plan.refused),
+            offer_first.eq(~own_axis & ~first_offered & n.planner_o.valid & ~next_plan.refused),
             core.cmd.valid.eq((offer_axis | offer_first) & ~self.abort),
             # The radius and residue of an axis run are the plan's, own or next: the planner
             # keeps them until the last of this arc's axis runs is handed over.
@@ -611,6 +716,14 @@ class ArcEngine(wiring.Component):
         with m.Elif(offered & offer_first):
             m.d.sync += first_offered.eq(1)
 
+    def _sequencer(self, m, n):
+        """The quadrant sequencer: the run's quadrant, swap and directions, and the distance
+        to the end counted down in the last run."""
+        next_plan, native, last_run = n.next_plan, n.native, n.last_run
+        active, later_runs, clockwise, quadrant = n.active, n.later_runs, n.clockwise, n.quadrant
+        off_axis, distance, reach, swap, direction = \
+            n.off_axis, n.distance, n.reach, n.swap, n.direction
+
         def enter(q, rot):
             """Swap and direction registers for a run in quadrant ``q``."""
             x_falls = _x_falls(q, rot)
@@ -622,7 +735,7 @@ class ArcEngine(wiring.Component):
 
         # The distance is that of the arc's last run, loaded as the arc begins; it counts only
         # in the last run.
-        with m.If(begin):
+        with m.If(n.begin):
             m.d.sync += [
                 active.eq(1), later_runs.eq(next_plan.runs - 1),
                 clockwise.eq(next_plan.cw), quadrant.eq(next_plan.quadrant),
@@ -632,7 +745,7 @@ class ArcEngine(wiring.Component):
                          & (next_plan.off_axis & (next_plan.runs == 1)).replicate(2)),
                 *enter(next_plan.quadrant, next_plan.cw),
             ]
-        with m.Elif(following):
+        with m.Elif(n.following):
             q_next = Mux(clockwise, quadrant - 1, quadrant + 1)[:2]
             m.d.sync += [
                 later_runs.eq(later_runs - 1), quadrant.eq(q_next),
@@ -641,7 +754,7 @@ class ArcEngine(wiring.Component):
                 *enter(q_next, clockwise),
             ]
         with m.Else():
-            with m.If(arc_done):
+            with m.If(n.arc_done):
                 m.d.sync += [active.eq(0), reach.eq(0)]
             with m.Elif(last_run & native.any()):
                 diagonal = native[0] & native[1]
@@ -653,26 +766,28 @@ class ArcEngine(wiring.Component):
                 ]
 
         with m.If(self.abort):
-            m.d.sync += [active.eq(0), later_runs.eq(0), to_offer.eq(0),
-                         first_offered.eq(0), reach.eq(0)]
+            m.d.sync += [active.eq(0), later_runs.eq(0), n.to_offer.eq(0),
+                         n.first_offered.eq(0), reach.eq(0)]
 
+    def _status(self, m, n):
+        """The steps and directions out, the feed through, and the status unit."""
+        core, status, native = n.core, n.status, n.native
         step = Signal(2)
         m.d.comb += [
-            step.eq(Mux(swap, Cat(native[1], native[0]), native)),
+            step.eq(Mux(n.swap, Cat(native[1], native[0]), native)),
             core.feed.tick.eq(self.feed.tick & ~status.hold),
             self.feed.due.eq(core.feed.due & ~status.hold),
             self.feed.diagonal.eq(core.feed.diagonal),
             core.abort.eq(self.abort),
             self.motion.step.eq(step),
-            self.motion.dir.eq(direction),
+            self.motion.dir.eq(n.direction),
 
             status.motion.step.eq(step),
-            status.motion.dir.eq(direction),
+            status.motion.dir.eq(n.direction),
             status.accept.eq(self.cmd.valid & self.cmd.ready),
-            status.end.eq(arc_done | refuse),
-            status.outcome.eq(Mux(refuse, Outcome.REFUSED, Outcome.DONE)),
+            status.end.eq(n.arc_done | n.refuse),
+            status.outcome.eq(Mux(n.refuse, Outcome.REFUSED, Outcome.DONE)),
             status.flush.eq(self.abort),
             self.busy.eq(status.busy),
         ]
         wiring.connect(m, wiring.flipped(self.status), status.status)
-        return m

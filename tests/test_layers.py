@@ -154,3 +154,48 @@ def test_the_rule_catches_what_it_states(tmp_path):
         "models imports hdl.top (gateware, not its)",
         "models imports hdl.top.DemoTop (gateware, not its)",
     ], found
+
+
+#: The longest an ``elaborate`` in hdl/ or a function in sim/models/ may be (issue 24): a
+#: design too large for one screenful or two is split along its own parts.
+LONGEST = 150
+
+
+def too_long(path, names=None):
+    """The functions of a file (those named in ``names`` only, if given) over :data:`LONGEST`
+    lines, from the ``def`` to the last line of the body, as ``path:line name (n lines)``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if (isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+                and (names is None or node.name in names)):
+            length = node.end_lineno - node.lineno + 1
+            if length > LONGEST:
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} "
+                             f"({length} lines)")
+    return found
+
+
+def test_no_elaborate_or_model_function_over_150_lines(tmp_path):
+    # The rule itself: a method of 151 lines is caught, one of 150 is not, nested or not.
+    body = "".join(f"        x = {i}\n" for i in range(LONGEST - 1))     # 149 lines
+    probe = tmp_path / "probe.py"
+    probe.write_text(f"class A:\n    def elaborate(self):\n{body}        y = 0\n"
+                     f"    def short(self):\n{body}"
+                     f"def f():\n    def g():\n{body}        y = 0\n")
+    saved = globals()["ROOT"]
+    globals()["ROOT"] = tmp_path
+    try:
+        assert sorted(too_long(probe)) == ["probe.py:2 elaborate (151 lines)",
+                                           "probe.py:303 f (152 lines)",
+                                           "probe.py:304 g (151 lines)"]
+        assert too_long(probe, {"elaborate", "short"}) == ["probe.py:2 elaborate (151 lines)"]
+        assert too_long(probe, {"short"}) == []
+    finally:
+        globals()["ROOT"] = saved
+
+    hdl = sorted((ROOT / "hdl").rglob("*.py"))
+    models = sorted((ROOT / "sim" / "models").rglob("*.py"))
+    assert len(hdl) > 10 and len(models) > 5
+    found = [f for path in hdl for f in too_long(path, {"elaborate"})]
+    found += [f for path in models for f in too_long(path)]
+    assert not found, "\n".join(found)
