@@ -138,16 +138,23 @@ def _check_plot(path):
         raise UsageError(f"--plot {path}: not writable")
 
 
-def _trace_program(args, out):
-    from kontur.trace import UsageError, trace_profile
+def _read_program(path):
+    """The text of the G-code program ``path``; :exc:`~kontur.trace.UsageError` (status 2) for
+    one that cannot be read or is not UTF-8 text."""
+    from kontur.trace import UsageError
     try:
-        with open(args.file, encoding="utf-8") as handle:
-            text = handle.read()
+        with open(path, encoding="utf-8") as handle:
+            return handle.read()
     except UnicodeDecodeError as error:
-        raise UsageError(f"{args.file}: not a text file (not UTF-8: {error.reason} at byte "
+        raise UsageError(f"{path}: not a text file (not UTF-8: {error.reason} at byte "
                          f"{error.start})") from None
     except OSError as error:
-        raise UsageError(f"{args.file}: {error.strerror or error}") from None
+        raise UsageError(f"{path}: {error.strerror or error}") from None
+
+
+def _trace_program(args, out):
+    from kontur.trace import UsageError, trace_profile
+    text = _read_program(args.file)
     if args.plot:
         _check_plot(args.plot)
     run = trace_profile(text, radius=args.radius, name=args.file, variant=args.variant,
@@ -270,14 +277,7 @@ def _job(args):
     from kontur.machining import prepare
     from kontur.trace import UsageError
     board = registry.board(args.board)
-    try:
-        with open(args.file, encoding="utf-8") as handle:
-            text = handle.read()
-    except UnicodeDecodeError as error:
-        raise UsageError(f"{args.file}: not a text file (not UTF-8: {error.reason} at byte "
-                         f"{error.start})") from None
-    except OSError as error:
-        raise UsageError(f"{args.file}: {error.strerror or error}") from None
+    text = _read_program(args.file)
     try:
         if args.machine:
             machine = Machine.from_toml(args.machine, clock_hz=board.clock_hz,
