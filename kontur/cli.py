@@ -153,7 +153,7 @@ def _read_program(path):
 
 
 def _trace_program(args, out):
-    from kontur.trace import UsageError, trace_profile
+    from kontur.trace import trace_profile
     text = _read_program(args.file)
     if args.plot:
         _check_plot(args.plot)
