@@ -31,6 +31,7 @@ import json
 import math
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from fractions import Fraction
 from pathlib import Path
 
@@ -96,6 +97,13 @@ class Job:
     def frames(self, compress=1):
         """The program's frames, and the program line of each."""
         return program_frames(self.segments, self.items, self.machine, compress=compress)
+
+    @cached_property
+    def link_seconds(self):
+        """The time the program's frames take on the link at the machine's baud (10 bits a
+        byte), the same at every compression (only the rates in them change)."""
+        frames, _ = self.frames()
+        return sum(len(f) for f in frames) * 10 / self.machine.baud
 
 
 @dataclass
@@ -231,11 +239,6 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                start, contours)
 
 
-def _link_seconds(job):
-    frames, _ = job.frames()
-    return sum(len(f) for f in frames) * 10 / job.machine.baud
-
-
 def max_compress(job):
     """The largest time compression ``job`` can be run at, and what sets it: ``(n, reason)``.
 
@@ -264,7 +267,7 @@ def max_compress(job):
     limits.append((max(1, math.isqrt(((1 << 32) - 1) // machine.accel_q40)),
                    f"the acceleration: {machine.accel_q40} a clock (Q0.40) times its square "
                    f"must fit CONFIG's 32 bits"))
-    link = _link_seconds(job)
+    link = job.link_seconds
     if link:
         limits.append((max(1, math.floor(job.seconds / link)),
                        f"the link: {link:.3f} s of frames at {machine.baud} baud for "
@@ -292,7 +295,7 @@ def auto_compress(job):
     machine = job.machine
     fastest = max((item.cruise for item in job.items), default=0) * machine.steps_per_mm
     by_rate = machine.max_step_rate / (2 * fastest) if fastest else 1
-    link_seconds = _link_seconds(job)
+    link_seconds = job.link_seconds
     by_link = job.seconds / (2 * link_seconds) if link_seconds else 1
     limit = max(1, min(by_rate, by_link, max_compress(job)[0]))
     return 1 << int(math.floor(math.log2(limit)))

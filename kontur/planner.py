@@ -164,6 +164,14 @@ def _full(move):
     return tuple(move.end) == tuple(move.start)
 
 
+def _sweeps(move, start, end):
+    """An arc's sweeps (radians): as programmed, and on the lattice from ``start`` to ``end``
+    (relative to its lattice centre; a full turn where they are one point)."""
+    programmed = sweep(move.start, move.end, move.centre, move.cw, full=_full(move))
+    traced = sweep(start, end, (0, 0), move.cw, full=tuple(end) == tuple(start))
+    return programmed, traced
+
+
 def _on_sweep(move, start, reach, radius):
     """The end ``reach`` (relative to the lattice centre) of an arc from ``start`` whose sweep
     on the lattice is its programmed sweep: ``reach`` itself, the start (a full circle, for a
@@ -177,11 +185,9 @@ def _on_sweep(move, start, reach, radius):
         When the lattice arc's sweep is none of these (a full circle programmed, another
         traced; a sweep on the lattice that is not the programmed one).
     """
-    full = _full(move)
-    programmed = sweep(move.start, move.end, move.centre, move.cw, full=full)
-    traced = sweep(start, reach, (0, 0), move.cw, full=tuple(reach) == tuple(start))
+    programmed, traced = _sweeps(move, start, reach)
     slack = sweep_slack(radius)
-    if full:
+    if _full(move):
         if traced == programmed:
             return reach
     elif abs(traced - programmed) <= slack:
@@ -202,8 +208,7 @@ def check_sweep(move, start, end, radius):
     within the rounding (:func:`sweep_slack`): a full circle only where one is programmed.
     (A compensated contour's arc, which the equidistant engine traces as it is given.)"""
     if _on_sweep(move, start, end, radius) != tuple(end):
-        programmed = sweep(move.start, move.end, move.centre, move.cw, full=_full(move))
-        traced = sweep(start, end, (0, 0), move.cw, full=tuple(end) == tuple(start))
+        programmed, traced = _sweeps(move, start, end)
         raise ProgramError(move.line, f"the arc sweeps {math.degrees(programmed):.4f} degrees "
                                       f"as programmed but {math.degrees(traced):.4f} on the "
                                       f"step lattice: too short for a compensated contour")
@@ -263,7 +268,7 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         centre = _centre(move, position, end, machine)
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
-        r_start = check_arc_radii(move.line, (x0, y0), (x1, y1), machine)
+        r_start = math.hypot(x0, y0)      # radii within the tolerance: _centre chose so
         try:
             reach = _path_point(x0, y0, x1, y1, widths[1])
         except InputError as error:
