@@ -27,12 +27,12 @@ frames in flight and reads where the machine stopped.
 
 import math
 import signal
-import threading
 import time
 
 from hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
 
 from hdl.motion import protocol
+from sim import processes
 
 __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT"]
 
@@ -74,7 +74,7 @@ class Stop:
     ignored when entered (``nohup``'s ``SIGHUP``) stays ignored. The previous handlers come
     back on exit. Called, it returns :attr:`signum` (``None`` until a signal)."""
 
-    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    SIGNALS = processes.SIGNALS
 
     def __init__(self):
         self.signum = None
@@ -89,16 +89,12 @@ class Stop:
         self.count += 1
 
     def __enter__(self):
-        if threading.current_thread() is threading.main_thread():
-            for number in self.SIGNALS:
-                if signal.getsignal(number) is not signal.SIG_IGN:     # nohup's stays ignored
-                    self._saved[number] = signal.signal(number, self._caught)
+        self._saved = processes.catch(self._caught)         # nohup's SIGHUP stays ignored
         return self
 
     def __exit__(self, *exc):
-        for number, handler in self._saved.items():
-            signal.signal(number, handler)
-        self._saved.clear()
+        processes.restore(self._saved)
+        self._saved = {}
         return False
 
 

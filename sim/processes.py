@@ -23,9 +23,10 @@ import contextlib
 import os
 import signal
 import subprocess
+import threading
 import time
 
-__all__ = ["SimulatorError", "Interrupted", "GRACE", "popen", "run", "child", "stop", "stop_all", "live",
+__all__ = ["SimulatorError", "Interrupted", "SIGNALS", "catch", "restore", "GRACE", "popen", "run", "child", "stop", "stop_all", "live",
            "hold", "signals_handled"]
 
 GRACE = 2.0
@@ -157,6 +158,29 @@ def _group_alive(group):
     return not os.path.isdir("/proc")
 
 
+#: The signals that stop a command.
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def catch(handler):
+    """Install ``handler`` for each of :data:`SIGNALS` that is not ignored (one ignored when the
+    command started stays so: Ctrl-C for a job started in the background, ``SIGHUP`` under
+    ``nohup``); return the handlers replaced, for :func:`restore`. Outside the main thread,
+    where Python allows no handlers, none is installed."""
+    saved = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in SIGNALS:
+            if signal.getsignal(signum) is not signal.SIG_IGN:
+                saved[signum] = signal.signal(signum, handler)
+    return saved
+
+
+def restore(saved):
+    """Put back the handlers :func:`catch` replaced."""
+    for signum, previous in saved.items():
+        signal.signal(signum, previous)
+
+
 @contextlib.contextmanager
 def signals_handled():
     """For the block: ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` raise :exc:`Interrupted` (one
@@ -171,16 +195,8 @@ def signals_handled():
             return
         raise Interrupted(signum)
 
-    saved = {}
     entered = _stopping
-    try:
-        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            previous = signal.getsignal(signum)
-            if signum == signal.SIGINT and previous is signal.SIG_IGN:
-                continue                        # started with Ctrl-C ignored: keep it so
-            saved[signum] = signal.signal(signum, handler)
-    except ValueError:                          # not the main thread
-        pass
+    saved = catch(handler)
     try:
         yield
     finally:
@@ -190,5 +206,4 @@ def signals_handled():
         finally:
             _stopping = entered
             _pending.clear()
-            for signum, previous in saved.items():
-                signal.signal(signum, previous)
+            restore(saved)

@@ -161,6 +161,21 @@ def test_sigterm_and_sighup_raise_keyboard_interrupt_and_handlers_come_back():
     assert {s: signal.getsignal(s) for s in before} == before
 
 
+def test_an_ignored_signal_stays_ignored():
+    # Under nohup SIGHUP is ignored when kontur starts: it must not end the command (nor
+    # kontur send, whose Stop keeps the same rule, sim.processes.catch).
+    from sim import processes
+    saved = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with processes.signals_handled():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.2)                                 # nothing raised
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, saved)
+
+
 def test_a_signal_while_a_group_ends_is_held_then_raised():
     # SIGTERM arrives while a finished child's group is being ended (the shell gone, its
     # `sleep`, deaf to SIGTERM, left in the group until SIGKILL after the grace): the ending
