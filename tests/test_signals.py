@@ -58,7 +58,9 @@ def _running(noted):
 
 
 def _interruptible():
-    signal.signal(signal.SIGINT, signal.SIG_DFL)        # as from a terminal
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_DFL)           # as from a terminal (a runner's
+                                                        # ignored ones stay ignored in kontur)
 
 
 def _interrupt(args, tmp_path, signum, wanted):
