@@ -133,7 +133,7 @@ def sweep(start, end, centre, cw, *, full):
     """The sweep (radians) of an arc about ``centre`` from ``start`` to ``end``, clockwise
     with ``cw``: 2π when ``full``, else in [0, 2π) (0 when the end lies on the start's ray).
     The side the end lies on is decided exactly (for exact numbers), the angle in floating
-    point."""
+    point (of the two products scaled to the larger, so that numbers of any size fit)."""
     if full:
         return 2 * math.pi
     sx, sy = start[0] - centre[0], start[1] - centre[1]
@@ -144,7 +144,8 @@ def sweep(start, end, centre, cw, *, full):
         cross = -cross
     if cross == 0:
         return 0.0 if dot > 0 else math.pi
-    angle = math.atan2(float(cross), float(dot))
+    scale = max(abs(cross), abs(dot))
+    angle = math.atan2(float(cross / scale), float(dot / scale))
     if cross > 0:
         return max(angle, 0.0)
     return min(angle + 2 * math.pi, math.nextafter(2 * math.pi, 0))

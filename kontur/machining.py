@@ -125,7 +125,8 @@ def _move_steps(move, spm):
     """An upper bound on the steps of a move (mm) on a lattice of ``spm`` steps/mm, computed
     exactly (a coordinate may have thousands of digits): a line's ``|dx| + |dy|`` steps (and 2
     for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
-    radius in steps, rounded up) by its sweep, and 16 more."""
+    radius in steps, rounded up) by its programmed sweep (:attr:`kontur.gcode.Move.sweep`),
+    and 16 more (the lattice's sweep is the programmed one within the rounding)."""
     coordinates = [*move.start, *move.end, *(move.centre or ())]
     if all(abs(c) < 10 ** 9 for c in coordinates):       # floats exact enough: +2 steps slack
         x0, y0, x1, y1, *centre = map(float, coordinates)
@@ -135,11 +136,7 @@ def _move_steps(move, spm):
         cx, cy = centre
         radius = math.ceil(max(math.hypot(x0 - cx, y0 - cy), math.hypot(x1 - cx, y1 - cy))
                            * spm) + 2
-        a0, a1 = math.atan2(y0 - cy, x0 - cx), math.atan2(y1 - cy, x1 - cx)
-        sweep = ((a0 - a1) if move.cw else (a1 - a0)) % (2 * math.pi)
-        if sweep < 1e-9:
-            sweep = 2 * math.pi
-        return math.ceil((8 * radius + 8) * sweep / (2 * math.pi)) + 16
+        return math.ceil((8 * radius + 8) * move.sweep / (2 * math.pi)) + 16
     spm = Fraction(spm)
 
     def steps(a, b):                       # a coordinate difference (mm) in whole steps, up
@@ -151,17 +148,8 @@ def _move_steps(move, spm):
     cx, cy = move.centre
     radius = max(math.isqrt(steps(cx, x) ** 2 + steps(cy, y) ** 2) + 1
                  for x, y in ((x0, y0), (x1, y1)))
-    # The sweep, from the angles of the start and end (floats: each pair scaled to fit).
-    angles = []
-    for x, y in ((x0, y0), (x1, y1)):
-        dx, dy = Fraction(x) - Fraction(cx), Fraction(y) - Fraction(cy)
-        scale = max(abs(dx), abs(dy)) or 1
-        angles.append(math.atan2(float(dy / scale), float(dx / scale)))
-    sweep = (angles[0] - angles[1]) if move.cw else (angles[1] - angles[0])
-    sweep %= 2 * math.pi
-    if sweep < 1e-9:                               # start and end alike: a full circle
-        sweep = 2 * math.pi
-    return math.ceil(Fraction(8 * radius + 8) * Fraction(sweep) / Fraction(2 * math.pi)) + 16
+    return math.ceil(Fraction(8 * radius + 8) * Fraction(move.sweep) / Fraction(2 * math.pi)) \
+        + 16
 
 
 def _figure(number, unit=1):
