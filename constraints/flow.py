@@ -8,7 +8,7 @@ Amaranth's build scripts read).
   then ``stat -json`` (LUTs, carries, flip-flops) and nextpnr's packer (logic cells).
 * :func:`place_and_route`: a top through a board's Amaranth build flow, with a fixed nextpnr
   seed: the routed "Max frequency for clock" figure and the utilisation.
-* :func:`measure_speed`: :class:`~hdl.top.ShiftInTop` around an engine, placed and routed on
+* :func:`measure_speed`: :class:`~kontur.hdl.top.ShiftInTop` around an engine, placed and routed on
   the iCEBreaker.
 """
 
@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from sim import processes
+from kontur.sim import processes
 
 __all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
            "parse_critical_path", "DEVICES",
@@ -359,7 +359,7 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
 def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     """Place and route ``ShiftInTop(design)`` on ``device`` with each nextpnr seed.
 
-    ``design`` is any component :class:`~hdl.top.ShiftInTop` takes (an engine, a core, the bare
+    ``design`` is any component :class:`~kontur.hdl.top.ShiftInTop` takes (an engine, a core, the bare
     accumulator). The top goes through the board's Amaranth flow up to Yosys (the iCEBreaker
     for ``"ice40"``, the ULX3S-85F for ``"ecp5"``; every pin registered in its I/O cell), which
     runs once; nextpnr then runs once per seed on the same netlist, with the board's clock
@@ -371,8 +371,8 @@ def measure_speed(design, build_dir, *, device="ice40", seeds=(SEED,)):
     """
     import shlex
 
-    from constraints import icebreaker, ulx3s
-    from hdl.top import PinnedTop, ShiftInTop
+    from kontur.constraints import icebreaker, ulx3s
+    from kontur.hdl.top import PinnedTop, ShiftInTop
 
     if device not in DEVICES:
         raise ValueError(f"Device must be one of {', '.join(map(repr, DEVICES))}, "

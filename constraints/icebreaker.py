@@ -2,14 +2,14 @@
 
 Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests only its own):
 
-* ``stepper`` (:class:`~hdl.top.ControllerTop`, :class:`~hdl.top.DemoTop`): step/dir of two
+* ``stepper`` (:class:`~kontur.hdl.top.ControllerTop`, :class:`~kontur.hdl.top.DemoTop`): step/dir of two
   stepper drivers on PMOD1A, pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y, pin 7 the
   drivers' enable, active low (FPGA pins 4, 2, 47, 45, 3); the serial line is the board's
   ``uart`` (FTDI channel B: FPGA pins 6 rx, 9 tx), as ``amaranth_boards`` defines it;
-* ``shift_in`` (:class:`~hdl.top.ShiftInTop` through :class:`~hdl.top.PinnedTop`, for the
+* ``shift_in`` (:class:`~kontur.hdl.top.ShiftInTop` through :class:`~kontur.hdl.top.PinnedTop`, for the
   place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
   PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
-  :class:`~hdl.top.ShiftInTop`'s members.
+  :class:`~kontur.hdl.top.ShiftInTop`'s members.
 
 PMOD pins are numbered as on the connector: 1-4 top row, 7-10 bottom row (5, 6, 11, 12 are
 ground and 3.3 V). PMOD2 is the board's snap-off LED and button section; ``shift_in`` uses
@@ -70,8 +70,8 @@ FREE_PINS = [ICEBreakerPlatform().connectors[conn].mapping[pin]
 
 def bench_platform(top):
     """Return a new :class:`ICEBreakerPlatform` with a ``shift_in`` resource for ``top`` (any
-    :class:`~hdl.top.ShiftInTop`, see :func:`constraints.shift_in.resource`)."""
-    from constraints.shift_in import resource
+    :class:`~kontur.hdl.top.ShiftInTop`, see :func:`kontur.constraints.shift_in.resource`)."""
+    from kontur.constraints.shift_in import resource
     board = ICEBreakerPlatform()
     board.add_resources(resource(top, FREE_PINS, _LVCMOS))
     return board

@@ -1,7 +1,7 @@
-"""The ``shift_in`` resource of any :class:`~hdl.top.ShiftInTop`, on a board's free pins.
+"""The ``shift_in`` resource of any :class:`~kontur.hdl.top.ShiftInTop`, on a board's free pins.
 
-:class:`~hdl.top.ShiftInTop` has a member per port of the design it wraps (an engine, a core,
-the bare accumulator); :class:`~hdl.top.PinnedTop` puts each member on the same-named
+:class:`~kontur.hdl.top.ShiftInTop` has a member per port of the design it wraps (an engine, a core,
+the bare accumulator); :class:`~kontur.hdl.top.PinnedTop` puts each member on the same-named
 subsignal of a resource. :func:`resource` makes that resource for a given wrapper, taking the
 board's pins in order, so that every design of the benchmarks fits the same boards.
 """

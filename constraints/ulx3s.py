@@ -2,13 +2,13 @@
 
 Two uses, one resource set each:
 
-* :func:`platform`, the machine controller (:class:`~hdl.top.ControllerTop`): ``stepper`` on
+* :func:`platform`, the machine controller (:class:`~kontur.hdl.top.ControllerTop`): ``stepper`` on
   the GPIO header J1 (``gpio`` connector 0): step X on ``0+`` (GP0, B11), step Y on ``1+``
   (GP1, A10), dir X on ``0-`` (GN0, C11), dir Y on ``1-`` (GN1, A11), enable (active low) on
   ``2+`` (GP2, A9); ``led_g`` (busy) and ``led_r`` (error) on the board's LEDs 0 and 1 (B2,
   C2); the serial line is the board's own ``uart`` (the FTDI's USB serial port: rx M1, tx L4);
 * :func:`bench_platform`, the place-and-route benchmarks: a ``shift_in`` resource for any
-  :class:`~hdl.top.ShiftInTop` on the first pins of the GPIO header (``0+``, ``0-``, ``1+``,
+  :class:`~kontur.hdl.top.ShiftInTop` on the first pins of the GPIO header (``0+``, ``0-``, ``1+``,
   ...).
 
 All LVCMOS33. The board's clock is 25 MHz. Amaranth's ULX3S platform asks for
@@ -47,7 +47,7 @@ FREE_PINS = [ULX3S_85F_Platform().connectors[_GPIO].mapping[f"{n}{side}"]
 
 def bench_platform(top):
     """Return a new :class:`ULX3S_85F_Platform` with a ``shift_in`` resource for ``top``."""
-    from constraints.shift_in import resource
+    from kontur.constraints.shift_in import resource
     board = ULX3S_85F_Platform()
     board.add_resources(resource(top, FREE_PINS, Attrs(IO_TYPE="LVCMOS33")))
     return board

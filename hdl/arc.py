@@ -31,7 +31,7 @@ class ArcCoreSignature(wiring.Signature):
     cmd : :py:`In(stream.Signature(ArcCoreSignature.Run(width)))`
         Quadrant runs. A run transferred in clock ``k`` may start in clock ``k + 1``.
     feed : :py:`Out(FeedSignature())`
-        Permission for each step (:class:`~hdl.engine.FeedSignature`).
+        Permission for each step (:class:`~kontur.hdl.engine.FeedSignature`).
     stop : :py:`In(1)`
         End the running run at the end of this clock (its step of this clock is made): the
         arc's end point is reached.
@@ -538,9 +538,9 @@ class ArcEngine(wiring.Component):
     reads the radius and residue of the later runs from the plan, which the planner keeps
     (:py:`keep`) until the last of them is handed over; the next plan is offered after that.
 
-    A refused arc (see :class:`ArcPlanner`) ends :attr:`~hdl.engine.Outcome.REFUSED` before
+    A refused arc (see :class:`ArcPlanner`) ends :attr:`~kontur.hdl.engine.Outcome.REFUSED` before
     any step, once the arc before it has ended and its outcome has been taken. Everything else
-    is the common interface (:class:`~hdl.engine.EngineSignature`); status positions are
+    is the common interface (:class:`~kontur.hdl.engine.EngineSignature`); status positions are
     ``width + 2`` bits.
 
     Parameters
@@ -556,7 +556,7 @@ class ArcEngine(wiring.Component):
     cmd : :py:`In(stream.Signature(ArcEngine.Frame(coord_width)))`
         Arcs.
     feed, motion, status, abort, busy
-        As :class:`~hdl.engine.EngineSignature`.
+        As :class:`~kontur.hdl.engine.EngineSignature`.
 
     Raises
     ------

@@ -586,7 +586,7 @@ def _sum_small(m, a, b):
 
 
 class _QuadrantCore(wiring.Component):
-    """A SU 1665343 interpolator as an arc core (:class:`~hdl.arc.ArcCoreSignature`).
+    """A SU 1665343 interpolator as an arc core (:class:`~kontur.hdl.arc.ArcCoreSignature`).
 
     A quadrant run taken from :py:`cmd`, the native start ``(x, y)`` and ``residue = r2 - x² -
     y²``, is prepared in a register holding the patent's inputs 30, 31 and 34 and ``residue -
@@ -597,7 +597,7 @@ class _QuadrantCore(wiring.Component):
     the decodes of inputs 30 and 31 its start needs too. The run is started by input 33 as
     soon as the interpolator is ready: in the next clock when it is idle, in the clock the
     running quadrant stops otherwise. :py:`stop` is input 32. The step permission drives
-    generator 5 (:func:`~hdl.engine.permit`); the next step is diagonal when F is negative in
+    generator 5 (:func:`~kontur.hdl.engine.permit`); the next step is diagonal when F is negative in
     sector 1 and not negative in sector 2. :py:`abort` stops the run through input 32 with no
     step in that clock and drops the prepared run.
     """
@@ -611,7 +611,7 @@ class _QuadrantCore(wiring.Component):
         return self.interpolator.width
 
     def _feed(self, ip):
-        """``(running, free)`` for :func:`~hdl.engine.permit`."""
+        """``(running, free)`` for :func:`~kontur.hdl.engine.permit`."""
         return ip.trigger4.q, 0
 
     def elaborate(self, platform):

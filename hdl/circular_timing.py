@@ -1,7 +1,7 @@
 """Timing of the faithful SU 1665343 core: generator period, delays, extender, and their checks.
 
-Pure Python, no Amaranth: the RTL constructor (``hdl.circular``) and the golden cycle model
-(``sim.models.circular``) both validate their parameters with it, so the two can never accept
+Pure Python, no Amaranth: the RTL constructor (``kontur.hdl.circular``) and the golden cycle model
+(``kontur.sim.models.circular``) both validate their parameters with it, so the two can never accept
 different timings. It describes parameters only, not behaviour.
 """
 

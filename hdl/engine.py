@@ -1,6 +1,6 @@
 """The engine interface, defined once: motion, feed, outcomes, and the status unit.
 
-Every engine (:class:`~hdl.line.LineEngine`, :class:`~hdl.arc.ArcEngine`, and any later one)
+Every engine (:class:`~kontur.hdl.line.LineEngine`, :class:`~kontur.hdl.arc.ArcEngine`, and any later one)
 has the signature :class:`EngineSignature`: a command stream in, a feed interface, the motion
 outputs, a status stream of outcomes, an abort input. A top level connects the pieces with
 :func:`amaranth.lib.wiring.connect`: the motion outputs to a step/dir stage
@@ -405,7 +405,7 @@ def frame_coord_width(width, coord_width):
 def permit(m, feed, *, armed, running, free=0, abort=0):
     """Turn a feed permission into the enable of a core's generator: one step per :py:`tick`.
 
-    A core's generator (a :class:`~hdl.elements.PulseGenerator`, whose enable is the core's
+    A core's generator (a :class:`~kontur.hdl.elements.PulseGenerator`, whose enable is the core's
     own ``tick`` input) pulses on the first enabled clock of each period. Between permissions
     it waits there (``armed``); a permission (:py:`feed.tick` while :py:`feed.due`) enables it
     for the pulse, and it then runs freely through the rest of its period, so a core keeps its

@@ -34,7 +34,7 @@ class SerialMultiplier(wiring.Component):
     :py:`start` takes the magnitudes :py:`a` and :py:`b`; ``b_width`` clocks later
     :py:`product` holds ``a·b`` and :py:`done` pulses (in the clock after the last addition),
     the product held until the next start; :py:`clear` stops it and clears the product. The
-    partial sums are formed by an :class:`~hdl.elements.AccumulatingAdder` (loaded with zero
+    partial sums are formed by an :class:`~kontur.hdl.elements.AccumulatingAdder` (loaded with zero
     at the start, the multiplicand shifted left a place a clock).
 
     Parameters
@@ -189,15 +189,15 @@ class EquidistantEngine(wiring.Component):
     step. Lines follow lines with no idle clock; an element whose frame is still being
     prepared when its predecessor ends waits for it (``2·(width + 2) + 4`` clocks at most).
 
-    Everything else is the common interface (:class:`~hdl.engine.EngineSignature`): one
+    Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
-    (:attr:`~hdl.engine.Outcome.REFUSED`, taken when nothing is in flight): an element with no
+    (:attr:`~kontur.hdl.engine.Outcome.REFUSED`, taken when nothing is in flight): an element with no
     contour open, an unknown kind, a negative radius.
 
     Parameters
     ----------
     core : :class:`~amaranth.lib.wiring.Component`
-        A quadrant core (:class:`~hdl.arc.ArcCoreSignature`) of width ``width + 2``; it becomes
+        A quadrant core (:class:`~kontur.hdl.arc.ArcCoreSignature`) of width ``width + 2``; it becomes
         the submodule ``core``.
     fraction : :class:`int`
         Fractional bits (default ``width + 4``).
@@ -207,12 +207,12 @@ class EquidistantEngine(wiring.Component):
     cmd : :py:`In(stream.Signature(EquidistantEngine.Frame(formats)))`
         Frames.
     feed, motion, status, abort, busy
-        As :class:`~hdl.engine.EngineSignature`; positions are ``width + 3`` bits.
+        As :class:`~kontur.hdl.engine.EngineSignature`; positions are ``width + 3`` bits.
 
     Raises
     ------
     :exc:`TypeError`
-        If ``core`` is not a component with an :class:`~hdl.arc.ArcCoreSignature` of width at
+        If ``core`` is not a component with an :class:`~kontur.hdl.arc.ArcCoreSignature` of width at
         least 6, or ``fraction`` not an integer of at least 2.
     """
 

@@ -29,7 +29,7 @@ class LineCoreSignature(wiring.Signature):
         Segments, ``x`` and ``y`` magnitudes. A segment transferred in clock ``k`` may start in
         clock ``k + 1`` at the earliest.
     feed : :py:`Out(FeedSignature())`
-        Permission for each step (:class:`~hdl.engine.FeedSignature`).
+        Permission for each step (:class:`~kontur.hdl.engine.FeedSignature`).
     abort : :py:`In(1)`
         No step in this clock; the running segment ends (:py:`done`) and the prepared one is
         dropped.
@@ -91,11 +91,11 @@ class LineEngine(wiring.Component):
     and the core each hold one while another runs). A segment offered at clock ``k`` to an
     idle engine makes its first step at ``k + 3`` at the earliest.
 
-    A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~hdl.engine.Outcome.
+    A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~kontur.hdl.engine.Outcome.
     REFUSED`, nothing moves) from the stage, one clock after it is taken at the earliest; it
     leaves the stage, as does a segment of length zero, only when it is the one command in
     flight and no outcome waits, so outcomes stay in order. Everything else is the common
-    interface (:class:`~hdl.engine.EngineSignature`): one outcome per segment on
+    interface (:class:`~kontur.hdl.engine.EngineSignature`): one outcome per segment on
     :py:`status`, with the steps made; :py:`abort`.
 
     Parameters
@@ -111,7 +111,7 @@ class LineEngine(wiring.Component):
     cmd : :py:`In(stream.Signature(LineEngine.Frame(coord_width)))`
         Segments.
     feed, motion, status, abort, busy
-        As :class:`~hdl.engine.EngineSignature`; status positions are ``width + 1`` bits.
+        As :class:`~kontur.hdl.engine.EngineSignature`; status positions are ``width + 1`` bits.
 
     Raises
     ------

@@ -312,7 +312,7 @@ class LinearInterpolator(wiring.Component):
 
 
 class LinearCore(wiring.Component):
-    """:class:`LinearInterpolator` as a line core (:class:`~hdl.line.LineCoreSignature`).
+    """:class:`LinearInterpolator` as a line core (:class:`~kontur.hdl.line.LineCoreSignature`).
 
     A segment taken from :py:`cmd` is prepared in registers holding the candidates for the
     patent's inputs 22-25 under either long axis, the comparison ``|X| >= |Y|`` and the flag
@@ -322,7 +322,7 @@ class LinearCore(wiring.Component):
     interpolator is ready: in the next clock when it is idle, in the clock of the running
     segment's last step otherwise. A segment of length zero does not reach the interpolator: it
     starts and ends in an idle clock of the interpolator, as the interpolator would end it. The
-    step permission drives generator 4 (:func:`~hdl.engine.permit`): with the default period of
+    step permission drives generator 4 (:func:`~kontur.hdl.engine.permit`): with the default period of
     1 the step is made in the clock of the permission; the next step is diagonal when adder 3
     is negative. :py:`abort` clears the interpolator (a synchronous reset of its registers: the
     patent has no stop input) and drops the prepared segment.

@@ -44,8 +44,8 @@ class SerialNode(wiring.Component):
     bit first, that turns once a word. Pr1 and Pr2 hold the current coordinates ``x`` and ``y``,
     Pr3 the estimating function ``Q``, Pr4 and Pr5 the end point ``xk``, ``yk``; Pr6 the axis of
     the next step (1: X), Pr7 one bit of delay that doubles an operand. ``Q = -D - 1`` for a line
-    and ``-G - 1`` for a circle (D and G as in :class:`~hdl.textbook.SeparateLineCore` and
-    :class:`~hdl.textbook.SeparateArcCore`: the text's F at the midpoint of the two candidate
+    and ``-G - 1`` for a circle (D and G as in :class:`~kontur.hdl.textbook.SeparateLineCore` and
+    :class:`~kontur.hdl.textbook.SeparateArcCore`: the text's F at the midpoint of the two candidate
     points), so that its sign bit alone is the decision, and the trajectory is theirs. Lines
     run from the origin to ``(xk, yk)``, both coordinates rising; circles in the native quadrant
     (X falls, Y rises) until X = 0.
@@ -349,7 +349,7 @@ class _SerialCore(wiring.Component):
 
 
 class SerialLineCore(_SerialCore):
-    """:class:`SerialNode` as a line core (:class:`~hdl.line.LineCoreSignature`): the line to
+    """:class:`SerialNode` as a line core (:class:`~kontur.hdl.line.LineCoreSignature`): the line to
     the magnitudes ``(x, y)`` is the node's frame ``x0 = y0 = 0``, ``xk = x``, ``yk = y``.
 
     A segment takes ``W`` clocks of initialisation, then ``W`` clocks per step at full feed
@@ -378,7 +378,7 @@ class SerialLineCore(_SerialCore):
 
 
 class SerialArcCore(_SerialCore):
-    """:class:`SerialNode` as a quadrant core (:class:`~hdl.arc.ArcCoreSignature`): the native
+    """:class:`SerialNode` as a quadrant core (:class:`~kontur.hdl.arc.ArcCoreSignature`): the native
     run from ``(x, y)`` with ``residue`` is the node's circle frame ``x0 = x``, ``y0 = y``,
     ``f0 = residue``, ``xk = yk = 0``; :py:`stop` is the node's.
 

@@ -1,8 +1,8 @@
 """Specifications the gateware and the golden models share: the equidistant engine's frame
 kinds and number widths, and the iCEBreaker demo's program.
 
-Pure Python, no Amaranth (as ``hdl.circular_timing``): the RTL (``hdl.equidistant``,
-``hdl.top``) and the golden models and host (``sim.models.equidistant``, ``kontur.demo``)
+Pure Python, no Amaranth (as ``kontur.hdl.circular_timing``): the RTL (``kontur.hdl.equidistant``,
+``kontur.hdl.top``) and the golden models and host (``kontur.sim.models.equidistant``, ``kontur.demo``)
 import these one definitions, so the two sides cannot disagree on them. It describes
 parameters and data only, not behaviour.
 """
@@ -15,7 +15,7 @@ __all__ = ["Kind", "Formats", "OCTAGON", "ONE", "SQRT2"]
 
 class Kind:
     """Frame kinds of the equidistant engine (the ``kind`` field of
-    :meth:`hdl.equidistant.EquidistantEngine.Frame`)."""
+    :meth:`kontur.hdl.equidistant.EquidistantEngine.Frame`)."""
     RADIUS = 0       #: set the cutter radius (``x``); DONE once r² is formed
     START = 1        #: the cutter's centre is at ``(x, y)``: a contour begins
     LINE = 2         #: a line element
@@ -97,13 +97,13 @@ class Formats:
 
 
 #: The iCEBreaker demo's program: a closed octagon, one relative move ``(x, y)`` in each
-#: octant, chosen where SU 1571551's device strays (``hdl.top.DemoTop`` plays it,
+#: octant, chosen where SU 1571551's device strays (``kontur.hdl.top.DemoTop`` plays it,
 #: ``kontur.demo`` plots it).
 OCTAGON = ((14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11), (14, -4))
 
 
-#: Distances in the feed generator's accumulator (:class:`hdl.motion.feed.FeedGenerator`, its
-#: model :class:`sim.models.motion.FeedGeneratorModel`): one axial step and one diagonal step
+#: Distances in the feed generator's accumulator (:class:`kontur.hdl.motion.feed.FeedGenerator`, its
+#: model :class:`kontur.sim.models.motion.FeedGeneratorModel`): one axial step and one diagonal step
 #: (Q2.24).
 ONE = 1 << 24
 SQRT2 = round(math.sqrt(2) * ONE)

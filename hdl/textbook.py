@@ -4,9 +4,9 @@ The excerpt (seed ``004``, ``docs/textbook.md``) describes two methods of hardwa
 interpolation: the estimating function with separate steps along the coordinates (one axis per
 step; its Fig. 11) and the digital differential analyser (ЦДА). Each core here is one of them
 as a core of the common engines: :class:`SeparateLineCore` and :class:`DdaCore` are line cores
-(:class:`~hdl.line.LineCoreSignature`), :class:`SeparateArcCore` a quadrant core
-(:class:`~hdl.arc.ArcCoreSignature`) for :class:`~hdl.arc.ArcEngine`, whose planner plans the
-quadrants. The text gives no circuit for these (its Fig. 12 node is :mod:`hdl.serial`), so the
+(:class:`~kontur.hdl.line.LineCoreSignature`), :class:`SeparateArcCore` a quadrant core
+(:class:`~kontur.hdl.arc.ArcCoreSignature`) for :class:`~kontur.hdl.arc.ArcEngine`, whose planner plans the
+quadrants. The text gives no circuit for these (its Fig. 12 node is :mod:`kontur.hdl.serial`), so the
 cores are built of the element library, one step per clock: a register of the estimating
 function, counters of the coordinates, a commutator for the increments.
 """

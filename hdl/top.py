@@ -21,7 +21,7 @@ from .motion.player import check_timing
 __all__ = ["BareAccumulator", "ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
 #: The demo program: a closed octagon, one segment in each octant, relative moves: the frames
-#: of :data:`hdl.spec.OCTAGON`, which ``kontur/demo.py`` plots.
+#: of :data:`kontur.hdl.spec.OCTAGON`, which ``kontur/demo.py`` plots.
 OCTAGON = [{"x": x, "y": y} for x, y in spec.OCTAGON]
 
 
@@ -270,7 +270,7 @@ class PinnedTop(Elaboratable):
 
 
 class ControllerTop(Elaboratable):
-    """A :class:`~hdl.motion.controller.MotionController` on a board's pins.
+    """A :class:`~kontur.hdl.motion.controller.MotionController` on a board's pins.
 
     The serial line on the board's ``uart`` resource (the USB serial port of its FTDI chip);
     step, dir and enable on the ``stepper`` resource, each registered in its I/O cell (one clock
@@ -285,7 +285,7 @@ class ControllerTop(Elaboratable):
 
     Parameters
     ----------
-    controller : :class:`~hdl.motion.controller.MotionController`
+    controller : :class:`~kontur.hdl.motion.controller.MotionController`
         Built for its clock: the board's, divided by ``divide``.
     divide : :class:`int`
         1 or 2. Default 1.

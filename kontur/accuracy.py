@@ -8,13 +8,13 @@ import math
 import time
 
 from kontur import registry
-from sim.geometry import radial_error, segment_deviation, walk
-from sim.models.arc import round_sqrt
-from sim.models.circular import native_path
-from sim.models.linear import steps
-from sim.models.textbook import (lattice_line_steps, lattice_native_path, separate_line_steps,
+from kontur.sim.geometry import radial_error, segment_deviation, walk
+from kontur.sim.models.arc import round_sqrt
+from kontur.sim.models.circular import native_path
+from kontur.sim.models.linear import steps
+from kontur.sim.models.textbook import (lattice_line_steps, lattice_native_path, separate_line_steps,
                               separate_native_path)
-from sim.stimulus import Job, record_moves, run_model
+from kontur.sim.stimulus import Job, record_moves, run_model
 
 __all__ = ["main", "linear_table", "circular_table", "throughput_table", "line_comparison",
            "arc_comparison", "contour_speed", "reference_table", "SPEED_ANGLES",

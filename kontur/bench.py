@@ -1,8 +1,8 @@
 """``kontur bench area|speed``: area and speed of every core and engine, by real tool runs.
 
-Every figure printed comes from a tool run made in the same call (:mod:`constraints.flow`).
+Every figure printed comes from a tool run made in the same call (:mod:`kontur.constraints.flow`).
 The designs are every variant of every kind in :mod:`kontur.registry`: each core alone and its
-engine for :func:`area`, each engine in :class:`~hdl.top.ShiftInTop` placed and routed on the
+engine for :func:`area`, each engine in :class:`~kontur.hdl.top.ShiftInTop` placed and routed on the
 iCEBreaker's UP5K for :func:`speed`.
 """
 
@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from constraints.flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
+from kontur.constraints.flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
                    tool_versions)
 
 __all__ = ["area", "speed", "main", "area_designs", "speed_designs", "report", "report_designs",
@@ -51,7 +51,7 @@ def area_designs():
 def speed_designs():
     """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine at
     the widths of :func:`_widths`. The equidistant engine, slower than the board's clock, is
-    routed like the others: :func:`~constraints.flow.measure_speed` lets a design miss the
+    routed like the others: :func:`~kontur.constraints.flow.measure_speed` lets a design miss the
     constraint."""
     from kontur import registry
     return [(f"{kind} engine", width, name,
@@ -203,7 +203,7 @@ def report_designs(widths=WIDTHS):
     ``what`` (``"core"``, ``"engine"``, ``"accumulator"``), ``variant``, ``width``, ``factory``
     and ``steps`` (steps per clock). Every kind at each of ``widths``, but program kinds (the
     equidistant engine) at their default width alone."""
-    from hdl.top import BareAccumulator
+    from kontur.hdl.top import BareAccumulator
     from kontur import registry
     rows = []
     for width in widths:
@@ -240,7 +240,7 @@ def _default_width(kind):
 
 
 def _label(row):
-    """The design's class name (``"bare accumulator"`` for :class:`~hdl.top.BareAccumulator`)."""
+    """The design's class name (``"bare accumulator"`` for :class:`~kontur.hdl.top.BareAccumulator`)."""
     if row["kind"] == "bare":
         return "bare accumulator"
     probe = row["factory"]()
@@ -253,8 +253,8 @@ def simulation_throughput(build_root, *, radius=LONG_ARC_RADIUS,
     """Clock cycles per second of a full circle of ``radius`` on the fast arc engine, on each
     simulator (the build timed apart); returns a list of dicts."""
     from kontur import registry
-    from sim.runners import CocotbBuild, run_amaranth
-    from sim.stimulus import Job, record_steps
+    from kontur.sim.runners import CocotbBuild, run_amaranth
+    from kontur.sim.stimulus import Job, record_steps
     job = Job(frames=[{"x0": radius, "y0": 0, "x1": radius, "y1": 0, "cw": 0}])
     results, steps = [], None
     for simulator in simulators:
@@ -299,8 +299,8 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
            log=None):
     """Measure every design of :func:`report_designs` and write ``path`` (``BENCHMARKS.md``).
 
-    Area: each design alone, as :func:`constraints.flow.measure_area` on each device. Speed:
-    each in :class:`~hdl.top.ShiftInTop`, :func:`constraints.flow.measure_speed`, with every
+    Area: each design alone, as :func:`kontur.constraints.flow.measure_area` on each device. Speed:
+    each in :class:`~kontur.hdl.top.ShiftInTop`, :func:`kontur.constraints.flow.measure_speed`, with every
     seed of ``seeds`` at the default widths (16 for lines, 24 for arcs, and the bare
     accumulators of those widths) and the first seed at the others. Every ratio is taken in
     this run, at the first seed. Returns the measurements.
@@ -363,10 +363,10 @@ _ENGINE_PARTS = {"line": (_LINE_STATUS,), "arc": (_PLANNER, _ARC_STATUS)}
 
 def _parts():
     """The parts of the engines at their default widths, each alone: where the area goes."""
-    from hdl.arc import ArcPlanner
-    from hdl.engine import StatusUnit
-    from hdl.linear import LinearInterpolator
-    from hdl.circular import CircularInterpolator, CircularInterpolatorFast
+    from kontur.hdl.arc import ArcPlanner
+    from kontur.hdl.engine import StatusUnit
+    from kontur.hdl.linear import LinearInterpolator
+    from kontur.hdl.circular import CircularInterpolator, CircularInterpolatorFast
     return [
         (_LINEAR_DEVICE, lambda: LinearInterpolator(width=16, variant="device")),
         (_LINEAR_EXACT, lambda: LinearInterpolator(width=16, variant="exact")),
@@ -403,7 +403,7 @@ def _find(rows, **keys):
 
 
 def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
-    from constraints.flow import DEVICES
+    from kontur.constraints.flow import DEVICES
     from kontur import registry
     first = seeds[0]
     parts_lc = {label: area["lc"] for label, area in parts}
@@ -554,18 +554,18 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
     out.append(f"""
 ## How
 
-* Area: each design alone, its ports the module's ports (`constraints.flow.measure_area`):
+* Area: each design alone, its ports the module's ports (`kontur.constraints.flow.measure_area`):
   `synth_ice40` then `nextpnr-ice40 --up5k --package sg48 --pack-only` (logic cells, LC), and
   `synth_ecp5` (LUT4, CCU2C: two carry bits each, flip-flops), from Yosys's `stat -json`.
 * Speed: `PinnedTop(ShiftInTop(design), "shift_in")` through the board's Amaranth flow, the
   iCEBreaker (12 MHz clock constraint, `synth_ice40 -device u`: Yosys's UltraPlus timing model)
   and the ULX3S-85F (25 MHz, `--85k --package CABGA381 --speed 6`); Yosys once, then nextpnr
   once per seed on the same netlist with `--timing-allow-fail`
-  (`constraints.flow.measure_speed`). Fmax is nextpnr's routed "Max frequency for clock".
+  (`kontur.constraints.flow.measure_speed`). Fmax is nextpnr's routed "Max frequency for clock".
   Every pin is registered in its I/O cell and every port of the design once more in the
   fabric, so a path runs from register to register inside the design. The LC count is the
   whole top (design, shift register, pins' registers, the platform's reset delay).
-* The bare accumulator (`hdl.top.BareAccumulator`) is the decision loop alone: a register
+* The bare accumulator (`kontur.hdl.top.BareAccumulator`) is the decision loop alone: a register
   that adds one of two operand registers, chosen by its own sign bit. "× bare accumulator" is
   a design's Fmax over that of the bare accumulator of the same width on the same device in
   this run; "× its core" an engine's over its core's; the limiting path is nextpnr's critical
@@ -573,7 +573,7 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
   time).
 * The maximum step rate is Fmax times the steps per clock (the faithful SU 1665343 core makes
   one step per generator period, four clocks).
-* Simulation: `sim.runners.run_amaranth` (Amaranth's simulator) and `sim.runners.CocotbBuild`
+* Simulation: `kontur.sim.runners.run_amaranth` (Amaranth's simulator) and `kontur.sim.runners.CocotbBuild`
   (cocotb 2.1 on Icarus and Verilator, the same driver); cycles per second over the run alone
   (with the simulator's start), the build timed apart.
 """)

@@ -1,17 +1,17 @@
 """``kontur build``: a board's bitstream, with the figures of its build.
 
 Two tops (:data:`TOPS`): ``controller``, the machine controller
-(:class:`hdl.top.ControllerTop` around :func:`kontur.registry.make_controller`: frames over the
+(:class:`kontur.hdl.top.ControllerTop` around :func:`kontur.registry.make_controller`: frames over the
 board's USB serial port, step/dir/enable on its header), and ``player``, the board's demo
-(:class:`hdl.top.DemoTop` on the iCEBreaker: the octagon played in a loop through a line
+(:class:`kontur.hdl.top.DemoTop` on the iCEBreaker: the octagon played in a loop through a line
 engine, no host needed). The board's platform comes from the registry
-(:data:`kontur.registry.BOARDS`); the tools are those of :func:`constraints.flow.toolchain_env`
+(:data:`kontur.registry.BOARDS`); the tools are those of :func:`kontur.constraints.flow.toolchain_env`
 (the yowasp builds from PyPI by default). Nothing is ever programmed.
 """
 
 import sys
 
-from constraints.flow import ROOT, SEED, ToolchainError, place_and_route
+from kontur.constraints.flow import ROOT, SEED, ToolchainError, place_and_route
 
 __all__ = ["TOPS", "build", "machine_file", "summary", "main"]
 
@@ -24,7 +24,7 @@ def _top(item, top, machine):
         if item.demo is None:
             raise ValueError(f"The {item.name} has no demo player; build the controller")
         return item.demo()
-    from hdl.top import ControllerTop
+    from kontur.hdl.top import ControllerTop
     from kontur import registry
     from kontur.machine import Machine
     if machine is None:
@@ -41,14 +41,14 @@ def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=No
     :class:`~kontur.machine.Machine` defaults. Runs ``platform.build(...,
     do_program=False)`` (Yosys, nextpnr with ``--seed seed``, the packer). Returns
     ``{"board", "top", "bitstream", "log", "logic", "utilisation", "fmax", "seed",
-    "seconds"}`` (see :func:`constraints.flow.place_and_route`); with ``out``, also writes a
+    "seconds"}`` (see :func:`kontur.constraints.flow.place_and_route`); with ``out``, also writes a
     summary there.
 
     Raises
     ------
     :exc:`ValueError`
         If ``board`` is not a registered board or ``top`` not one of :data:`TOPS`.
-    :exc:`constraints.flow.ToolchainError`
+    :exc:`kontur.constraints.flow.ToolchainError`
         If a tool is missing or fails.
     """
     from kontur import registry

@@ -66,7 +66,7 @@ def _add_kind(kinds, kind):
     helps = "; ".join(f"{name}: {registry.variant(kind, name).help}" for name in variants)
     parser.add_argument("--variant", choices=variants, default=item.default_variant,
                         help=f"core variant (default {item.default_variant}; {helps})")
-    from sim.runners import ENGINES
+    from kontur.sim.runners import ENGINES
     parser.add_argument("--engine", choices=ENGINES, default="model", help=_ENGINES_HELP)
     parser.add_argument("--width", type=int, default=None, help="register width in bits")
     parser.add_argument("--vcd", metavar="FILE", default=None,
@@ -80,8 +80,8 @@ def _add_kind(kinds, kind):
 
 def _add_program(kinds, kind):
     """``kontur trace profile FILE --radius R``: a contour of a G-code program."""
-    from sim.models.equidistant import DETECTIONS, TREATMENTS
-    from sim.runners import ENGINES
+    from kontur.sim.models.equidistant import DETECTIONS, TREATMENTS
+    from kontur.sim.runners import ENGINES
     item = registry.KINDS[kind]
     variants = registry.variants(kind)
     parser = kinds.add_parser(kind, help=item.help, description=item.help,
@@ -406,9 +406,9 @@ def main(argv=None):
     """Run the command line; return the exit status.
 
     ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` end the command the same way (every child process's
-    group ended, :mod:`sim.processes`) with status ``128 +`` the signal's number and one line.
+    group ended, :mod:`kontur.sim.processes`) with status ``128 +`` the signal's number and one line.
     """
-    from sim import processes
+    from kontur.sim import processes
     with processes.signals_handled():
         try:
             return _main(argv)
@@ -448,7 +448,7 @@ def _main(argv):
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2
     except Exception as error:
-        from sim.models.errors import InputError
+        from kontur.sim.models.errors import InputError
         from kontur.planner import ProgramError
         from kontur.trace import UsageError
         if isinstance(error, ProgramError):

@@ -14,9 +14,9 @@ the machine's ``arc_tolerance`` (more is an error naming the line, as for any ar
 stays where it was rounded to, where the next element begins: the engine does not trace an arc
 to its end point but to where the next element's equidistant (or its entry line) ends it, so
 the arc's end only has to be near its circle
-(:func:`sim.models.equidistant.profile_from_moves`'s ``tolerance``). The contour is then
+(:func:`kontur.sim.models.equidistant.profile_from_moves`'s ``tolerance``). The contour is then
 prepared at the cutter radius (the machine's ``cutter_radius``, rounded to the nearest step)
-by :func:`sim.models.equidistant.prepare`, which refuses impossible geometry and any contour
+by :func:`kontur.sim.models.equidistant.prepare`, which refuses impossible geometry and any contour
 whose path it cannot bound (0.85 steps from the exact equidistant), naming the line.
 
 Coordinates. The engine's registers hold ``±(2**width - 1)``; its frames are in coordinates
@@ -45,12 +45,12 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from kontur import registry
-from sim.models import equidistant
+from kontur.sim.models import equidistant
 from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
 __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine"]
 
-#: A move on the lattice, as :func:`sim.models.equidistant.profile_from_moves` reads it.
+#: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
 _LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
 #: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
 _Move = namedtuple("_Move", "line kind start end centre cw feed")
@@ -58,7 +58,7 @@ _Move = namedtuple("_Move", "line kind start end centre cw feed")
 
 @dataclass(frozen=True)
 class Contour:
-    """A compensated contour of a job: ``prepared`` (:class:`sim.models.equidistant.Prepared`,
+    """A compensated contour of a job: ``prepared`` (:class:`kontur.sim.models.equidistant.Prepared`,
     in the engine's coordinates), ``origin`` (steps: the machine's point that is the engine's
     ``(0, 0)``), the program ``lines`` it spans (first, last), the indices of its segments in
     the job (``first`` is its ``START``'s, ``count`` of them), ``approach`` (the index of the
@@ -114,7 +114,7 @@ def _unit(v):
 
 
 def _profile_error(error, origin, machine):
-    """A :class:`~sim.models.equidistant.ProfileError` as a :exc:`ProgramError` (its line
+    """A :class:`~kontur.sim.models.equidistant.ProfileError` as a :exc:`ProgramError` (its line
     apart), saying what its coordinates are."""
     message = str(error)
     match = re.match(r"line (\d+): (.*)$", message, re.S)
@@ -258,7 +258,7 @@ def program_segments(moves, machine, board):
     ProgramError
         Naming the line: the board has no equidistant engine, the machine no cutter radius, an
         arc's radii beyond the tolerance, geometry the engine cannot follow (see
-        :func:`sim.models.equidistant.prepare`), a move the engines cannot make.
+        :func:`kontur.sim.models.equidistant.prepare`), a move the engines cannot make.
     """
     needs_engine(moves, board)
     item = registry.board(board)

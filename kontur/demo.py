@@ -14,12 +14,12 @@ import math
 import time
 from pathlib import Path
 
-from hdl.spec import OCTAGON           # a closed octagon, one segment in each octant
+from kontur.hdl.spec import OCTAGON           # a closed octagon, one segment in each octant
 
 from kontur import registry
-from sim.geometry import radial_error, segment_deviation, walk
-from sim.runners import ROOT, CocotbBuild, run_amaranth
-from sim.stimulus import Job, first_difference, record_moves, run_model
+from kontur.sim.geometry import radial_error, segment_deviation, walk
+from kontur.sim.runners import ROOT, CocotbBuild, run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_moves, run_model
 
 __all__ = ["demo", "ascii_plot", "OCTAGON", "PROGRAM"]
 

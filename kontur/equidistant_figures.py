@@ -15,7 +15,7 @@ import random
 import sys
 from pathlib import Path
 
-from sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, ProfileError, check_trace,
+from kontur.sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, ProfileError, check_trace,
                                   prepare, profile_from_moves)
 from kontur.gcode import read
 
@@ -124,9 +124,9 @@ def formats(out):
 
 
 def timing(out):
-    from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
-    from sim.models.equidistant import EquidistantEngineModel
-    from sim.stimulus import Job, run_model
+    from kontur.sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+    from kontur.sim.models.equidistant import EquidistantEngineModel
+    from kontur.sim.stimulus import Job, run_model
     out.write("Cycle model, width 16, a step permitted every clock, r = 3, arc corners: clocks "
               "of the whole\nprogram, steps, idle clocks between the first and the last step, "
               "clock of the first step\n\n")
@@ -157,7 +157,7 @@ def fpga(out):
     out.write("\nSpeed on the iCEBreaker (iCE40UP5K-SG48): the engine in ShiftInTop, width 8, "
               "placed and routed\n(nextpnr fails the build below the board's 12 MHz; the "
               "routed figure is read from its log)\n\n")
-    from constraints.flow import ToolchainError, measure_speed, parse_fmax, parse_utilisation
+    from kontur.constraints.flow import ToolchainError, measure_speed, parse_fmax, parse_utilisation
     for name in registry.variants("profile"):
         build_dir = bench.BUILD_ROOT / "speed" / f"profile_engine_w8_{name}"
         try:

@@ -22,11 +22,11 @@ model included): :exc:`MachineError` names the key and its range. ``queue_frames
 machine is made; the baud and acceleration, which depend on the clock, by :meth:`Machine.check`
 (called by :func:`kontur.machining.prepare` once the clock is the board's).
 
-1. ``queue_frames``: an integer from 2 to 255 (:class:`hdl.motion.controller.
+1. ``queue_frames``: an integer from 2 to 255 (:class:`kontur.hdl.motion.controller.
    MotionController`).
 2. ``baud``: the clock divided by it, rounded, is the UART's bit time in clocks; it must be at
    least 4 clocks and the rate it makes within 2 % of ``baud``
-   (:func:`hdl.motion.uart.divisor_for`).
+   (:func:`kontur.hdl.motion.uart.divisor_for`).
 3. ``accel``: as the feed generator's rate change a clock, Q0.40, it must round to at least 1
    and fit its 32-bit field (:attr:`Machine.accel_q40`).
 4. ``max_feed``: at most the step rate the step/dir timing allows (one step every
@@ -137,9 +137,9 @@ class Machine:
 
     def check_baud(self):
         """Raise :exc:`MachineError` unless the UART can make ``baud`` from the clock: a bit
-        time of at least 4 clocks, its rate within 2 % (:func:`hdl.motion.uart.divisor_for`);
+        time of at least 4 clocks, its rate within 2 % (:func:`kontur.hdl.motion.uart.divisor_for`);
         return the bit time in clocks."""
-        from hdl.motion.uart import divisor_for
+        from kontur.hdl.motion.uart import divisor_for
         try:
             return divisor_for(self.clock_hz, self.baud)
         except ValueError:
@@ -152,7 +152,7 @@ class Machine:
     @property
     def max_rate(self):
         """The feed generator's highest rate (Q0.24): one step every ``dir_setup +
-        step_width + 1`` clocks (:func:`hdl.motion.feed.rate_limit`)."""
+        step_width + 1`` clocks (:func:`kontur.hdl.motion.feed.rate_limit`)."""
         return ((1 << 24) - 1) // (self.dir_setup + self.step_width + 1)
 
     def rate(self, mm_per_s):

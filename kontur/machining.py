@@ -7,10 +7,10 @@ its engines, clock and link) and writes its frames. :func:`execute` runs those f
 * ``model``: the golden step-level models of the engines (the steps), with the times of the
   feed plan;
 * ``amaranth``, ``icarus``: the controller's RTL in Amaranth's simulator or on Icarus (cocotb),
-  the host's side of the serial link clock by clock in Python (:class:`sim.testbench.hostlink.
+  the host's side of the serial link clock by clock in Python (:class:`kontur.sim.testbench.hostlink.
   HostLink`): for short programs;
 * ``verilator``: the controller's RTL built with ``sim/fastrun.cpp``, the host inside the
-  simulation (:class:`sim.fastrun.FastRun`): millions of clocks a second.
+  simulation (:class:`kontur.sim.fastrun.FastRun`): millions of clocks a second.
 
 Every RTL run is checked against the model: the same steps in the same order, every frame
 answered ``DONE``, the final position read back equal to the program's end. A run may
@@ -336,8 +336,8 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
         if vcd is not None:
             raise ValueError("a waveform comes from an RTL run, not the model")
         return Result("model", expected, _plan_times(job), job.end)
-    from sim.testbench.hostlink import steps_of
-    from hdl.motion.protocol import query
+    from kontur.sim.testbench.hostlink import steps_of
+    from kontur.hdl.motion.protocol import query
     compress = auto_compress(job) if compress is None else compress
     frames, _ = job.frames(compress)
     machine = job.machine
@@ -358,18 +358,18 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     sent = frames + [query()]
     started = time.monotonic()
     if engine == "verilator":
-        from sim.fastrun import FastRun
+        from kontur.sim.fastrun import FastRun
         fast = FastRun(controller, _root(build_root, "fastrun"), waves=vcd is not None)
         started = time.monotonic()                      # the build apart
         run = fast.run(sent, divisor=divisor, window=machine.queue_frames,
                        max_clocks=max_clocks, vcd=vcd, vcd_clocks=vcd_clocks,
                        progress=progress)
     elif engine == "amaranth":
-        from sim.testbench.hostlink import run_amaranth
+        from kontur.sim.testbench.hostlink import run_amaranth
         run = run_amaranth(controller, sent, divisor=divisor, window=machine.queue_frames,
                            max_clocks=max_clocks, vcd=vcd, progress=progress)
     else:
-        from sim.runners import CocotbBuild
+        from kontur.sim.runners import CocotbBuild
         build = CocotbBuild(controller, engine, _root(build_root, "cocotb"),
                             waves=vcd is not None, quiet=True)
         started = time.monotonic()
@@ -387,7 +387,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
 
 
 def _check(job, run, steps, expected, count):
-    from hdl.motion.link import ERROR, OUTCOME, STATUS
+    from kontur.hdl.motion.link import ERROR, OUTCOME, STATUS
     if steps != expected:
         at = next((i for i, (a, b) in enumerate(zip(steps, expected)) if a != b),
                   min(len(steps), len(expected)))

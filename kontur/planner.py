@@ -17,7 +17,7 @@ by its centripetal acceleration, and backward and forward passes make every move
 exit reachable from its neighbours within the acceleration. Each move then gets its cruise and
 exit rates (whole rates of the feed generator, never above the feed; a feed below its lowest
 rate is an error naming the line) and the step from which it ramps down; the gateware ramps
-linearly between them (:class:`hdl.motion.feed.FeedGenerator`). :func:`frames` writes the
+linearly between them (:class:`kontur.hdl.motion.feed.FeedGenerator`). :func:`frames` writes the
 program's frames.
 """
 
@@ -26,9 +26,9 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from kontur import registry
-from sim.models.arc import check_arc
-from sim.models.errors import InputError
-from hdl.motion import protocol
+from kontur.sim.models.arc import check_arc
+from kontur.sim.models.errors import InputError
+from kontur.hdl.motion import protocol
 from kontur.gcode import sweep
 
 __all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
@@ -320,7 +320,7 @@ def _junction(previous, following, machine):
 
 def min_feed(machine):
     """The lowest contour speed (mm/s) the feed generator makes: a rate of 1 in Q0.24, one
-    step length every 2**24 clocks (:class:`hdl.motion.feed.FeedGenerator` adds the rate's
+    step length every 2**24 clocks (:class:`kontur.hdl.motion.feed.FeedGenerator` adds the rate's
     upper 24 bits to its distance every clock, so a lower rate is 0 and never steps). Every
     rate the planner sends is a whole number of these (:func:`plan`)."""
     return machine.clock_hz / (machine.steps_per_mm * (1 << 24))

@@ -1,8 +1,8 @@
 """One registry of what kontur is made of: kinds of command, their variants, and boards.
 
 A *kind* is a kind of command with its engine (a front end of ``hdl/``) and the engine's
-cycle model: ``line`` (:class:`hdl.line.LineEngine`), ``arc`` (:class:`hdl.arc.ArcEngine`) and
-``profile`` (:class:`hdl.equidistant.EquidistantEngine`, whose commands are a *program*: the
+cycle model: ``line`` (:class:`kontur.hdl.line.LineEngine`), ``arc`` (:class:`kontur.hdl.arc.ArcEngine`) and
+``profile`` (:class:`kontur.hdl.equidistant.EquidistantEngine`, whose commands are a *program*: the
 frames of a contour, prepared by the host from G-code).
 A *variant* of a kind is a core that plugs into that engine, with the core's cycle model, its
 step-level model, the parameters it takes and what the generic tests hold it to. A *board*
@@ -19,24 +19,24 @@ nothing else lists variants (the tests derive their lists from :func:`variants`)
 import math
 from dataclasses import dataclass, field
 
-from hdl.arc import ArcEngine
-from hdl.circular import FaithfulArcCore, FastArcCore
-from hdl.equidistant import EquidistantEngine
-from hdl.line import LineEngine
-from hdl.linear import LinearCore
-from hdl.motion.controller import MotionController
-from hdl.serial import SerialArcCore, SerialLineCore
-from hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
-from hdl.top import DemoTop
-from sim.models.arc import ArcEngineModel, arc_steps, check_arc, round_sqrt
-from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
-from sim.models.equidistant import EquidistantEngineModel, Formats, frame_outcomes
-from sim.models.errors import InputError
-from sim.models.line import LineEngineModel
-from sim.models.linear import LinearCoreModel, check_line
-from sim.models.linear import steps as linear_steps
-from sim.models.serial import SerialArcCoreModel, SerialLineCoreModel, word_length
-from sim.models.textbook import (DdaCoreModel, SeparateArcCoreModel, SeparateLineCoreModel,
+from kontur.hdl.arc import ArcEngine
+from kontur.hdl.circular import FaithfulArcCore, FastArcCore
+from kontur.hdl.equidistant import EquidistantEngine
+from kontur.hdl.line import LineEngine
+from kontur.hdl.linear import LinearCore
+from kontur.hdl.motion.controller import MotionController
+from kontur.hdl.serial import SerialArcCore, SerialLineCore
+from kontur.hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
+from kontur.hdl.top import DemoTop
+from kontur.sim.models.arc import ArcEngineModel, arc_steps, check_arc, round_sqrt
+from kontur.sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+from kontur.sim.models.equidistant import EquidistantEngineModel, Formats, frame_outcomes
+from kontur.sim.models.errors import InputError
+from kontur.sim.models.line import LineEngineModel
+from kontur.sim.models.linear import LinearCoreModel, check_line
+from kontur.sim.models.linear import steps as linear_steps
+from kontur.sim.models.serial import SerialArcCoreModel, SerialLineCoreModel, word_length
+from kontur.sim.models.textbook import (DdaCoreModel, SeparateArcCoreModel, SeparateLineCoreModel,
                                  dda_capacity, dda_steps, separate_arc_steps,
                                  separate_line_steps)
 
@@ -111,7 +111,7 @@ class Variant:
 class Board:
     """A board: ``platform()`` returns a new Amaranth platform, ``demo()`` its demo top (a
     program played in a loop); ``clock_hz`` is the machine controller's clock, the board's
-    divided by ``divide`` (see :class:`hdl.top.ControllerTop`), ``line`` and ``arc`` the
+    divided by ``divide`` (see :class:`kontur.hdl.top.ControllerTop`), ``line`` and ``arc`` the
     ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
     (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
     (see :func:`make_controller`)."""
@@ -219,7 +219,7 @@ def board(name):
 
 
 def make_controller(board_name, machine):
-    """The machine controller of a board (:class:`hdl.motion.controller.MotionController`)
+    """The machine controller of a board (:class:`kontur.hdl.motion.controller.MotionController`)
     with its engines (the equidistant engine too where the board has one), its clock, and the
     serial rate, queue length and step/dir timing of ``machine`` (a
     :class:`kontur.machine.Machine`, whose ``clock_hz`` must be the board's).
@@ -321,12 +321,12 @@ def _serial_arc_clocks(payload, width, **params):
 
 
 def _icebreaker_platform():
-    from constraints import icebreaker          # amaranth_boards: only when a board is built
+    from kontur.constraints import icebreaker          # amaranth_boards: only when a board is built
     return icebreaker.platform()
 
 
 def _ulx3s_platform():
-    from constraints import ulx3s
+    from kontur.constraints import ulx3s
     return ulx3s.platform()
 
 

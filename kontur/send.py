@@ -29,10 +29,10 @@ import math
 import signal
 import time
 
-from hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
+from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
 
-from hdl.motion import protocol
-from sim import processes
+from kontur.hdl.motion import protocol
+from kontur.sim import processes
 
 __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT"]
 

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from kontur import registry
-from sim.models.errors import InputError
-from sim.runners import ENGINES, ROOT
-from sim.stimulus import Job, record_moves, run_model
+from kontur.sim.models.errors import InputError
+from kontur.sim.runners import ENGINES, ROOT
+from kontur.sim.stimulus import Job, record_moves, run_model
 
 __all__ = ["trace", "plan", "Plan", "UsageError", "WIDTHS", "MAX_CLOCKS", "MAX_STEPS", "SPEED",
            "STEP_MODEL_SPEED", "trace_profile", "ProfileRun"]
@@ -78,14 +78,14 @@ def _step_bound(kind, payload, width):
     """An upper bound on the steps of a command the model accepts."""
     if kind == "line":
         return max(abs(payload["x"]), abs(payload["y"]))
-    from sim.models.arc import round_sqrt
+    from kontur.sim.models.arc import round_sqrt
     radius = round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
     return 8 * radius + 8                  # at most 2R steps in each of 5 quadrant runs
 
 
 def _clocks_per_step(variant, params):
     if "timing" in variant.params:
-        from hdl.circular_timing import FaithfulTiming
+        from kontur.hdl.circular_timing import FaithfulTiming
         return (params.get("timing") or FaithfulTiming()).period
     return params.get("period", 1)
 
@@ -93,7 +93,7 @@ def _clocks_per_step(variant, params):
 def _latency(kind, width):
     if kind == "line":
         return 2
-    from sim.models.arc import setup_latency
+    from kontur.sim.models.arc import setup_latency
     return setup_latency(width) + 2
 
 
@@ -167,7 +167,7 @@ def _duration(seconds):
 
 def build_root():
     """Where the command line keeps its simulator builds (shared between calls and processes,
-    one directory per design; see :class:`sim.runners.CocotbBuild`): ``$KONTUR_BUILD`` if
+    one directory per design; see :class:`kontur.sim.runners.CocotbBuild`): ``$KONTUR_BUILD`` if
     set, else ``build/cli`` in the project."""
     return Path(os.environ.get("KONTUR_BUILD") or ROOT / "build" / "cli")
 
@@ -204,10 +204,10 @@ def trace(kind, payload, **options):
             raise InputError(f"{name.upper()} = {value} does not fit the frame's "
                              f"{engine.coord_width}-bit signed coordinates")
     if run.engine == "amaranth":
-        from sim.runners import run_amaranth
+        from kontur.sim.runners import run_amaranth
         record = run_amaranth(engine, job, vcd=run.vcd, sparse=True)
     else:
-        from sim.runners import CocotbBuild
+        from kontur.sim.runners import CocotbBuild
         build = CocotbBuild(engine, run.engine, build_root(), waves=run.vcd is not None,
                             quiet=True)
         record = build.run(job, vcd=run.vcd, sparse=True)
@@ -229,7 +229,7 @@ def trace(kind, payload, **options):
 @dataclass(frozen=True)
 class ProfileRun:
     """A traced contour: its moves ``[(cycle, dx, dy), ...]`` and what was traced (the
-    :class:`sim.models.equidistant.Prepared` profile)."""
+    :class:`kontur.sim.models.equidistant.Prepared` profile)."""
     moves: list
     prepared: object
 
@@ -247,7 +247,7 @@ def _profile_clocks(prepared, clocks_per_step):
 
 
 def _parts(prepared):
-    from sim.models.equidistant import trace_elements
+    from kontur.sim.models.equidistant import trace_elements
     return trace_elements(prepared)
 
 
@@ -265,13 +265,13 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
         :data:`WIDTHS`, a ``vcd`` that cannot be written or is asked of the model, a radius
         that is not a non-negative integer, or a run longer than ``max_clocks``.
     InputError
-        When the profile is refused (:class:`sim.models.equidistant.ProfileError`: impossible
+        When the profile is refused (:class:`kontur.sim.models.equidistant.ProfileError`: impossible
         geometry, numbers beyond the registers, a path that would cut into the part), naming
         the program line.
     RuntimeError
         If the RTL refuses a frame of the prepared program.
     """
-    from sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
+    from kontur.sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
                                       profile_from_moves)
     from kontur.gcode import GCodeError, read
     params = dict(params or {})
@@ -327,10 +327,10 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     else:
         rtl = registry.make_engine("profile", item.name, width=width, **params)
         if engine == "amaranth":
-            from sim.runners import run_amaranth
+            from kontur.sim.runners import run_amaranth
             record = run_amaranth(rtl, job, vcd=vcd)
         else:
-            from sim.runners import CocotbBuild
+            from kontur.sim.runners import CocotbBuild
             build = CocotbBuild(rtl, engine, build_root(), waves=vcd is not None, quiet=True)
             record = build.run(job, vcd=vcd)
     if any(entry.get("error") for entry in record):

@@ -9,7 +9,7 @@ each clock, i.e. just before each rising edge of ``clk``. Golden traces live in
 purpose (``UPDATE_GOLDEN=1``).
 
 :data:`SCENARIOS` names the regression's scenarios: an engine (kind, variant, width), a
-:class:`~sim.stimulus.Job` and the signals to trace (:class:`Column`: the engine's ports and
+:class:`~kontur.sim.stimulus.Job` and the signals to trace (:class:`Column`: the engine's ports and
 the cores' elements, named as the patents and the textbook name them). :func:`scenario_trace`
 runs one on Amaranth's simulator, Icarus or Verilator, reads the simulator's own dump back and
 returns its canonical trace, one row per clock; :func:`trace_difference` names the first clock
@@ -280,7 +280,7 @@ def _dda_columns(width):
 
 
 def _serial_columns(width):
-    from hdl.serial import Phase, word_length
+    from kontur.hdl.serial import Phase, word_length
     node = "engine.core.node"
     word = word_length(width)
     return _engine_columns() + (
@@ -296,7 +296,7 @@ def _serial_columns(width):
 
 def _profile_columns(width):
     from amaranth import Shape
-    from hdl.equidistant import EquidistantEngine, Formats
+    from kontur.hdl.equidistant import EquidistantEngine, Formats
     formats = Formats(width)
     slot = EquidistantEngine.Slot(formats)
 
@@ -320,9 +320,9 @@ def _profile_columns(width):
 
 def _profile_frames(text, radius, width):
     """The frames of a G-code program prepared at the cutter ``radius`` (the host's
-    :func:`~sim.models.equidistant.prepare`)."""
+    :func:`~kontur.sim.models.equidistant.prepare`)."""
     from kontur.gcode import read
-    from sim.models.equidistant import Formats, prepare, profile_from_moves
+    from kontur.sim.models.equidistant import Formats, prepare, profile_from_moves
     shape = profile_from_moves(read(text).moves)
     return prepare(shape, radius, formats=Formats(width)).frames
 
@@ -422,9 +422,9 @@ SCENARIOS = _scenarios()
 
 
 def scenario_job(scenario):
-    """The :class:`~sim.stimulus.Job` of a scenario: its frames back to back, every step
+    """The :class:`~kontur.sim.stimulus.Job` of a scenario: its frames back to back, every step
     permitted, every outcome taken at once."""
-    from sim.stimulus import Job
+    from kontur.sim.stimulus import Job
     return Job(frames=[dict(f) for f in scenario.frames], max_cycles=20_000)
 
 
@@ -441,7 +441,7 @@ def scenario_trace(scenario, simulator, vcd, *, core=None, build_root=None):
     """Run ``scenario`` on ``simulator`` (``"amaranth"``, ``"icarus"``, ``"verilator"``),
     dumping to ``vcd``; return ``(record, columns, rows)``: the run's record and its canonical
     trace (``clock`` first, one row per clock of the record)."""
-    from sim.runners import CocotbBuild, run_amaranth
+    from kontur.sim.runners import CocotbBuild, run_amaranth
 
     engine = scenario_engine(scenario, core)
     job = scenario_job(scenario)

@@ -1,12 +1,12 @@
 """The machine controller on Verilator at full speed: the host side inside the simulation.
 
 :class:`FastRun` converts a top level (ports ``rx``, ``tx``, ``motion``; the
-:class:`~hdl.motion.controller.MotionController`) to Verilog, builds it once with Verilator and
+:class:`~kontur.hdl.motion.controller.MotionController`) to Verilog, builds it once with Verilator and
 ``sim/fastrun.cpp`` (a C++ testbench playing the host: the frames onto ``rx`` at the serial
 rate, the window flow control, the replies parsed off ``tx``, every step edge recorded), and
 runs programs on it. Nothing in Python runs per clock, so the simulation goes at Verilator's
 own speed (millions of clocks a second). Builds are shared between runs and processes under a
-lock, one directory per design digest, like :class:`sim.runners.CocotbBuild`'s.
+lock, one directory per design digest, like :class:`kontur.sim.runners.CocotbBuild`'s.
 """
 
 import hashlib
@@ -16,9 +16,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from sim import processes
-from sim.runners import SimulatorError, _locked, verilator_environment
-from sim.testbench.hostlink import Run, parse_events, write_frames
+from kontur.sim import processes
+from kontur.sim.runners import SimulatorError, _locked, verilator_environment
+from kontur.sim.testbench.hostlink import Run, parse_events, write_frames
 
 __all__ = ["FastRun", "Run"]
 

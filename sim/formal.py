@@ -226,9 +226,9 @@ def prove(proof, *, root=None, solver=None):
 
 
 def _proofs():
-    from hdl.circular_timing import FaithfulTiming
-    from hdl.formal import elements as e
-    from hdl.formal import circular, linear
+    from kontur.hdl.circular_timing import FaithfulTiming
+    from kontur.hdl.formal import elements as e
+    from kontur.hdl.formal import circular, linear
 
     proofs = []
 

@@ -1,8 +1,8 @@
 """Child processes that end with the command that started them.
 
 1. Every tool the project starts (the cocotb runner's ``iverilog``, ``vvp``, ``verilator`` and
-   ``make``, the Verilator test bench of :mod:`sim.fastrun` and its build, Yosys and nextpnr of
-   :mod:`constraints.flow`) is started by :func:`popen` (or :func:`run`, or :func:`child`), in
+   ``make``, the Verilator test bench of :mod:`kontur.sim.fastrun` and its build, Yosys and nextpnr of
+   :mod:`kontur.constraints.flow`) is started by :func:`popen` (or :func:`run`, or :func:`child`), in
    a process group of its own, so that everything it starts (a compiler under ``make``, say)
    is in that group too.
 2. A group is *live* from its start until it is ended: :func:`stop` ends one group (the

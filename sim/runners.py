@@ -1,6 +1,6 @@
-"""Run an engine's RTL on a :class:`~sim.stimulus.Job`: Amaranth's simulator, Icarus, Verilator.
+"""Run an engine's RTL on a :class:`~kontur.sim.stimulus.Job`: Amaranth's simulator, Icarus, Verilator.
 
-Every runner returns a record in the format of :func:`sim.stimulus.run_model`, so the golden
+Every runner returns a record in the format of :func:`kontur.sim.stimulus.run_model`, so the golden
 cycle model and the three simulators are compared entry for entry.
 """
 
@@ -20,9 +20,9 @@ from pathlib import Path
 
 from amaranth import Module, ResetInserter, Shape, Signal
 
-from sim import processes
-from sim.processes import SimulatorError
-from sim.stimulus import Driver, check_outcomes, entry, eventful
+from kontur.sim import processes
+from kontur.sim.processes import SimulatorError
+from kontur.sim.stimulus import Driver, check_outcomes, entry, eventful
 
 __all__ = ["run_amaranth", "CocotbBuild", "SimulatorError", "ENGINES", "SIMULATORS", "status_fields",
            "unpack_status", "verilator_environment", "ensure_simulator"]
@@ -59,7 +59,7 @@ def run_amaranth(engine, job, *, state=None, vcd=None, sparse=False):
 
     ``state`` maps names to signals inside the engine, sampled each clock into the record.
     ``vcd``, if given, is the path of a waveform file to write. With ``sparse`` the record
-    keeps only its :func:`~sim.stimulus.eventful` entries.
+    keeps only its :func:`~kontur.sim.stimulus.eventful` entries.
     """
     from amaranth.sim import Simulator
 
@@ -263,7 +263,7 @@ class CocotbBuild:
 
     def run(self, job, *, vcd=None, sparse=False):
         """Run ``job``; return the record (with ``sparse``, only its
-        :func:`~sim.stimulus.eventful` entries). With ``vcd`` (a build made with ``waves``)
+        :func:`~kontur.sim.stimulus.eventful` entries). With ``vcd`` (a build made with ``waves``)
         the run's waveform is written there, as VCD."""
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
@@ -273,7 +273,7 @@ class CocotbBuild:
         job_file.write_text(json.dumps({"id": identity, "job": job.to_json(),
                                         "fields": self.fields, "status": self.status,
                                         "sparse": sparse}))
-        self._run("sim.testbench.trace", run_dir, vcd=vcd is not None,
+        self._run("kontur.sim.testbench.trace", run_dir, vcd=vcd is not None,
                   env={"KONTUR_JOB": str(job_file), "KONTUR_RECORD": str(record_file)})
         if not record_file.exists():
             raise SimulatorError(f"the {self.simulator} run produced no record; see "
@@ -293,9 +293,9 @@ class CocotbBuild:
 
     def run_controller(self, frames, *, divisor, window, max_clocks, vcd=None):
         """Run ``frames`` through this build of a machine controller with the host of
-        :class:`sim.testbench.hostlink.HostLink` (the cocotb test
-        :mod:`sim.testbench.controller_run`); return its :class:`sim.testbench.hostlink.Run`."""
-        from sim.testbench.hostlink import Run, parse_events, write_frames
+        :class:`kontur.sim.testbench.hostlink.HostLink` (the cocotb test
+        :mod:`kontur.sim.testbench.controller_run`); return its :class:`kontur.sim.testbench.hostlink.Run`."""
+        from kontur.sim.testbench.hostlink import Run, parse_events, write_frames
 
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
@@ -305,7 +305,7 @@ class CocotbBuild:
                 "divisor": divisor, "window": window, "max_clocks": max_clocks}
         (run_dir / "run.json").write_text(json.dumps(spec))
         started = time.monotonic()
-        self._run("sim.testbench.controller_run", run_dir, vcd=vcd is not None,
+        self._run("kontur.sim.testbench.controller_run", run_dir, vcd=vcd is not None,
                   env={"KONTUR_RUN": str(run_dir / "run.json")})
         seconds = time.monotonic() - started
         if not (run_dir / "events.txt").exists():
@@ -321,7 +321,7 @@ class CocotbBuild:
     def test(self, test_module, *, env=None, testcase=None):
         """Run the cocotb tests of ``test_module`` on this build; raise :exc:`AssertionError`
         naming the failures (their log stays in the run directory). The tests find the
-        engine's payload layouts in ``KONTUR_PORTS`` (:meth:`sim.testbench.EngineBench.
+        engine's payload layouts in ``KONTUR_PORTS`` (:meth:`kontur.sim.testbench.EngineBench.
         from_env`)."""
         from cocotb_tools.check_results import get_results
 
@@ -371,7 +371,7 @@ def _waves_env(waves):
 
 
 def _execute_in_group(runner, cmds, cwd, stdout=None):
-    """The runner's commands, each in a process group of its own (:func:`sim.processes.child`):
+    """The runner's commands, each in a process group of its own (:func:`kontur.sim.processes.child`):
     an interrupt or any error ends the command and everything it started (a compiler under
     make, say)."""
     for cmd in cmds:

@@ -5,7 +5,7 @@ before offering each one, the clocks at which to pulse reset or abort, and the p
 feed permission (``tick``) and of the status stream's ``ready``. A :class:`Driver` turns the
 job into the inputs of each clock and follows the stream handshake from the outputs it is
 shown. The same driver runs the golden cycle model (:func:`run_model`), Amaranth's simulator
-(``sim.runners``) and cocotb on Icarus or Verilator (``sim.testbench``), so the three produce
+(``kontur.sim.runners``) and cocotb on Icarus or Verilator (``kontur.sim.testbench``), so the three produce
 records that can be compared entry for entry.
 
 A *record* is a list with one dict per clock: ``cycle``, ``rst`` and, outside reset, the
@@ -17,7 +17,7 @@ from it (:func:`entry`), plus any named state the caller asked for.
 
 from dataclasses import dataclass, field, asdict
 
-from sim.models.engine import ABORTED, DONE, REFUSED
+from kontur.sim.models.engine import ABORTED, DONE, REFUSED
 
 __all__ = ["Job", "Driver", "OUTPUTS", "entry", "eventful", "check_outcomes", "run_model", "plan_resets", "record_steps",
            "record_moves", "record_outcomes", "first_difference"]

@@ -13,9 +13,9 @@ from amaranth import *
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.circular import FaithfulArcCore, FaithfulTiming
-from hdl.elements import AccumulatingAdder
-from hdl.linear import LinearCore, LinearInterpolator
+from kontur.hdl.circular import FaithfulArcCore, FaithfulTiming
+from kontur.hdl.elements import AccumulatingAdder
+from kontur.hdl.linear import LinearCore, LinearInterpolator
 
 from .utils import used
 
@@ -45,7 +45,7 @@ class _TieAdder(wiring.Component):
 
 
 class OppositeTieInterpolator(LinearInterpolator):
-    """:class:`~hdl.linear.LinearInterpolator` (``exact``) with the opposite tie at F = 0."""
+    """:class:`~kontur.hdl.linear.LinearInterpolator` (``exact``) with the opposite tie at F = 0."""
 
     def __init__(self, *, width=16, period=1, zero_frames=True, one_step_input=False):
         super().__init__(width=width, variant="exact", period=period, zero_frames=zero_frames,
@@ -61,7 +61,7 @@ class OppositeTieInterpolator(LinearInterpolator):
 
 
 def opposite_tie_core(width):
-    """A :class:`~hdl.linear.LinearCore` around :class:`OppositeTieInterpolator`."""
+    """A :class:`~kontur.hdl.linear.LinearCore` around :class:`OppositeTieInterpolator`."""
     core = LinearCore(width=width, variant="exact")
     used(core.interpolator)                               # the one it replaces
     core.interpolator = OppositeTieInterpolator(width=width, zero_frames=False,
@@ -70,7 +70,7 @@ def opposite_tie_core(width):
 
 
 def literal_transfer_core(width):
-    """A :class:`~hdl.circular.FaithfulArcCore` with the literal reading of the transfer:
+    """A :class:`~kontur.hdl.circular.FaithfulArcCore` with the literal reading of the transfer:
     delay 12 shortened to 2 clocks (unchecked timing), so it reads counter 8 and trigger 16
     before the X = Y correction."""
     return FaithfulArcCore(width=width, timing=FaithfulTiming(delay12=2, check=False))

@@ -11,7 +11,7 @@ import os
 
 import pytest
 
-from sim.runners import SIMULATORS
+from kontur.sim.runners import SIMULATORS
 
 from .utils import BUILD_DIR
 
@@ -58,5 +58,5 @@ def selected_simulators():
 
 def cocotb_build_root():
     """Where the tests keep their simulator builds (one directory per design and simulator,
-    see :class:`sim.runners.CocotbBuild`)."""
+    see :class:`kontur.sim.runners.CocotbBuild`)."""
     return BUILD_DIR / "cocotb"

@@ -1,6 +1,6 @@
 """A stand-in line core, with its model and step-level trajectory, in one file.
 
-It shows what a new variant takes: a component with a :class:`~hdl.line.LineCoreSignature`,
+It shows what a new variant takes: a component with a :class:`~kontur.hdl.line.LineCoreSignature`,
 a cycle model with ``evaluate``/``cycle``/``reset``/``state``, a step function, a bound on its
 clocks (it makes more steps than a segment's longer projection), and one
 :class:`kontur.registry.Variant` entry (:data:`VARIANT`). The trajectory is a staircase: every X
@@ -10,10 +10,10 @@ step first, then every Y step, one step per permission; a step is never diagonal
 from amaranth import *
 from amaranth.lib import wiring
 
-from hdl.engine import permit
-from hdl.line import LineCoreSignature
-from sim.models.engine import permit as permit_model
-from sim.models.linear import check_line
+from kontur.hdl.engine import permit
+from kontur.hdl.line import LineCoreSignature
+from kontur.sim.models.engine import permit as permit_model
+from kontur.sim.models.linear import check_line
 from kontur.registry import Variant
 
 __all__ = ["StaircaseCore", "StaircaseCoreModel", "staircase", "VARIANT"]

@@ -1,8 +1,8 @@
 # amaranth: UnusedElaboratable=no
 """The arc engine's Verilog on Icarus and Verilator, every variant: cocotb testbenches.
 
-As in ``test_line_cocotb.py``: each ``@cocotb.test`` plays a :class:`~sim.stimulus.Job` with a
-:class:`~sim.testbench.Scoreboard` holding the golden cycle model, which checks every output in
+As in ``test_line_cocotb.py``: each ``@cocotb.test`` plays a :class:`~kontur.sim.stimulus.Job` with a
+:class:`~kontur.sim.testbench.Scoreboard` holding the golden cycle model, which checks every output in
 every clock; the pytest function at the bottom builds the engine once per simulator, variant
 and width and runs this module's tests on it.
 """
@@ -14,10 +14,10 @@ import cocotb
 import pytest
 
 from kontur import registry
-from sim.models.arc import points_ahead, round_sqrt
-from sim.runners import CocotbBuild
-from sim.stimulus import Driver, Job, record_outcomes, record_steps
-from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
+from kontur.sim.models.arc import points_ahead, round_sqrt
+from kontur.sim.runners import CocotbBuild
+from kontur.sim.stimulus import Driver, Job, record_outcomes, record_steps
+from kontur.sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
 from .conftest import cocotb_build_root, register_extra_variants, selected_simulators
 

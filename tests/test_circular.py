@@ -5,18 +5,18 @@ import math
 import random
 import unittest
 
-from hdl.arc import ArcEngine, ArcPlanner
-from hdl.circular import (CircularInterpolator, CircularInterpolatorFast, FaithfulArcCore,
+from kontur.hdl.arc import ArcEngine, ArcPlanner
+from kontur.hdl.circular import (CircularInterpolator, CircularInterpolatorFast, FaithfulArcCore,
                           FastArcCore, FaithfulTiming)
 from kontur import registry
-from sim.models.arc import arc_plan, arc_steps, points_ahead, setup_latency
-from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
+from kontur.sim.models.arc import arc_plan, arc_steps, points_ahead, setup_latency
+from kontur.sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
                                  core_inputs, f4_initial, floor_f, native_steps)
-from sim.models.codes import ones_decode
-from sim.models.engine import REFUSED
-from sim.models.errors import InputError
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_steps, run_model
+from kontur.sim.models.codes import ones_decode
+from kontur.sim.models.engine import REFUSED
+from kontur.sim.models.errors import InputError
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_steps, run_model
 
 from .utils import compare_core, simulate, used
 
@@ -72,8 +72,8 @@ def near_bound_arcs(rng, count, width):
 
 
 class ArcPlannerTestCase(unittest.TestCase):
-    """The planner alone: every plan as :func:`~sim.models.arc.arc_plan` forms it, offered
-    :func:`~sim.models.arc.setup_latency` clocks after the arc is taken (its distance a clock
+    """The planner alone: every plan as :func:`~kontur.sim.models.arc.arc_plan` forms it, offered
+    :func:`~kontur.sim.models.arc.setup_latency` clocks after the arc is taken (its distance a clock
     later)."""
 
     def check(self, frames, width):

@@ -5,16 +5,16 @@ import random
 import unittest
 from unittest import mock
 
-from hdl.circular_timing import FaithfulTiming
+from kontur.hdl.circular_timing import FaithfulTiming
 from kontur import registry
-from sim.models.arc import arc_steps, check_arc, points_ahead, round_sqrt
-from sim.geometry import radial_error, walk
-from sim.models import circular
-from sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
+from kontur.sim.models.arc import arc_steps, check_arc, points_ahead, round_sqrt
+from kontur.sim.geometry import radial_error, walk
+from kontur.sim.models import circular
+from kontur.sim.models.circular import (CircularInterpolatorFastModel, CircularInterpolatorModel,
                                  core_inputs, f4_initial, floor_f, native_path, native_steps)
-from sim.models.codes import mask
-from sim.models.errors import InputError
-from sim.stimulus import Job, record_steps, run_model
+from kontur.sim.models.codes import mask
+from kontur.sim.models.errors import InputError
+from kontur.sim.stimulus import Job, record_steps, run_model
 
 
 def core_moves(model, x, y, r2):

@@ -6,8 +6,8 @@ import sys
 
 import pytest
 
-from sim.models.arc import arc_steps
-from sim.models.linear import steps
+from kontur.sim.models.arc import arc_steps
+from kontur.sim.models.linear import steps
 from kontur.waves import sample_vcd
 
 from .conftest import selected_simulators

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from kontur import cli
-from sim.models.linear import steps
+from kontur.sim.models.linear import steps
 
 NUMBER = st.one_of(
     st.integers(-70_000, 70_000).map(str),

@@ -6,13 +6,13 @@ import binascii
 import struct
 import unittest
 
-from hdl.motion.controller import MotionController
-from hdl.motion.dispatch import EngineUnit, raw_bits
-from hdl.motion.link import ERROR, LINE, OUTCOME, QUERY, STATUS
+from kontur.hdl.motion.controller import MotionController
+from kontur.hdl.motion.dispatch import EngineUnit, raw_bits
+from kontur.hdl.motion.link import ERROR, LINE, OUTCOME, QUERY, STATUS
 from kontur import registry
-from hdl.motion import protocol
+from kontur.hdl.motion import protocol
 
-from sim.testbench.hostlink import run_amaranth, steps_of
+from kontur.sim.testbench.hostlink import run_amaranth, steps_of
 
 from .utils import waves_path
 

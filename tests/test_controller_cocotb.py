@@ -16,15 +16,15 @@ from fractions import Fraction
 import cocotb
 import pytest
 
-from hdl.motion.controller import MotionController
-from hdl.motion.link import ERROR, OUTCOME, STATUS
+from kontur.hdl.motion.controller import MotionController
+from kontur.hdl.motion.link import ERROR, OUTCOME, STATUS
 from kontur import registry
-from hdl.motion import protocol
+from kontur.hdl.motion import protocol
 from kontur.machine import Machine
 from kontur.planner import frames as program_frames
 from kontur.planner import lattice, plan
-from sim.runners import CocotbBuild
-from sim.testbench.hostlink import run_cocotb, steps_of
+from kontur.sim.runners import CocotbBuild
+from kontur.sim.testbench.hostlink import run_cocotb, steps_of
 
 from .conftest import cocotb_build_root, selected_simulators
 

@@ -6,10 +6,10 @@ import unittest
 
 from amaranth import Module, Signal, signed
 
-from hdl.elements import (AccumulatingAdder, CapacityRegister, Commutator, DelayElement,
+from kontur.hdl.elements import (AccumulatingAdder, CapacityRegister, Commutator, DelayElement,
                           PulseExtender, PulseGenerator, ReversibleCounter, SerialAdder,
                           ShiftRegister, Trigger, magnitude)
-from sim.models.codes import (from_code, mask, ones_add, ones_count, ones_decode, ones_encode,
+from kontur.sim.models.codes import (from_code, mask, ones_add, ones_count, ones_decode, ones_encode,
                               ones_sub, sign_extend)
 
 from .utils import simulate

@@ -10,13 +10,13 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.engine import (EngineSignature, FeedSignature, MotionSignature, Outcome, StatusLayout,
+from kontur.hdl.engine import (EngineSignature, FeedSignature, MotionSignature, Outcome, StatusLayout,
                         StatusUnit)
-from hdl.motion import FeedDivider, StepDirStage
+from kontur.hdl.motion import FeedDivider, StepDirStage
 from kontur import registry
-from sim.models.engine import ABORTED, DONE, REFUSED, StatusModel
-from sim.runners import run_amaranth
-from sim.stimulus import (Job, check_outcomes, first_difference, record_outcomes,
+from kontur.sim.models.engine import ABORTED, DONE, REFUSED, StatusModel
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import (Job, check_outcomes, first_difference, record_outcomes,
                           record_steps, run_model)
 
 from .utils import simulate
@@ -29,7 +29,7 @@ def _profile_frames():
     rounded, and an open zigzag after it."""
     from pathlib import Path
     from kontur.gcode import read
-    from sim.models.equidistant import Formats, prepare, profile_from_moves
+    from kontur.sim.models.equidistant import Formats, prepare, profile_from_moves
     programs = Path(__file__).resolve().parent / "programs"
     frames = []
     for name, treatment in (("pie", "arc"), ("zigzag", "extend")):

@@ -7,18 +7,18 @@ import unittest
 from amaranth import Fragment, Module
 from amaranth.lib import wiring
 
-from hdl.circular import FaithfulArcCore, FastArcCore
-from hdl.engine import EngineSignature
-from hdl.equidistant import EquidistantEngine, Formats, Kind, SerialMultiplier
-from hdl.motion import FeedDivider, StepDirStage
-from hdl.linear import LinearCore
+from kontur.hdl.circular import FaithfulArcCore, FastArcCore
+from kontur.hdl.engine import EngineSignature
+from kontur.hdl.equidistant import EquidistantEngine, Formats, Kind, SerialMultiplier
+from kontur.hdl.motion import FeedDivider, StepDirStage
+from kontur.hdl.linear import LinearCore
 from kontur import registry
 from kontur.gcode import read
-from sim.models import equidistant as model
-from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
-from sim.models.engine import ABORTED, DONE, REFUSED
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_outcomes, record_steps, run_model
+from kontur.sim.models import equidistant as model
+from kontur.sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+from kontur.sim.models.engine import ABORTED, DONE, REFUSED
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_outcomes, record_steps, run_model
 
 from .test_equidistant_model import load
 from .utils import simulate, used
@@ -54,7 +54,7 @@ class PartsTestCase(unittest.TestCase):
     def test_parameters_wrong(self):
         line_core = LinearCore(width=8)
         with self.assertRaisesRegex(TypeError, r"^Core must be a component with an "
-                                               r"ArcCoreSignature, not <hdl\.linear\.LinearCore "
+                                               r"ArcCoreSignature, not <kontur\.hdl\.linear\.LinearCore "
                                                r"object at 0x[0-9a-f]+>$"):
             EquidistantEngine(line_core)
         narrow = FastArcCore(width=5)

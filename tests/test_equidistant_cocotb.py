@@ -1,8 +1,8 @@
 # amaranth: UnusedElaboratable=no
 """The equidistant engine's Verilog on Icarus and Verilator, both arc cores: cocotb testbenches.
 
-As in ``test_arc_cocotb.py``: each ``@cocotb.test`` plays a :class:`~sim.stimulus.Job` with a
-:class:`~sim.testbench.Scoreboard` holding the golden cycle model, which checks every output in
+As in ``test_arc_cocotb.py``: each ``@cocotb.test`` plays a :class:`~kontur.sim.stimulus.Job` with a
+:class:`~kontur.sim.testbench.Scoreboard` holding the golden cycle model, which checks every output in
 every clock; the pytest function at the bottom builds the engine once per simulator and
 variant and runs this module's tests on it.
 """
@@ -16,10 +16,10 @@ import pytest
 
 from kontur import registry
 from kontur.gcode import read
-from sim.models.equidistant import Formats, KIND, prepare, profile_from_moves
-from sim.runners import CocotbBuild
-from sim.stimulus import Job, record_outcomes, record_steps
-from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
+from kontur.sim.models.equidistant import Formats, KIND, prepare, profile_from_moves
+from kontur.sim.runners import CocotbBuild
+from kontur.sim.stimulus import Job, record_outcomes, record_steps
+from kontur.sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
 from .conftest import cocotb_build_root, selected_simulators
 

@@ -6,13 +6,13 @@ from fractions import Fraction
 from pathlib import Path
 
 from kontur.gcode import read
-from sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
-from sim.models.equidistant import (DETECTIONS, KIND, PATH_BOUND, TREATMENTS,
+from kontur.sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
+from kontur.sim.models.equidistant import (DETECTIONS, KIND, PATH_BOUND, TREATMENTS,
                                     EquidistantEngineModel, Formats, InputError,
                                     ProfileError, check_trace, elements, frame_outcomes,
                                     offset_path, prepare, profile_from_moves,
                                     program_frames, trace)
-from sim.stimulus import Job, record_outcomes, run_model
+from kontur.sim.stimulus import Job, record_outcomes, run_model
 
 PROGRAMS = Path(__file__).resolve().parent / "programs"
 NAMES = sorted(path.stem for path in PROGRAMS.glob("*.ngc"))

@@ -5,8 +5,8 @@ import math
 import random
 import unittest
 
-from hdl.motion.feed import ONE, SQRT2, FeedGenerator, rate_limit
-from sim.models.motion import FeedGeneratorModel
+from kontur.hdl.motion.feed import ONE, SQRT2, FeedGenerator, rate_limit
+from kontur.sim.models.motion import FeedGeneratorModel
 
 from .utils import simulate
 

@@ -6,9 +6,9 @@ import dataclasses
 
 import pytest
 
-from hdl.circular import CircularInterpolator, FaithfulTiming
-from hdl.formal import circular, linear
-from sim import formal
+from kontur.hdl.circular import CircularInterpolator, FaithfulTiming
+from kontur.hdl.formal import circular, linear
+from kontur.sim import formal
 
 from .broken import OppositeTieInterpolator
 from .utils import BUILD_DIR

@@ -23,14 +23,19 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 ROOMS = {
-    "hdl.spec": "spec",
-    "hdl.circular_timing": "spec",
-    "hdl": "gateware",
-    "sim.models": "models",
-    "sim": "simulation",
-    "constraints": "boards",
+    "kontur.hdl.spec": "spec",
+    "kontur.hdl.circular_timing": "spec",
+    "kontur.hdl": "gateware",
+    "kontur.sim.models": "models",
+    "kontur.sim": "simulation",
+    "kontur.constraints": "boards",
     "kontur": "program",
 }
+
+#: The folders at the project's top that are packages of ``kontur`` (``pyproject.toml``,
+#: ``kontur/__init__.py``): imported by their bare names, they would be modules the installed
+#: project does not have, and a second copy of each in a checkout.
+FOLDERS = ("hdl", "sim", "constraints")
 
 ALLOWED = {
     "spec": set(),
@@ -57,11 +62,13 @@ def room(module):
     return None
 
 
-def modules():
-    """Every module of the project: its dotted name and its path."""
-    for top in ("hdl", "sim", "constraints", "kontur"):
+def modules(tops=(*FOLDERS, "kontur")):
+    """Every module of the project: its dotted name (as installed) and its path."""
+    for top in tops:
         for path in sorted((ROOT / top).rglob("*.py")):
             name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+            if top in FOLDERS:
+                name = f"kontur.{name}"
             yield name.removesuffix(".__init__"), path
 
 
@@ -99,6 +106,10 @@ def breaches(name, path):
         if module is None:
             found.append(f"{where}: import_module of a computed name (the arrow cannot be read)")
             continue
+        if module.split(".")[0] in FOLDERS:
+            found.append(f"{where}: imports {module}, a name the installed project does not "
+                         f"have (kontur.{module})")
+            continue
         if own in PURE and module.split(".")[0] == "amaranth":
             found.append(f"{where}: {own} is pure Python, but imports {module}")
         for target in (module, *(f"{module}.{item}" for item in names)):
@@ -117,10 +128,20 @@ def test_floors_are_a_total_order_bottom_up():
     assert set(ROOMS.values()) == set(FLOORS) == set(ALLOWED)
 
 
-@pytest.mark.parametrize("top", ["hdl", "sim", "constraints", "kontur"])
+@pytest.mark.parametrize("top", [*FOLDERS, "kontur"])
 def test_no_import_climbs_or_crosses(top):
-    found = [breach for name, path in modules() if name.split(".")[0] == top
-             for breach in breaches(name, path)]
+    found = [breach for name, path in modules((top,)) for breach in breaches(name, path)]
+    assert not found, "\n".join(found)
+
+
+def test_tests_import_the_installed_names():
+    # The tests stand above every floor, but take the project by the names it is installed
+    # under, as everything else does (conftest's import_module of $KONTUR_EXTRA_VARIANTS is
+    # computed on purpose).
+    found = [f"{path.relative_to(ROOT)}:{line}: {module}"
+             for path in sorted((ROOT / "tests").rglob("*.py"))
+             for line, module, _ in imports(f"tests.{path.stem}", path)
+             if module is not None and module.split(".")[0] in FOLDERS]
     assert not found, "\n".join(found)
 
 
@@ -130,29 +151,33 @@ def test_the_rule_catches_what_it_states(tmp_path):
     (tmp_path / "sim").mkdir()
     bad = tmp_path / "sim" / "bad.py"
     bad.write_text("from kontur import registry\n"
-                   "def f():\n    from constraints.flow import place_and_route\n"
+                   "def f():\n    from kontur.constraints.flow import place_and_route\n"
                    "def g():\n    import importlib\n    importlib.import_module('kontur.cli')\n"
-                   "def h(m):\n    import importlib\n    importlib.import_module(f'hdl.{m}')\n")
+                   "def h(m):\n    import importlib\n    importlib.import_module(f'hdl.{m}')\n"
+                   "from sim.models import linear\n")
     models = tmp_path / "sim" / "models"
     models.mkdir()
-    (models / "m.py").write_text("from amaranth import Signal\nfrom hdl.top import DemoTop\n"
-                                 "from hdl.spec import Formats\n")
+    (models / "m.py").write_text("from amaranth import Signal\n"
+                                 "from kontur.hdl.top import DemoTop\n"
+                                 "from kontur.hdl.spec import Formats\n")
     global ROOT
     saved, ROOT = ROOT, tmp_path
     try:
-        found = breaches("sim.bad", bad) + breaches("sim.models.m", models / "m.py")
+        found = (breaches("kontur.sim.bad", bad)
+                 + breaches("kontur.sim.models.m", models / "m.py"))
     finally:
         ROOT = saved
     assert [f.split(": ", 1)[1] for f in found] == [
         "simulation imports kontur (program, above it)",
         "simulation imports kontur.registry (program, above it)",
-        "simulation imports constraints.flow (boards, above it)",
-        "simulation imports constraints.flow.place_and_route (boards, above it)",
+        "imports sim.models, a name the installed project does not have (kontur.sim.models)",
+        "simulation imports kontur.constraints.flow (boards, above it)",
+        "simulation imports kontur.constraints.flow.place_and_route (boards, above it)",
         "simulation imports kontur.cli (program, above it)",
         "import_module of a computed name (the arrow cannot be read)",
         "models is pure Python, but imports amaranth",
-        "models imports hdl.top (gateware, not its)",
-        "models imports hdl.top.DemoTop (gateware, not its)",
+        "models imports kontur.hdl.top (gateware, not its)",
+        "models imports kontur.hdl.top.DemoTop (gateware, not its)",
     ], found
 
 

@@ -2,7 +2,7 @@
 """The line engine's Verilog on Icarus and Verilator, every variant: cocotb testbenches.
 
 Each ``@cocotb.test`` drives the engine's command stream (with random stalls), its feed and its
-status stream from a :class:`~sim.stimulus.Job`, and a :class:`~sim.testbench.Scoreboard`
+status stream from a :class:`~kontur.sim.stimulus.Job`, and a :class:`~kontur.sim.testbench.Scoreboard`
 checks every output in every clock against the golden cycle model as the simulation runs. The
 pytest function at the bottom builds the engine once per simulator, variant and width and runs
 this module's tests on it through cocotb's Python runner.
@@ -16,9 +16,9 @@ import cocotb
 import pytest
 
 from kontur import registry
-from sim.runners import CocotbBuild
-from sim.stimulus import Job, plan_resets, record_outcomes, record_steps
-from sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
+from kontur.sim.runners import CocotbBuild
+from kontur.sim.stimulus import Job, plan_resets, record_outcomes, record_steps
+from kontur.sim.testbench import EngineBench, Scoreboard, random_gaps, random_pattern
 
 from .conftest import cocotb_build_root, register_extra_variants, selected_simulators
 

@@ -4,13 +4,13 @@
 import random
 import unittest
 
-from hdl.line import LineEngine
-from hdl.linear import LinearCore, LinearInterpolator
+from kontur.hdl.line import LineEngine
+from kontur.hdl.linear import LinearCore, LinearInterpolator
 from kontur import registry
-from sim.models.errors import InputError
-from sim.models.linear import LinearInterpolatorModel, patent_inputs, steps, table
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_steps, run_model
+from kontur.sim.models.errors import InputError
+from kontur.sim.models.linear import LinearInterpolatorModel, patent_inputs, steps, table
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_steps, run_model
 
 from .utils import compare_core, used
 

@@ -4,11 +4,11 @@ import itertools
 import random
 import unittest
 
-from sim.geometry import walk
-from sim.models.errors import InputError
+from kontur.sim.geometry import walk
+from kontur.sim.models.errors import InputError
 from kontur import registry
-from sim.models.linear import check_line, patent_inputs, steps, table
-from sim.stimulus import Job, record_moves, record_steps, run_model
+from kontur.sim.models.linear import check_line, patent_inputs, steps, table
+from kontur.sim.stimulus import Job, record_moves, record_steps, run_model
 
 END_POINTS_64 = [(x, y) for x in range(-64, 65) for y in range(-64, 65) if (x, y) != (0, 0)]
 

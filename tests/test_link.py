@@ -7,12 +7,12 @@ import unittest
 from amaranth import Module, Shape
 from amaranth.lib import wiring
 
-from hdl.equidistant import EquidistantEngine, Formats
-from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
+from kontur.hdl.equidistant import EquidistantEngine, Formats
+from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
                              PAYLOAD_BYTES, PROFILE, QUERY, STATUS, STOP, SYNC, FrameDecoder,
                              FrameEncoder, host_lengths, profile_bytes)
-from hdl.motion.queue import FrameQueue
-from hdl.motion import protocol
+from kontur.hdl.motion.queue import FrameQueue
+from kontur.hdl.motion import protocol
 
 from .utils import simulate, used
 

@@ -5,7 +5,7 @@ generator's fields refuse is refused when the machine is made, naming the key.""
 
 import pytest
 
-from hdl.motion.uart import divisor_for
+from kontur.hdl.motion.uart import divisor_for
 from kontur import registry
 from kontur.machine import Machine, MachineError
 

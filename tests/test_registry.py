@@ -14,12 +14,12 @@ from unittest import mock
 
 import pytest
 
-from hdl.circular_timing import FaithfulTiming
+from kontur.hdl.circular_timing import FaithfulTiming
 from kontur import registry
 from kontur import cli
 from kontur.trace import trace
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_steps, run_model
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_steps, run_model
 
 from . import standin_core
 

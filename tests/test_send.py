@@ -23,9 +23,9 @@ from pathlib import Path
 import pytest
 import serial
 
-from hdl.motion.link import ARC, LINE
+from kontur.hdl.motion.link import ARC, LINE
 from kontur import registry
-from hdl.motion import protocol
+from kontur.hdl.motion import protocol
 from kontur.machine import Machine
 from kontur.machining import prepare
 from kontur.send import SendError, SendInterrupted, send
@@ -45,7 +45,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 class FakeMachine:
     """A serial port with a machine behind it: frames decoded by
-    :class:`hdl.motion.protocol.CommandParser`, an OUTCOME for each queued frame (``outcome``
+    :class:`kontur.hdl.motion.protocol.CommandParser`, an OUTCOME for each queued frame (``outcome``
     maps frame numbers to other outcomes, ``drop`` answers that frame with an ERROR of
     ``error_code`` instead; numbers counted from ``first``), STATUS with the position the moves
     add up to (``offset`` added once a frame has moved; the board starts ``at``), ``free``
@@ -318,14 +318,14 @@ class SendTestCase(unittest.TestCase):
     def test_compensated_program(self):
         # A G42 contour's PROFILE frames stream under the same window; the machine behind the
         # port moves by their steps (the equidistant engine's, here given as an offset).
-        from hdl.motion.link import PROFILE
+        from kontur.hdl.motion.link import PROFILE
         plate = ROOT / "kontur" / "programs" / "plate.ngc"
         board = registry.board("ulx3s")
         job = prepare(plate.read_text(), machine=Machine(clock_hz=board.clock_hz, queue_frames=4,
                                                          cutter_radius=3), board="ulx3s")
         moved = [sum(d[i] for s in job.segments if s.kind == "profile" for d in s.steps)
                  for i in (0, 1)]
-        from hdl.motion.link import profile_bytes
+        from kontur.hdl.motion.link import profile_bytes
         engine = registry.make_engine("profile", board.profile[0], width=board.profile[1])
         port = FakeMachine(4, profile=profile_bytes(engine.signature.frame), offset=moved)
         self.assertEqual(send(job, port), tuple(job.end))
@@ -387,8 +387,8 @@ def test_the_gateware_reports_its_queue_length_when_idle():
     # What the handshake relies on, on the RTL (Amaranth's simulator, a QUERY right after
     # reset): STATUS.free is the frames the queue holds, queue_frames itself, not its block
     # RAM's bytes (a power of two); not moving, at (0, 0).
-    from hdl.motion.controller import MotionController
-    from sim.testbench.hostlink import run_amaranth
+    from kontur.hdl.motion.controller import MotionController
+    from kontur.sim.testbench.hostlink import run_amaranth
     clock, baud = 1e6, 125_000                              # 8 clocks a bit
     for frames in (12, 5):
         controller = MotionController(line=registry.make_engine("line", width=12),

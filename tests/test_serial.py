@@ -5,14 +5,14 @@ own (Ро, refusals, stops, permissions) and as line and quadrant cores of the e
 import random
 import unittest
 
-from hdl.serial import SerialArcCore, SerialLineCore, SerialNode, word_length
+from kontur.hdl.serial import SerialArcCore, SerialLineCore, SerialNode, word_length
 from kontur import registry
-from sim.models.arc import points_ahead
-from sim.models.errors import InputError
-from sim.models.serial import SerialNodeModel
-from sim.models.serial import word_length as model_word_length
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_moves, record_steps, run_model
+from kontur.sim.models.arc import points_ahead
+from kontur.sim.models.errors import InputError
+from kontur.sim.models.serial import SerialNodeModel
+from kontur.sim.models.serial import word_length as model_word_length
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_moves, record_steps, run_model
 
 from .utils import compare_core, used
 

@@ -133,7 +133,7 @@ def test_sigterm_during_an_icarus_run(tmp_path):
 def test_a_group_deaf_to_sigterm_is_killed_with_all_it_started():
     # A shell and two children, all ignoring SIGTERM; the block left by an error: every one
     # of them ends, after the grace.
-    from sim import processes
+    from kontur.sim import processes
     started = time.monotonic()
     with pytest.raises(LookupError):
         with processes.child(["sh", "-c", "trap '' TERM; sleep 60 & sleep 60 & wait"]) as shell:
@@ -152,7 +152,7 @@ def test_a_group_deaf_to_sigterm_is_killed_with_all_it_started():
 
 
 def test_sigterm_and_sighup_raise_keyboard_interrupt_and_handlers_come_back():
-    from sim import processes
+    from kontur.sim import processes
     # As from a terminal: none of the three ignored (a runner may ignore some, and kontur
     # keeps an ignored one ignored: test_an_ignored_signal_stays_ignored).
     inherited = {s: signal.getsignal(s) for s in processes.SIGNALS}
@@ -176,7 +176,7 @@ def test_sigterm_and_sighup_raise_keyboard_interrupt_and_handlers_come_back():
 def test_an_ignored_signal_stays_ignored():
     # Under nohup SIGHUP is ignored when kontur starts: it must not end the command (nor
     # kontur send, whose Stop keeps the same rule, sim.processes.catch).
-    from sim import processes
+    from kontur.sim import processes
     saved = signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:
         with processes.signals_handled():
@@ -193,7 +193,7 @@ def test_a_signal_while_a_group_ends_is_held_then_raised():
     # `sleep`, deaf to SIGTERM, left in the group until SIGKILL after the grace): the ending
     # is not cut short, and the signal is raised after it.
     import threading
-    from sim import processes
+    from kontur.sim import processes
     with processes.signals_handled():
         with pytest.raises(KeyboardInterrupt) as caught:
             with processes.child(["sh", "-c", "trap '' TERM; sleep 60 >/dev/null & echo $!"],

@@ -5,11 +5,11 @@ separate steps (line, circle) and the DDA, with their registers."""
 import random
 import unittest
 
-from hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
+from kontur.hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
 from kontur import registry
-from sim.models.arc import points_ahead
-from sim.runners import run_amaranth
-from sim.stimulus import Job, first_difference, record_steps, run_model
+from kontur.sim.models.arc import points_ahead
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job, first_difference, record_steps, run_model
 
 from .utils import used
 
@@ -62,7 +62,7 @@ class LineEngineTestCase(EngineCase):
     kind = "line"
     #: The line variants whose cores are the textbook's (``hdl/textbook.py``).
     VARIANTS = tuple((name, {}) for name in registry.variants("line")
-                     if registry.variant("line", name).core.__module__ == "hdl.textbook")
+                     if registry.variant("line", name).core.__module__ == "kontur.hdl.textbook")
 
     def all_end_points(self, variant, width=16, limit=14, **params):
         frames = [{"x": x, "y": y} for x in range(-limit, limit + 1)

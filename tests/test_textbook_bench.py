@@ -9,8 +9,8 @@ from unittest import mock
 import pytest
 
 from kontur import accuracy, registry
-from sim.models.serial import word_length
-from sim.models.textbook import dda_capacity
+from kontur.sim.models.serial import word_length
+from kontur.sim.models.textbook import dda_capacity
 
 
 class ComparisonTestCase(unittest.TestCase):

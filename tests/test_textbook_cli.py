@@ -3,8 +3,8 @@
 
 import pytest
 
-from sim.models.serial import word_length
-from sim.models.textbook import dda_iterations, separate_arc_steps, separate_line_steps
+from kontur.sim.models.serial import word_length
+from kontur.sim.models.textbook import dda_iterations, separate_arc_steps, separate_line_steps
 
 from .conftest import selected_simulators
 from .test_cli import expected_lines, kontur

@@ -5,16 +5,16 @@ import random
 import unittest
 
 from kontur import registry
-from sim.geometry import radial_error, walk
-from sim.models.arc import check_arc, plan_arc, points_ahead, round_sqrt
-from sim.models.circular import native_path
-from sim.models.errors import InputError
-from sim.models.textbook import (DdaCoreModel, dda_capacity, dda_iterations, dda_steps,
+from kontur.sim.geometry import radial_error, walk
+from kontur.sim.models.arc import check_arc, plan_arc, points_ahead, round_sqrt
+from kontur.sim.models.circular import native_path
+from kontur.sim.models.errors import InputError
+from kontur.sim.models.textbook import (DdaCoreModel, dda_capacity, dda_iterations, dda_steps,
                                  lattice_line_steps, lattice_native_path, separate_arc_steps,
                                  separate_line_moves, separate_line_steps,
                                  separate_native_moves, separate_native_path,
                                  separate_points_ahead)
-from sim.stimulus import Job, record_moves, record_steps, run_model
+from kontur.sim.stimulus import Job, record_moves, record_steps, run_model
 
 END_POINTS_64 = [(x, y) for x in range(-64, 65) for y in range(-64, 65) if (x, y) != (0, 0)]
 

@@ -9,17 +9,17 @@ from pathlib import Path
 from amaranth import *
 from amaranth.lib import data, wiring
 
-from constraints import icebreaker
-from hdl.circular import CircularInterpolatorFast
-from hdl.engine import EngineSignature
-from hdl.line import LineEngine
-from hdl.linear import LinearCore
-from hdl.motion import ProgramPlayer
-from hdl.top import OCTAGON, DemoTop, PinnedTop, ShiftInTop
+from kontur.constraints import icebreaker
+from kontur.hdl.circular import CircularInterpolatorFast
+from kontur.hdl.engine import EngineSignature
+from kontur.hdl.line import LineEngine
+from kontur.hdl.linear import LinearCore
+from kontur.hdl.motion import ProgramPlayer
+from kontur.hdl.top import OCTAGON, DemoTop, PinnedTop, ShiftInTop
 from kontur import registry
 from kontur import demo
-from sim.models.errors import InputError
-from sim.models.linear import steps
+from kontur.sim.models.errors import InputError
+from kontur.sim.models.linear import steps
 
 from .utils import simulate, used
 
@@ -114,7 +114,7 @@ def shift_in(top, frames, *, tick=(1,), name):
             await clock()
 
     simulate(top, testbench, name=name)
-    from hdl.engine import Outcome
+    from kontur.hdl.engine import Outcome
     return (moves, outcomes.count(Outcome.DONE), outcomes.count(Outcome.REFUSED), accepted)
 
 
@@ -158,7 +158,7 @@ class ShiftInTopTestCase(unittest.TestCase):
         # A component without a command stream (the bare interpolator of a core).
         with self.assertRaisesRegex(TypeError,
                 r"^Design must be a component with a command stream 'cmd', "
-                r"not <hdl\.circular\.CircularInterpolatorFast object"):
+                r"not <kontur\.hdl\.circular\.CircularInterpolatorFast object"):
             ShiftInTop(CircularInterpolatorFast(width=4))
         with self.assertRaisesRegex(TypeError,
                 r"^Frame layout must be a data layout, not unsigned\(8\)$"):

@@ -10,7 +10,7 @@ import pytest
 
 from kontur import registry
 from kontur.gcode import read
-from sim.models.equidistant import Formats, prepare, profile_from_moves
+from kontur.sim.models.equidistant import Formats, prepare, profile_from_moves
 from kontur.waves import sample_vcd
 
 from .conftest import selected_simulators

@@ -7,7 +7,7 @@ import unittest
 from amaranth import *
 from amaranth.lib import wiring
 
-from hdl.motion.uart import UARTReceiver, UARTTransmitter, divisor_for
+from kontur.hdl.motion.uart import UARTReceiver, UARTTransmitter, divisor_for
 
 from .utils import simulate
 

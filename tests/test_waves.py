@@ -16,13 +16,13 @@ import pytest
 
 from amaranth.sim import Simulator
 
-from hdl.circular import CircularInterpolator
+from kontur.hdl.circular import CircularInterpolator
 from kontur import registry
-from sim.models.circular import core_inputs, f4_initial, floor_f
-from sim.models.codes import from_code, mask, ones_decode
-from sim.runners import run_amaranth
-from sim.stimulus import Job
-from sim.stimulus import first_difference, run_model
+from kontur.sim.models.circular import core_inputs, f4_initial, floor_f
+from kontur.sim.models.codes import from_code, mask, ones_decode
+from kontur.sim.runners import run_amaranth
+from kontur.sim.stimulus import Job
+from kontur.sim.stimulus import first_difference, run_model
 from kontur.waves import (GTKW_VIEWS, SCENARIOS, check_trace, gtkw_view, sample_vcd,
                        scenario_job, scenario_trace)
 

@@ -38,7 +38,7 @@ def state_register(elaboratable, name):
 
     The element proofs use this for an element's one state register (a generator's phase, an
     extender's count, a delay line): it makes the contract 1-inductive where no port shows
-    that state. Of the cores, only :class:`~hdl.linear.LinearCore`'s proof uses it
+    that state. Of the cores, only :class:`~kontur.hdl.linear.LinearCore`'s proof uses it
     (:func:`state_registers`), for its prepared segment's flags; the cores' elements are seen
     through their ports only."""
     fragment, (register,) = state_registers(elaboratable, name)

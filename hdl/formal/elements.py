@@ -30,7 +30,7 @@ def _in_range(value, width):
 
 
 class CounterProperties(Elaboratable):
-    """:class:`~hdl.elements.ReversibleCounter`: load over clear over counting, the count
+    """:class:`~kontur.hdl.elements.ReversibleCounter`: load over clear over counting, the count
     ``up - down - 2·down2``, ``q_n``, ``q_next``, ``underflow``; in ones' complement the
     count on the numbers the codes stand for, and counting down never yields −0. ``parallel``:
     the counter's parallel form (every count formed, the count inputs picking one), the same
@@ -77,7 +77,7 @@ class CounterProperties(Elaboratable):
 
 
 class AdderProperties(Elaboratable):
-    """:class:`~hdl.elements.AccumulatingAdder`: load over clear over add over add2 over
+    """:class:`~kontur.hdl.elements.AccumulatingAdder`: load over clear over add over add2 over
     subtract, the sums, the sign outputs; in ones' complement the sum of the numbers the codes
     stand for, and no sum or difference is −0 unless the contents were −0 already."""
 
@@ -137,7 +137,7 @@ class AdderProperties(Elaboratable):
 
 
 class CommutatorProperties(Elaboratable):
-    """:class:`~hdl.elements.Commutator` with at most one control input at a time: the
+    """:class:`~kontur.hdl.elements.Commutator` with at most one control input at a time: the
     output is the selected channel's code (its input shifted up, the separate bit below),
     sign-extended, or zero; read in ones' complement a shifted code ``c`` stands for
     ``2c + lsb`` (``c >= 0``) or ``2c - 1 + lsb`` (``c < 0``)."""
@@ -177,7 +177,7 @@ class CommutatorProperties(Elaboratable):
 
 
 class DelayProperties(Elaboratable):
-    """:class:`~hdl.elements.DelayElement`: tap ``j`` shows the input of ``taps[j]`` clocks
+    """:class:`~kontur.hdl.elements.DelayElement`: tap ``j`` shows the input of ``taps[j]`` clocks
     ago, unless a clear came in between (the clear's own clock included)."""
 
     def __init__(self, taps):
@@ -205,7 +205,7 @@ class DelayProperties(Elaboratable):
 
 
 class TriggerProperties(Elaboratable):
-    """:class:`~hdl.elements.Trigger`: set, reset, hold, and the priority when both come."""
+    """:class:`~kontur.hdl.elements.Trigger`: set, reset, hold, and the priority when both come."""
 
     def __init__(self, *, priority="reset"):
         self.priority = priority
@@ -228,7 +228,7 @@ class TriggerProperties(Elaboratable):
 
 
 class GeneratorProperties(Elaboratable):
-    """:class:`~hdl.elements.PulseGenerator`: a pulse on every ``period``-th enabled clock,
+    """:class:`~kontur.hdl.elements.PulseGenerator`: a pulse on every ``period``-th enabled clock,
     the first one included, never without :py:`en`; :py:`armed` says the next enabled clock
     pulses."""
 
@@ -254,7 +254,7 @@ class GeneratorProperties(Elaboratable):
 
 
 class ExtenderProperties(Elaboratable):
-    """:class:`~hdl.elements.PulseExtender`: the gate is open in the ``length`` clocks after
+    """:class:`~kontur.hdl.elements.PulseExtender`: the gate is open in the ``length`` clocks after
     the last pulse (a pulse restarts it), unless a clear came after that pulse."""
 
     def __init__(self, length):

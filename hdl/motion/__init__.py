@@ -1,6 +1,6 @@
 """The motion side of a machine: where frames come from, the feed, and the step/dir stage.
 
-Everything here works on any engine with the common interface (:class:`hdl.engine.
+Everything here works on any engine with the common interface (:class:`kontur.hdl.engine.
 EngineSignature`), joined with :func:`amaranth.lib.wiring.connect`.
 """
 

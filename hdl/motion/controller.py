@@ -51,7 +51,7 @@ class MotionController(wiring.Component):
     """The machine: a frame queue fed over a serial line, two or three engines, a feed, step/dir
     pins.
 
-    Frames (:mod:`hdl.motion.link`) arrive on :py:`rx`. A checked queued frame goes into the
+    Frames (:mod:`kontur.hdl.motion.link`) arrive on :py:`rx`. A checked queued frame goes into the
     frame queue (``queue_frames`` of them, in block RAM); the dispatcher hands each to its unit in
     order as soon as the unit can take it (a line or arc to its engine, which may prepare it
     while the move before runs: an arc is planned while the line before it is still moving),
@@ -61,7 +61,7 @@ class MotionController(wiring.Component):
     profile (cruise and exit rates, ramp-down point) of the move after it, CONFIG the
     acceleration; a DWELL waits its clocks; STOP marks the end of a program.
 
-    With a ``profile`` engine (:class:`hdl.equidistant.EquidistantEngine`, cutter-radius
+    With a ``profile`` engine (:class:`kontur.hdl.equidistant.EquidistantEngine`, cutter-radius
     compensation) a PROFILE frame carries one of its frames (``RADIUS``, ``START``, an element,
     ``CLOSE``); the dispatcher hands it over as soon as the engine takes it and records its
     turn like a move's, so the engine reads its elements two ahead (its memory) while the
@@ -78,7 +78,7 @@ class MotionController(wiring.Component):
     ``ABORT`` stops the motion at once (the engines' abort) and ends every frame queued before
     it ``ABORTED``.
 
-    The engines' steps go through :class:`~hdl.motion.stepdir.StepDirStage` (``dir_setup``,
+    The engines' steps go through :class:`~kontur.hdl.motion.stepdir.StepDirStage` (``dir_setup``,
     ``step_width``); the feed never permits steps closer than ``dir_setup + step_width + 1``
     clocks, so the pulses always fit. The maximum step rate is therefore ``clock_hz /
     (dir_setup + step_width + 1)``.
@@ -107,7 +107,7 @@ class MotionController(wiring.Component):
         Frames the queue holds (its bytes are in block RAM), 2 to 255 (``STATUS`` reports the
         free slots in a byte).
     dir_setup, step_width : :class:`int`
-        Step/dir timing in clocks (see :class:`~hdl.motion.stepdir.StepDirStage`).
+        Step/dir timing in clocks (see :class:`~kontur.hdl.motion.stepdir.StepDirStage`).
 
     Members
     -------

@@ -65,7 +65,7 @@ class EngineUnit:
     kind : :class:`int`
         The frame type that carries its commands (a queued type: one ``OUTCOME`` each).
     engine : :class:`~amaranth.lib.wiring.Component`
-        The engine (:class:`~hdl.engine.EngineSignature`).
+        The engine (:class:`~kontur.hdl.engine.EngineSignature`).
     length : :class:`int`
         The payload bytes of its frame.
     decode : callable
@@ -82,7 +82,7 @@ class EngineUnit:
 
 
 class UnitSignature(wiring.Signature):
-    """An engine as the turn queue sees it: its :class:`~hdl.engine.EngineSignature` without the
+    """An engine as the turn queue sees it: its :class:`~kontur.hdl.engine.EngineSignature` without the
     command stream (the dispatcher's) and ``busy``.
 
     Members

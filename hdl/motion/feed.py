@@ -1,4 +1,4 @@
-"""Feed: step permissions for an engine (:class:`~hdl.engine.FeedSignature`)."""
+"""Feed: step permissions for an engine (:class:`~kontur.hdl.engine.FeedSignature`)."""
 
 from amaranth import *
 from amaranth.lib import data, wiring
@@ -14,7 +14,7 @@ __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "S
 
 
 def Profile():
-    """The feed of one move (the FEED frame of :mod:`hdl.motion.link`): its cruise and exit
+    """The feed of one move (the FEED frame of :mod:`kontur.hdl.motion.link`): its cruise and exit
     rates in steps a clock (Q0.24), and the steps it makes before it ramps down to the exit
     rate."""
     return data.StructLayout({"cruise": 24, "exit": 24, "decelerate": 24})

@@ -4,7 +4,7 @@ A frame is ``SYNC type length payload crc``: the sync byte ``0xA5``, a type byte
 length, the payload (little-endian fields) and the CRC-16/CCITT (polynomial 0x1021, initial
 value 0xFFFF, as :func:`binascii.crc_hqx` computes it) of ``type length payload``, most
 significant byte first. The constants here are the protocol: the host side
-(:mod:`hdl.motion.protocol`) imports them.
+(:mod:`kontur.hdl.motion.protocol`) imports them.
 
 Host to machine. Queued frames (:data:`QUEUED`) go into the frame queue in the order they
 arrive and each ends with exactly one ``OUTCOME`` reply, in that order; immediate frames act
@@ -24,7 +24,7 @@ STOP      0x14  (none): the end of a program                               yes
 CONFIG    0x15  accel: uint32, the rate's change a clock (Q0.40); takes    yes
                 effect when dispatched: send it while nothing moves
 PROFILE   0x16  one frame of the controller's equidistant engine (cutter    yes
-                compensation, :class:`hdl.equidistant.EquidistantEngine`):
+                compensation, :class:`kontur.hdl.equidistant.EquidistantEngine`):
                 the bits of its ``Frame(formats)`` layout, least
                 significant first, in ``ceil(bits / 8)`` bytes (38 at the
                 engine's width 16); a move like LINE and ARC, with the
@@ -135,7 +135,7 @@ class FrameDecoder(wiring.Component):
 
     The decoder hunts for the sync byte and takes the type and the length: an unknown type or
     a length that is not the type's drops the frame at once (``ERROR`` codes 2 and 3). A
-    queued type is written into the frame queue (:class:`~hdl.motion.queue.FrameQueue`) as it
+    queued type is written into the frame queue (:class:`~kontur.hdl.motion.queue.FrameQueue`) as it
     arrives, its type byte then its payload, and committed only when its CRC checks; a frame
     whose CRC does not check is rolled back (code 1), one the queue has no room for is dropped
     (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals on

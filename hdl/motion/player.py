@@ -42,7 +42,7 @@ class ProgramPlayer(wiring.Component):
     Parameters
     ----------
     engine : :class:`~amaranth.lib.wiring.Component`
-        Any engine (:class:`~hdl.engine.EngineSignature`). It becomes the submodule ``engine``.
+        Any engine (:class:`~kontur.hdl.engine.EngineSignature`). It becomes the submodule ``engine``.
     program : :class:`list` of :class:`dict`
         The frames (see :class:`ProgramROM`).
     divider : :class:`int`

@@ -1,13 +1,13 @@
-"""The host side of the link protocol of :mod:`hdl.motion.link`: frames as bytes, replies back.
+"""The host side of the link protocol of :mod:`kontur.hdl.motion.link`: frames as bytes, replies back.
 
-The frame types, payload lengths and error codes are :mod:`hdl.motion.link`'s own constants;
+The frame types, payload lengths and error codes are :mod:`kontur.hdl.motion.link`'s own constants;
 the CRC is :func:`binascii.crc_hqx` (CRC-16/CCITT, initial value 0xFFFF), which the gateware's
 ``crc16_byte`` reproduces bit for bit. A PROFILE frame (:func:`profile`) packs a frame of the
-equidistant engine with the engine's own layout (:meth:`hdl.equidistant.EquidistantEngine.Frame`),
+equidistant engine with the engine's own layout (:meth:`kontur.hdl.equidistant.EquidistantEngine.Frame`),
 so host and gateware cannot disagree on a bit of it.
 
 Pure Python beside the gateware it speaks to: the host (:mod:`kontur.send`,
-:mod:`kontur.planner`) and the simulated host of the RTL runs (:mod:`sim.testbench.hostlink`)
+:mod:`kontur.planner`) and the simulated host of the RTL runs (:mod:`kontur.sim.testbench.hostlink`)
 both use it, so it stands below both.
 """
 
@@ -15,7 +15,7 @@ import binascii
 import struct
 from dataclasses import dataclass
 
-from hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
+from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
                              OUTCOME, PROFILE, QUERY, STATUS, STOP, SYNC, host_lengths,
                              profile_bytes)
 
@@ -79,15 +79,15 @@ def stop():
 def profile_layout(width, fraction=None):
     """The frame layout of the equidistant engine of coordinate width ``width`` (and
     ``fraction`` fractional bits, default ``width + 4``): what a PROFILE frame carries."""
-    from hdl.equidistant import EquidistantEngine, Formats
+    from kontur.hdl.equidistant import EquidistantEngine, Formats
     return EquidistantEngine.Frame(Formats(width, fraction))
 
 
 def profile(fields, *, width, fraction=None):
     """A PROFILE frame: one frame of the equidistant engine (``fields``: a dict of the frame's
-    fields, as :func:`sim.models.equidistant.prepare` gives them, missing ones zero) for an
+    fields, as :func:`kontur.sim.models.equidistant.prepare` gives them, missing ones zero) for an
     engine of ``width`` (and ``fraction``); its layout's bits, least significant first, in
-    :func:`~hdl.motion.link.profile_bytes` bytes.
+    :func:`~kontur.hdl.motion.link.profile_bytes` bytes.
 
     Raises
     ------
@@ -179,14 +179,14 @@ class ReplyParser:
 
 
 class CommandParser:
-    """The machine's frame decoder (:class:`hdl.motion.link.FrameDecoder`), byte for byte.
+    """The machine's frame decoder (:class:`kontur.hdl.motion.link.FrameDecoder`), byte for byte.
 
     :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
     queued frame, ``("query",)``, ``("abort",)``, ``("error", code)`` for a dropped frame. Like
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
     the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
-    and PROFILE is unknown), as :class:`~hdl.motion.link.FrameDecoder` takes it.
+    and PROFILE is unknown), as :class:`~kontur.hdl.motion.link.FrameDecoder` takes it.
     """
 
     def __init__(self, *, profile=None):

@@ -171,14 +171,14 @@ def points_ahead(x0, y0, count, *, cw=False, width=24):
 
 
 def setup_latency(width):
-    """Clocks from an arc taken by :class:`hdl.arc.ArcPlanner` to its plan offered: ``width``
+    """Clocks from an arc taken by :class:`kontur.hdl.arc.ArcPlanner` to its plan offered: ``width``
     clocks for x0² + y0², ``width`` for x1² + y1², one to check the end point, ``width + 1`` for
     the square root, one to form the plan, one to offer it."""
     return 3 * width + 4
 
 
 def arc_plan(payload, width):
-    """The plan :class:`hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
+    """The plan :class:`kontur.hdl.arc.ArcPlanner` offers for the arc ``payload`` (a frame dict):
     ``refused``, and for an arc not refused ``cw``, ``quadrant``, ``runs``, ``start``,
     ``end`` (native, in the last run's quadrant), ``off_axis`` (the end is not the axis point
     the last run starts on), ``distance`` (steps along X and Y from the last run's start to the
@@ -198,7 +198,7 @@ def arc_plan(payload, width):
 
 
 class ArcPlannerModel:
-    """Clock-by-clock model of :class:`hdl.arc.ArcPlanner`: takes an arc while it holds no
+    """Clock-by-clock model of :class:`kontur.hdl.arc.ArcPlanner`: takes an arc while it holds no
     plan, offers its plan :func:`setup_latency` clocks later, until it is transferred. While
     ``keep`` is set the plan before it is still in use (its radius and residue), and the
     planner waits in the clock before the offer."""
@@ -232,12 +232,12 @@ class ArcPlannerModel:
 
 
 class ArcEngineModel:
-    """Clock-by-clock model of :class:`hdl.arc.ArcEngine` around a quadrant core model.
+    """Clock-by-clock model of :class:`kontur.hdl.arc.ArcEngine` around a quadrant core model.
 
-    ``core`` is the model of the RTL's core (:class:`~sim.models.circular.FaithfulArcCoreModel`
-    or :class:`~sim.models.circular.FastArcCoreModel`): ``width``, ``reset()``, ``state()``,
+    ``core`` is the model of the RTL's core (:class:`~kontur.sim.models.circular.FaithfulArcCoreModel`
+    or :class:`~kontur.sim.models.circular.FastArcCoreModel`): ``width``, ``reset()``, ``state()``,
     ``peek(tick=, abort=)``, ``evaluate(tick=, stop=, abort=)`` and ``cycle(tick=, stop=,
-    abort=, valid=, payload=)``, as the RTL core has its :class:`~hdl.arc.ArcCoreSignature`.
+    abort=, valid=, payload=)``, as the RTL core has its :class:`~kontur.hdl.arc.ArcCoreSignature`.
     """
 
     def __init__(self, core, *, number_width=8):

@@ -13,13 +13,13 @@ with X >= 1 until X = 0. The quadrant is split at the diagonal:
 after the step. Exact integers: the step model keeps ``f4 = 4F``, which is always 3 mod 4, so
 F is never zero. The hardware keeps ``⌊F⌋ = (f4 - 3) / 4``.
 
-The cycle-level models mirror ``hdl.circular.CircularInterpolator`` (the patent's structure,
+The cycle-level models mirror ``kontur.hdl.circular.CircularInterpolator`` (the patent's structure,
 a step every generator period, delays and the sector switch-over correction as in Fig. 1),
-``hdl.circular.CircularInterpolatorFast`` (the same trajectory at one step per clock) and the
+``kontur.hdl.circular.CircularInterpolatorFast`` (the same trajectory at one step per clock) and the
 arc cores around them (``FaithfulArcCore``, ``FastArcCore``) register for register.
 """
 
-from hdl.circular_timing import FaithfulTiming
+from kontur.hdl.circular_timing import FaithfulTiming
 
 from .codes import mask, ones_add, ones_count, ones_decode, ones_encode, shift_code, sign_extend
 from .engine import permit, probe
@@ -146,7 +146,7 @@ class _CoreBase:
 
 
 class CircularInterpolatorModel(_CoreBase):
-    """Clock-by-clock model of ``hdl.circular.CircularInterpolator`` (SU 1665343, Fig. 1).
+    """Clock-by-clock model of ``kontur.hdl.circular.CircularInterpolator`` (SU 1665343, Fig. 1).
 
     Registers: adder 1 (ones' complement code of ⌊F⌋), trigger 4 (run), generator 5 phase,
     counter 7 (two's complement), counter 8 (ones' complement), trigger 16 (sector), the delay
@@ -286,7 +286,7 @@ class CircularInterpolatorModel(_CoreBase):
 
 
 class CircularInterpolatorFastModel(_CoreBase):
-    """Clock-by-clock model of ``hdl.circular.CircularInterpolatorFast``: one step per clock.
+    """Clock-by-clock model of ``kontur.hdl.circular.CircularInterpolatorFast``: one step per clock.
 
     The same registers as the patent (adder ⌊F⌋, counters 7 and 8, triggers 4 and 16), in two's
     complement; each step's increment and the sector switch-over correction are formed in the
@@ -371,7 +371,7 @@ class CircularInterpolatorFastModel(_CoreBase):
 
 
 class _QuadrantCoreModel:
-    """Model of an arc core of ``hdl.circular``: the prepared run, the step permission and the
+    """Model of an arc core of ``kontur.hdl.circular``: the prepared run, the step permission and the
     interpolator model (its inputs 29-34 driven from them).
 
     :meth:`peek` gives this clock's step (which does not depend on ``stop``),
@@ -442,7 +442,7 @@ class _QuadrantCoreModel:
 
 
 class FaithfulArcCoreModel(_QuadrantCoreModel):
-    """Model of ``hdl.circular.FaithfulArcCore``."""
+    """Model of ``kontur.hdl.circular.FaithfulArcCore``."""
 
     def __init__(self, *, width=24, timing=None):
         super().__init__(CircularInterpolatorModel(width, timing))
@@ -458,7 +458,7 @@ class FaithfulArcCoreModel(_QuadrantCoreModel):
 
 
 class FastArcCoreModel(_QuadrantCoreModel):
-    """Model of ``hdl.circular.FastArcCore``."""
+    """Model of ``kontur.hdl.circular.FastArcCore``."""
 
     def __init__(self, *, width=24, period=1):
         super().__init__(CircularInterpolatorFastModel(width, period))

@@ -3,13 +3,13 @@ status unit. Exact integers, clock by clock."""
 
 __all__ = ["DONE", "REFUSED", "ABORTED", "OUTCOMES", "permit", "probe", "StatusModel"]
 
-#: Outcome codes, as :class:`hdl.engine.Outcome` has them.
+#: Outcome codes, as :class:`kontur.hdl.engine.Outcome` has them.
 DONE, REFUSED, ABORTED = 0, 1, 2
 OUTCOMES = {DONE: "done", REFUSED: "refused", ABORTED: "aborted"}
 
 
 def permit(tick, *, armed, running, free=0, abort=0):
-    """``(due, enable)``: :func:`hdl.engine.permit` for one clock."""
+    """``(due, enable)``: :func:`kontur.hdl.engine.permit` for one clock."""
     due = int(bool(running) and bool(armed) and not abort)
     enable = int(not abort and (not armed or bool(tick) or bool(free)))
     return due, enable
@@ -30,7 +30,7 @@ def probe(model, **inputs):
 
 
 class StatusModel:
-    """Clock-by-clock model of :class:`hdl.engine.StatusUnit`.
+    """Clock-by-clock model of :class:`kontur.hdl.engine.StatusUnit`.
 
     Call :meth:`evaluate` with the inputs of a clock, then :meth:`advance`.
     """

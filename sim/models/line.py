@@ -1,4 +1,4 @@
-"""Clock-by-clock model of ``hdl.line.LineEngine``: the front end of any line core model."""
+"""Clock-by-clock model of ``kontur.hdl.line.LineEngine``: the front end of any line core model."""
 
 from .engine import DONE, REFUSED, StatusModel
 
@@ -6,12 +6,12 @@ __all__ = ["LineEngineModel"]
 
 
 class LineEngineModel:
-    """Model of :class:`hdl.line.LineEngine` around a line core model.
+    """Model of :class:`kontur.hdl.line.LineEngine` around a line core model.
 
     ``core`` is the model of the RTL's core (for instance
-    :class:`~sim.models.linear.LinearCoreModel`): it has ``width``, ``reset()``, ``state()``,
+    :class:`~kontur.sim.models.linear.LinearCoreModel`): it has ``width``, ``reset()``, ``state()``,
     ``evaluate(tick=, abort=)`` and ``cycle(tick=, abort=, valid=, payload=)``, as the RTL core
-    has its :class:`~hdl.line.LineCoreSignature`.
+    has its :class:`~kontur.hdl.line.LineCoreSignature`.
 
     Call :meth:`cycle` once per clock with the inputs of that clock; it returns the outputs
     during that clock and the core's named registers, then advances.

@@ -15,8 +15,8 @@ Two variants of the same structure (see ``docs/linear.md``):
   (long steps left). Its worked table is this variant. It ends on the end point in the same
   number of clocks but does not keep the ``0.5 cos α`` bound.
 
-The cycle-level models mirror ``hdl.linear.LinearInterpolator`` (the patent's inputs 22-26)
-and ``hdl.linear.LinearCore`` (the line core around it) register for register; the adder there
+The cycle-level models mirror ``kontur.hdl.linear.LinearInterpolator`` (the patent's inputs 22-26)
+and ``kontur.hdl.linear.LinearCore`` (the line core around it) register for register; the adder there
 holds the integer part ``⌊F⌋`` (the half of ``F0`` never changes the sign test), so
 ``adder3 = f2 >> 1``.
 """
@@ -93,7 +93,7 @@ def steps(x, y, *, variant="exact", width=16):
 
 
 class LinearInterpolatorModel:
-    """Clock-by-clock model of :class:`hdl.linear.LinearInterpolator`: the patent's inputs 22-26.
+    """Clock-by-clock model of :class:`kontur.hdl.linear.LinearInterpolator`: the patent's inputs 22-26.
 
     With ``strict`` a start of frame (input 26) while :meth:`ready` is low raises
     :exc:`InputError`; otherwise it is refused as the RTL refuses it, with the ``error`` output.
@@ -185,7 +185,7 @@ class LinearInterpolatorModel:
 
 
 class LinearCoreModel:
-    """Clock-by-clock model of :class:`hdl.linear.LinearCore`: the prepared segment, the step
+    """Clock-by-clock model of :class:`kontur.hdl.linear.LinearCore`: the prepared segment, the step
     permission and :class:`LinearInterpolatorModel` (its inputs 22-26 driven from them).
 
     :meth:`evaluate` gives this clock's outputs for the feed and abort inputs, :meth:`cycle`

@@ -1,12 +1,12 @@
 """Models of the motion side (``hdl/motion/``): the feed generator, clock by clock."""
 
-from hdl.spec import ONE, SQRT2
+from kontur.hdl.spec import ONE, SQRT2
 
 __all__ = ["FeedGeneratorModel"]
 
 
 class FeedGeneratorModel:
-    """Clock-by-clock model of :class:`hdl.motion.feed.FeedGenerator`.
+    """Clock-by-clock model of :class:`kontur.hdl.motion.feed.FeedGenerator`.
 
     ``profile`` is a dict with ``cruise``, ``exit`` (Q0.24) and ``decelerate``; ``accel`` is
     Q0.40. :meth:`cycle` returns ``tick`` for the clock, then advances.

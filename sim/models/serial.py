@@ -1,7 +1,7 @@
 """Golden model of the textbook's two-coordinate linear-circular node, bit-serial, clock by clock.
 
-The node (``hdl.serial.SerialNode``) interpolates with separate steps by the estimating
-function at the midpoint (the trajectory of :mod:`sim.models.textbook`: ``separate_*``), one
+The node (``kontur.hdl.serial.SerialNode``) interpolates with separate steps by the estimating
+function at the midpoint (the trajectory of :mod:`kontur.sim.models.textbook`: ``separate_*``), one
 bit of every register per clock. Its word is ``W = width + 2`` bits, least significant first;
 every register is a ring of W bits that turns once a word.
 
@@ -18,7 +18,7 @@ each step word: its first clock waits for the permission and makes the step, the
 ``W - 1`` run freely and form the new coordinate, the new Q (``Q ± 2·operand``), its sign (the
 next axis) and the comparison with the end point.
 
-:class:`SerialNodeModel` mirrors ``hdl.serial.SerialNode`` register for register;
+:class:`SerialNodeModel` mirrors ``kontur.hdl.serial.SerialNode`` register for register;
 :class:`SerialLineCoreModel` and :class:`SerialArcCoreModel` the cores around it.
 """
 
@@ -38,7 +38,7 @@ def word_length(width):
 
 
 class SerialNodeModel:
-    """Clock-by-clock model of :class:`hdl.serial.SerialNode`.
+    """Clock-by-clock model of :class:`kontur.hdl.serial.SerialNode`.
 
     With ``strict`` a load (Ро) while the node is not ready raises :exc:`InputError`; otherwise
     it is refused as the RTL refuses it, with the ``error`` output.
@@ -235,7 +235,7 @@ class _SerialCoreModel:
 
 
 class SerialLineCoreModel(_SerialCoreModel):
-    """Model of :class:`hdl.serial.SerialLineCore`: the node in line mode."""
+    """Model of :class:`kontur.hdl.serial.SerialLineCore`: the node in line mode."""
 
     circle = 0
 
@@ -244,7 +244,7 @@ class SerialLineCoreModel(_SerialCoreModel):
 
 
 class SerialArcCoreModel(_SerialCoreModel):
-    """Model of :class:`hdl.serial.SerialArcCore`: the node in circle mode."""
+    """Model of :class:`kontur.hdl.serial.SerialArcCore`: the node in circle mode."""
 
     circle = 1
 

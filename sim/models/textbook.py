@@ -30,7 +30,7 @@ times. Both start at ``N/2`` (``preset="half"``: the point after k iterations is
 (``capacity="register"``) or, per segment, the smallest power of two above ``max(|X|, |Y|)``
 (``capacity="segment"``: N is then at most twice the longer projection).
 
-The cycle-level models mirror ``hdl.textbook.SeparateLineCore``, ``SeparateArcCore`` and
+The cycle-level models mirror ``kontur.hdl.textbook.SeparateLineCore``, ``SeparateArcCore`` and
 ``DdaCore`` register for register.
 """
 
@@ -157,7 +157,7 @@ def _arc_moves(plan):
 
 
 def separate_arc_steps(x0, y0, x1, y1, *, cw=False, width=24):
-    """Return the steps ``(dx, dy)`` of the arc, planned as :func:`sim.models.arc.plan_arc`
+    """Return the steps ``(dx, dy)`` of the arc, planned as :func:`kontur.sim.models.arc.plan_arc`
     plans it for the arc engine; raises :exc:`InputError` for an arc it refuses."""
     return list(_arc_moves(plan_arc(x0, y0, x1, y1, cw, width)))
 
@@ -284,7 +284,7 @@ class _PreparedCore:
 
 
 class SeparateLineCoreModel(_PreparedCore):
-    """Clock-by-clock model of :class:`hdl.textbook.SeparateLineCore`: one step per permission.
+    """Clock-by-clock model of :class:`kontur.hdl.textbook.SeparateLineCore`: one step per permission.
 
     Registers: adder D (``width + 2`` bits), counters of the X and Y steps left, the segment's
     magnitudes (the increments ``2Y`` and ``2X``), the run trigger.
@@ -329,7 +329,7 @@ class SeparateLineCoreModel(_PreparedCore):
 
 
 class SeparateArcCoreModel(_PreparedCore):
-    """Clock-by-clock model of :class:`hdl.textbook.SeparateArcCore`: one step per permission,
+    """Clock-by-clock model of :class:`kontur.hdl.textbook.SeparateArcCore`: one step per permission,
     native quadrant runs until X = 0 or ``stop``.
 
     Registers: adder G (``width + 2`` bits), counter X holding ``x - 1``, counter Y holding
@@ -377,7 +377,7 @@ class SeparateArcCoreModel(_PreparedCore):
 
 
 class DdaCoreModel(_PreparedCore):
-    """Clock-by-clock model of :class:`hdl.textbook.DdaCore`.
+    """Clock-by-clock model of :class:`kontur.hdl.textbook.DdaCore`.
 
     Registers: the two registers of capacity ``N = mask + 1``, the iteration counter (iterations
     left after this one), the increments, the mask, the run trigger. An iteration in which

@@ -1,8 +1,8 @@
 """cocotb testbench parts for any engine's Verilog: driver, monitor, scoreboard.
 
 :class:`EngineBench` drives an engine's ports clock by clock from a
-:class:`~sim.stimulus.Job` (the command stream with its gaps, the feed permissions, the status
-stream's stalls, aborts and resets: the same :class:`~sim.stimulus.Driver` the golden models
+:class:`~kontur.sim.stimulus.Job` (the command stream with its gaps, the feed permissions, the status
+stream's stalls, aborts and resets: the same :class:`~kontur.sim.stimulus.Driver` the golden models
 and Amaranth's simulator are run with) and monitors its outputs into a record; a
 :class:`Scoreboard` holds the golden cycle model and checks every clock against it as the
 simulation runs. Clock ``n`` is the interval before the ``n + 1``-th rising edge: inputs are
@@ -18,8 +18,8 @@ import os
 from cocotb.clock import Clock
 from cocotb.triggers import ReadOnly, RisingEdge, Timer
 
-from sim.runners import unpack_status
-from sim.stimulus import Driver, entry, eventful, first_difference
+from kontur.sim.runners import unpack_status
+from kontur.sim.stimulus import Driver, entry, eventful, first_difference
 
 __all__ = ["EngineBench", "Scoreboard", "random_gaps", "random_pattern"]
 
@@ -80,7 +80,7 @@ class EngineBench:
     fields : dict
         The command payload's fields, ``name: (offset, width, signed)``.
     status : dict
-        The status payload's fields (:func:`sim.runners.status_fields`).
+        The status payload's fields (:func:`kontur.sim.runners.status_fields`).
     """
 
     def __init__(self, dut, fields, status):
@@ -91,7 +91,7 @@ class EngineBench:
 
     @classmethod
     def from_env(cls, dut):
-        """A bench with the layouts :meth:`sim.runners.CocotbBuild.test` passes in
+        """A bench with the layouts :meth:`kontur.sim.runners.CocotbBuild.test` passes in
         ``KONTUR_PORTS``."""
         ports = json.loads(os.environ["KONTUR_PORTS"])
         return cls(dut, ports["fields"], ports["status"])
@@ -150,7 +150,7 @@ class EngineBench:
 
     async def play(self, job, *, scoreboard=None, record=None, sparse=False):
         """Play ``job`` to its end; return the record (also appended to ``record``; with
-        ``sparse``, only its :func:`~sim.stimulus.eventful` entries).
+        ``sparse``, only its :func:`~kontur.sim.stimulus.eventful` entries).
 
         With a ``scoreboard`` every clock is checked against the golden model as it goes.
         """

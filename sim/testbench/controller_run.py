@@ -1,9 +1,9 @@
 """The cocotb test ``kontur run`` runs a controller with on Icarus or Verilator: the frames
 in, the events out.
 
-Started by :func:`sim.runners.CocotbBuild.run_controller` with ``KONTUR_RUN`` naming a JSON
-file: the frames file (:func:`sim.testbench.hostlink.write_frames`), the events file to write
-(the format of ``sim/fastrun.cpp``, :func:`sim.testbench.hostlink.format_events`), the serial
+Started by :func:`kontur.sim.runners.CocotbBuild.run_controller` with ``KONTUR_RUN`` naming a JSON
+file: the frames file (:func:`kontur.sim.testbench.hostlink.write_frames`), the events file to write
+(the format of ``sim/fastrun.cpp``, :func:`kontur.sim.testbench.hostlink.format_events`), the serial
 divisor, the window and the clock bound.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import cocotb
 
-from sim.testbench.hostlink import format_events, read_frames, run_cocotb
+from kontur.sim.testbench.hostlink import format_events, read_frames, run_cocotb
 
 
 @cocotb.test()

@@ -17,10 +17,10 @@ dir`` at each rising step edge, ``R clock type payload`` for each reply, ``E clo
 import struct
 from dataclasses import dataclass
 
-from hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
+from kontur.hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
 
-from hdl.motion.protocol import Reply, ReplyParser
-from sim.processes import SimulatorError
+from kontur.hdl.motion.protocol import Reply, ReplyParser
+from kontur.sim.processes import SimulatorError
 
 __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
            "run_cocotb", "read_frames", "write_frames"]
@@ -29,7 +29,7 @@ __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_
 @dataclass
 class Run:
     """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
-    ``replies`` ``(clock, Reply)`` (:class:`hdl.motion.protocol.Reply`), the clocks simulated
+    ``replies`` ``(clock, Reply)`` (:class:`kontur.hdl.motion.protocol.Reply`), the clocks simulated
     and the seconds it took (a build apart)."""
     steps: list
     replies: list
@@ -173,11 +173,11 @@ class HostLink:
 def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, vcd=None,
                  levels=None, progress=None):
     """Run ``frames`` through ``controller`` (a
-    :class:`~hdl.motion.controller.MotionController`) in Amaranth's simulator with a
+    :class:`~kontur.hdl.motion.controller.MotionController`) in Amaranth's simulator with a
     :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
     ``(step, dir)`` is appended to it.
 
-    Raises :exc:`sim.processes.SimulatorError` if the run does not end within ``max_clocks``.
+    Raises :exc:`kontur.sim.processes.SimulatorError` if the run does not end within ``max_clocks``.
     """
     import time
 

@@ -1,6 +1,6 @@
 """The cocotb test ``kontur trace`` runs an RTL engine with: one job in, its record out.
 
-Started by :class:`sim.runners.CocotbBuild` with the environment variable ``KONTUR_JOB``
+Started by :class:`kontur.sim.runners.CocotbBuild` with the environment variable ``KONTUR_JOB``
 naming a job file (the job, its identity, the payload fields); the record of every clock is
 written to ``KONTUR_RECORD`` with the same identity, so that a record can never be taken for
 another run's.
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import cocotb
 
-from sim.stimulus import Job
-from sim.testbench import EngineBench
+from kontur.sim.stimulus import Job
+from kontur.sim.testbench import EngineBench
 
 
 @cocotb.test()

@@ -16,7 +16,7 @@ Three levels, pure Python:
 * **step level** (:func:`trace`): the trajectory the hardware makes from those frames, every
   function evaluated afresh at every point (the hardware integrates them).
 
-The cycle level (:class:`EquidistantEngineModel`) mirrors ``hdl.equidistant`` clock for clock.
+The cycle level (:class:`EquidistantEngineModel`) mirrors ``kontur.hdl.equidistant`` clock for clock.
 
 One module each, every one importing only those before it: ``geometry`` (the profile, the
 exact equidistant, its corners), ``elements`` (the hardware's elements), ``functions`` (the

@@ -1,4 +1,4 @@
-"""The cycle level (:class:`EquidistantEngineModel`): :class:`hdl.equidistant.EquidistantEngine`
+"""The cycle level (:class:`EquidistantEngineModel`): :class:`kontur.hdl.equidistant.EquidistantEngine`
 clock for clock."""
 
 from types import SimpleNamespace
@@ -11,9 +11,9 @@ __all__ = ["EquidistantEngineModel"]
 
 
 class EquidistantEngineModel:
-    """Clock-by-clock model of :class:`hdl.equidistant.EquidistantEngine` around a quadrant
-    core model (:class:`~sim.models.circular.FastArcCoreModel` or
-    :class:`~sim.models.circular.FaithfulArcCoreModel` of width ``width + 2``).
+    """Clock-by-clock model of :class:`kontur.hdl.equidistant.EquidistantEngine` around a quadrant
+    core model (:class:`~kontur.sim.models.circular.FastArcCoreModel` or
+    :class:`~kontur.sim.models.circular.FaithfulArcCoreModel` of width ``width + 2``).
 
     Registers as the RTL has them: the three slots of block 2 (``None`` when empty), the
     position counters (blocks 12, 13), the radius and r², the start, the product unit

@@ -1,4 +1,4 @@
-"""The hardware's numbers (:class:`Formats`, from :mod:`hdl.spec`), the functions of its
+"""The hardware's numbers (:class:`Formats`, from :mod:`kontur.hdl.spec`), the functions of its
 elements in fixed point (:class:`LineFunction`, :class:`CircleFunction`: the seed's
 ``E + C·x + D·y + G·r``), block 3's line step and block 11's threshold, and an element's frame
 (:func:`element_frame`)."""
@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
-from hdl.spec import Formats, Kind
+from kontur.hdl.spec import Formats, Kind
 
 from ..arc import SIGNS, native, quadrant
 from .geometry import _sqrt
@@ -15,7 +15,7 @@ from .geometry import _sqrt
 __all__ = ["Formats", "KIND", "LineFunction", "CircleFunction", "line_function", "circle_function",
            "own_function", "step_signs", "threshold", "line_step", "element_frame"]
 
-#: Frame kinds (the ``kind`` field; :class:`hdl.spec.Kind`).
+#: Frame kinds (the ``kind`` field; :class:`kontur.hdl.spec.Kind`).
 KIND = {"radius": Kind.RADIUS, "start": Kind.START, "line": Kind.LINE, "arc": Kind.ARC,
         "close": Kind.CLOSE}
 
@@ -169,7 +169,7 @@ def _native_start(point, centre, cw):
 
 
 def element_frame(element, formats):
-    """The frame of one element (a dict of the frame's fields, see ``hdl.equidistant``)."""
+    """The frame of one element (a dict of the frame's fields, see ``kontur.hdl.equidistant``)."""
     frame = {"kind": KIND[element.kind], "last": int(element.last), "h": int(element.h < 0)}
     if element.kind == "line":
         own = own_function(element, formats)

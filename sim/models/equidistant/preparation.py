@@ -6,7 +6,7 @@ where a closed contour closes, and the step level verified against the exact geo
 from dataclasses import dataclass
 from fractions import Fraction
 
-from hdl.spec import Formats
+from kontur.hdl.spec import Formats
 
 from .distances import distance_to_path, distance_to_profile, path_points
 from .elements import elements

@@ -4,7 +4,7 @@ numbers (the hardware integrates them)."""
 
 from dataclasses import dataclass
 
-from hdl.spec import Formats
+from kontur.hdl.spec import Formats
 
 from ..arc import real_step
 from ..circular import native_moves
