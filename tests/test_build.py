@@ -89,16 +89,22 @@ def test_make_bitstream_passes_the_machine_file():
 REAL = ROOT / "tests" / "golden" / "build_icebreaker_seed1"
 
 
-def test_report_of_a_real_icebreaker_build(tmp_path):
+def _real_result(where, seed=1):
+    """The result :func:`kontur.build.build` gave for the real build, its logs copied to
+    ``where``."""
+    where.mkdir(parents=True, exist_ok=True)
     for name in ("top.tim", "top.pcf"):
-        (tmp_path / name).write_text((REAL / name).read_text())
-    (tmp_path / "top.rpt").write_text((REAL / "top.stat").read_text())
+        (where / name).write_text((REAL / name).read_text())
+    (where / "top.rpt").write_text((REAL / "top.stat").read_text())
     from kontur.constraints.flow import parse_fmax, parse_utilisation
     log = (REAL / "top.tim").read_text()
-    result = {"board": "icebreaker", "top": "controller", "log": tmp_path / "top.tim",
-              "utilisation": parse_utilisation(log), "fmax": parse_fmax(log), "seed": 1,
-              "seconds": 0.0, "machine": None}
-    rec = kontur.build.report(result)
+    return {"board": "icebreaker", "top": "controller", "log": where / "top.tim",
+            "utilisation": parse_utilisation(log), "fmax": parse_fmax(log), "seed": seed,
+            "seconds": 0.0, "machine": None}
+
+
+def test_report_of_a_real_icebreaker_build(tmp_path):
+    rec = kontur.build.report(_real_result(tmp_path))
     assert rec["device"] == "iCE40UP5K" and rec["logic_cell"] == "ICESTORM_LC"
     assert rec["cells_available"] == 5280                 # the UP5K's logic cells
     assert 0 < rec["cells_used"] <= 5280
@@ -132,3 +138,27 @@ def test_flip_flops_of_the_last_stat():
     text = "   7   SB_DFF\n   2   SB_DFFE\n   9 cells\n   5   SB_DFF\n   1   SB_LUT4\n"
     assert kontur.build.parse_flip_flops(text) == 5 + 2
     assert kontur.build.parse_flip_flops("no stat here") is None
+
+
+def test_bench_controllers_table_into_benchmarks(tmp_path):
+    import kontur.bench
+    calls = []
+
+    def builder(board, build_dir, *, seed):
+        calls.append((board, seed))
+        return _real_result(Path(build_dir), seed)
+    rows = kontur.bench.controllers(boards=("icebreaker",), seeds=(1, 2), build_root=tmp_path,
+                                    builder=builder)
+    assert calls == [("icebreaker", 1), ("icebreaker", 2)]
+    table = kontur.bench.controllers_table(rows)
+    lines = table.splitlines()
+    assert len(lines) == 2 + 2 and "| icebreaker | iCE40UP5K | 2 |" in lines[3]
+    md = tmp_path / "B.md"
+    md.write_text("# Benchmarks\n\n## Area\n\nx\n\n## How\n\ny\n")
+    kontur.bench._write_controllers(md, rows, "cmd")
+    kontur.bench._write_controllers(md, rows[:1], "cmd")     # replaced, not added twice
+    text = md.read_text()
+    assert text.count(kontur.bench.CONTROLLERS_HEADING) == 1
+    assert text.index("## Area") < text.index(kontur.bench.CONTROLLERS_HEADING) \
+        < text.index("## How")
+    assert "| icebreaker | iCE40UP5K | 1 |" in text and "| 2 |" not in text
