@@ -156,18 +156,18 @@ CONTROLLERS_HEADING = "## The controllers on their boards"
 
 
 def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), build_root=None,
-                builder=None):
+                builder=None, runs=None):
     """Build each board's controller (:func:`kontur.build.build`, the default machine) with each
-    nextpnr seed; return the rows (:func:`kontur.build.report` records) and, with ``out``,
-    write their markdown table there. ``builder`` replaces :func:`kontur.build.build` (tests)."""
+    nextpnr seed (or the ``(board, seed)`` pairs of ``runs``); return the rows
+    (:func:`kontur.build.report` records) and, with ``out``, write their markdown table there.
+    ``builder`` replaces :func:`kontur.build.build` (tests)."""
     import kontur.build
     build = builder or kontur.build.build
     root = Path(build_root) if build_root else ROOT / "build" / "bench-controllers"
     rows = []
-    for board in boards:
-        for seed in seeds:
-            result = build(board, root / f"{board}-s{seed}", seed=seed)
-            rows.append(kontur.build.report(result))
+    for board, seed in runs or [(board, seed) for board in boards for seed in seeds]:
+        result = build(board, root / f"{board}-s{seed}", seed=seed)
+        rows.append(kontur.build.report(result))
     if out is not None:
         out.write(controllers_table(rows))
     return rows
@@ -215,12 +215,18 @@ def _controllers_main(argv, out):
     parser = argparse.ArgumentParser(prog="python -m kontur.bench controllers")
     parser.add_argument("--boards", default="icebreaker,ulx3s")
     parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--runs", action="append", metavar="BOARD:SEED,SEED", default=None,
+                        help="a board and its seeds (repeatable; instead of --boards/--seeds)")
     parser.add_argument("--out", default=None, help="the markdown file whose controllers' "
                         "section is written (BENCHMARKS.md); default: print the table")
     args = parser.parse_args(argv)
     boards = tuple(args.boards.split(","))
     seeds = tuple(int(s) for s in args.seeds.split(","))
-    rows = controllers(None if args.out else out, boards=boards, seeds=seeds)
+    runs = None
+    if args.runs:
+        runs = [(board, int(seed)) for item in args.runs
+                for board, seeds_of in [item.split(":", 1)] for seed in seeds_of.split(",")]
+    rows = controllers(None if args.out else out, boards=boards, seeds=seeds, runs=runs)
     if args.out:
         command = "python -m kontur.bench controllers " + " ".join(argv)
         _write_controllers(args.out, rows, command.strip())

@@ -150,6 +150,8 @@ def test_bench_controllers_table_into_benchmarks(tmp_path):
     rows = kontur.bench.controllers(boards=("icebreaker",), seeds=(1, 2), build_root=tmp_path,
                                     builder=builder)
     assert calls == [("icebreaker", 1), ("icebreaker", 2)]
+    kontur.bench.controllers(runs=[("icebreaker", 3)], build_root=tmp_path, builder=builder)
+    assert calls[-1] == ("icebreaker", 3)
     table = kontur.bench.controllers_table(rows)
     lines = table.splitlines()
     assert len(lines) == 2 + 2 and "| icebreaker | iCE40UP5K | 2 |" in lines[3]
