@@ -148,7 +148,7 @@ def report(result):
         "clock_mhz": item.clock_hz / 1e6,
         "clock_name": clock,
         "fmax_mhz": fmax, "fmax_verdict": verdict, "fmax_target_mhz": target,
-        "critical_path": None if path is None else {"from": path["from"], "to": path["to"]},
+        "critical_path": path,
         "logic_cell": "TRELLIS_COMB" if ecp5 else "ICESTORM_LC",
         "cells_used": logic[0], "cells_available": logic[1],
         "flip_flops": (util["TRELLIS_FF"][0] if "TRELLIS_FF" in util
