@@ -186,7 +186,7 @@ def controllers_table(rows):
                      "-" if path is None else f"{path['from']} → {path['to']}",
                      f"{rec['seconds']:.0f}"])
     return _markdown(["board", "device", "seed", "logic", "FF", "block RAM",
-                      "controller clock MHz", "routed Fmax MHz", "steps/s a axis at most",
+                      "controller clock MHz", "routed Fmax MHz", "steps/s per axis at most",
                       "critical path", "build s"], body)
 
 
