@@ -433,6 +433,12 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
     throughput = simulation_throughput(build_root / "sim", simulators=simulators)
     seconds = time.monotonic() - started
     text = _report_text(rows, devices, seeds, versions, throughput, seconds, parts)
+    old = Path(path).read_text() if Path(path).exists() else ""
+    if CONTROLLERS_HEADING in old and "\n## How" in text:
+        # The controllers' section (python -m kontur.bench controllers) is kept as it was.
+        kept = CONTROLLERS_HEADING + old.split(CONTROLLERS_HEADING, 1)[1].split("\n## ", 1)[0]
+        head, tail = text.split("\n## How", 1)
+        text = head + "\n" + kept.rstrip("\n") + "\n\n## How" + tail
     Path(path).write_text(text)
     return {"designs": rows, "throughput": throughput, "seconds": seconds}
 
