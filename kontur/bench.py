@@ -151,9 +151,93 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
     return results
 
 
+#: The heading of the controllers' table in BENCHMARKS.md (:func:`controllers`).
+CONTROLLERS_HEADING = "## The controllers on their boards"
+
+
+def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), build_root=None,
+                builder=None, runs=None):
+    """Build each board's controller (:func:`kontur.build.build`, the default machine) with each
+    nextpnr seed (or the ``(board, seed)`` pairs of ``runs``); return the rows
+    (:func:`kontur.build.report` records) and, with ``out``, write their markdown table there.
+    ``builder`` replaces :func:`kontur.build.build` (tests)."""
+    import kontur.build
+    build = builder or kontur.build.build
+    root = Path(build_root) if build_root else ROOT / "build" / "bench-controllers"
+    rows = []
+    for board, seed in runs or [(board, seed) for board in boards for seed in seeds]:
+        result = build(board, root / f"{board}-s{seed}", seed=seed)
+        rows.append(kontur.build.report(result))
+    if out is not None:
+        out.write(controllers_table(rows))
+    return rows
+
+
+def controllers_table(rows):
+    """The markdown table of :func:`controllers`' rows."""
+    body = []
+    for rec in rows:
+        path = rec["critical_path"]
+        body.append([rec["board"], rec["device"], rec["seed"],
+                     f"{rec['cells_used']}/{rec['cells_available']} {rec['logic_cell']}",
+                     rec["flip_flops"], f"{rec['block_ram'][0]}/{rec['block_ram'][1]}",
+                     f"{rec['clock_mhz']:g}", f"{rec['fmax_mhz']:.2f}",
+                     f"{rec['steps_per_s']:.0f} ({rec['clocks_per_step']} clocks)",
+                     "-" if path is None else f"{path['from']} → {path['to']}",
+                     f"{rec['seconds']:.0f}"])
+    return _markdown(["board", "device", "seed", "logic", "FF", "block RAM",
+                      "controller clock MHz", "routed Fmax MHz", "steps/s per axis at most",
+                      "critical path", "build s"], body)
+
+
+def _write_controllers(path, rows, command):
+    """Put the controllers' table into ``path`` (BENCHMARKS.md): its section replaced, or added
+    before ``## How``."""
+    text = Path(path).read_text() if Path(path).exists() else "# Benchmarks\n"
+    section = (f"{CONTROLLERS_HEADING}\n\nThe machine controller (`kontur build`, the default "
+               f"machine file's step/dir timing) on each board, per nextpnr seed; written by "
+               f"`{command}`. The step rate is the controller clock over `dir_setup + "
+               f"step_width + 1` clocks.\n\n{controllers_table(rows)}\n")
+    if CONTROLLERS_HEADING in text:
+        head, rest = text.split(CONTROLLERS_HEADING, 1)
+        tail = rest[rest.index("\n## "):] if "\n## " in rest else ""
+        text = head + section + tail.lstrip("\n")
+    elif "\n## How" in text:
+        head, tail = text.split("\n## How", 1)
+        text = head + "\n" + section + "## How" + tail
+    else:
+        text = text + "\n" + section
+    Path(path).write_text(text)
+
+
+def _controllers_main(argv, out):
+    import argparse
+    parser = argparse.ArgumentParser(prog="python -m kontur.bench controllers")
+    parser.add_argument("--boards", default="icebreaker,ulx3s")
+    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--runs", action="append", metavar="BOARD:SEED,SEED", default=None,
+                        help="a board and its seeds (repeatable; instead of --boards/--seeds)")
+    parser.add_argument("--out", default=None, help="the markdown file whose controllers' "
+                        "section is written (BENCHMARKS.md); default: print the table")
+    args = parser.parse_args(argv)
+    boards = tuple(args.boards.split(","))
+    seeds = tuple(int(s) for s in args.seeds.split(","))
+    runs = None
+    if args.runs:
+        runs = [(board, int(seed)) for item in args.runs
+                for board, seeds_of in [item.split(":", 1)] for seed in seeds_of.split(",")]
+    rows = controllers(None if args.out else out, boards=boards, seeds=seeds, runs=runs)
+    if args.out:
+        command = "python -m kontur.bench controllers " + " ".join(argv)
+        _write_controllers(args.out, rows, command.strip())
+        out.write(controllers_table(rows) + f"{args.out} written\n")
+    return 0
+
+
 def main(argv=None, out=None):
     """``kontur bench area|speed``: print the table; ``report [--out FILE]``: write
-    ``BENCHMARKS.md`` (:func:`report`). Return the exit status (0, or 1 with the reason on
+    ``BENCHMARKS.md`` (:func:`report`); ``controllers [--boards B,B] [--seeds 1,2,3] [--out
+    FILE]``: the controllers' builds (:func:`controllers`), their section written into FILE. Return the exit status (0, or 1 with the reason on
     standard error when a tool is missing or fails)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     out = sys.stdout if out is None else out
@@ -167,6 +251,12 @@ def main(argv=None, out=None):
             return 1
         out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
         return 0
+    if argv[:1] == ["controllers"]:
+        try:
+            return _controllers_main(argv[1:], out)
+        except ToolchainError as error:
+            sys.stderr.write(f"kontur bench: {error}\n")
+            return 1
     if len(argv) != 1 or argv[0] not in tables:
         sys.stderr.write(f"usage: python -m kontur.bench area|speed|report [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
@@ -343,6 +433,12 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
     throughput = simulation_throughput(build_root / "sim", simulators=simulators)
     seconds = time.monotonic() - started
     text = _report_text(rows, devices, seeds, versions, throughput, seconds, parts)
+    old = Path(path).read_text() if Path(path).exists() else ""
+    if CONTROLLERS_HEADING in old and "\n## How" in text:
+        # The controllers' section (python -m kontur.bench controllers) is kept as it was.
+        kept = CONTROLLERS_HEADING + old.split(CONTROLLERS_HEADING, 1)[1].split("\n## ", 1)[0]
+        head, tail = text.split("\n## How", 1)
+        text = head + "\n" + kept.rstrip("\n") + "\n\n## How" + tail
     Path(path).write_text(text)
     return {"designs": rows, "throughput": throughput, "seconds": seconds}
 

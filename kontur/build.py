@@ -9,11 +9,16 @@ engine, no host needed). The board's platform comes from the registry
 (the yowasp builds from PyPI by default). Nothing is ever programmed.
 """
 
+import json
+import re
 import sys
+from pathlib import Path
 
-from kontur.constraints.flow import ROOT, SEED, ToolchainError, place_and_route
+from kontur.constraints.flow import (ROOT, SEED, ToolchainError, parse_critical_path,
+                                     place_and_route)
 
-__all__ = ["TOPS", "build", "machine_file", "summary", "main"]
+__all__ = ["TOPS", "build", "machine_file", "summary", "report", "parse_ports",
+           "parse_flip_flops", "main"]
 
 #: What ``kontur build --top`` builds.
 TOPS = ("controller", "player")
@@ -58,6 +63,7 @@ def build(board, build_dir, *, top="controller", machine=None, seed=SEED, out=No
     result = place_and_route(item.platform(), _top(item, top, machine), build_dir, seed=seed)
     result["board"] = board
     result["top"] = top
+    result["machine"] = machine
     if out is not None:
         out.write(summary(result))
     return result
@@ -83,6 +89,90 @@ def summary(result):
               f"log        {result['log']}",
               f"time       {result['seconds']:.1f} s"]
     return "\n".join(lines) + "\n"
+
+
+def parse_ports(text):
+    """Return the top's port names, sorted, from the pin file of a build: ``set_io NAME PIN``
+    lines (an iCE40 ``.pcf``) or ``LOCATE COMP "NAME" SITE`` lines (an ECP5 ``.lpf``)."""
+    names = re.findall(r"^set_io\s+(?:-\S+\s+)*(\S+)\s", text, re.MULTILINE)
+    names += re.findall(r'^LOCATE COMP "([^"]+)"', text, re.MULTILINE)
+    return sorted(set(names))
+
+
+def parse_flip_flops(text):
+    """Return the flip-flops of Yosys's last ``stat`` in a log (``SB_DFF*`` or ``TRELLIS_FF``
+    cells: a count, then the cell's name, on a line), or ``None`` without one."""
+    cells = {}
+    for count, name in re.findall(r"^\s+(\d+)\s+(SB_DFF\w*|TRELLIS_FF)\s*$", text, re.MULTILINE):
+        cells[name] = int(count)                           # the last stat's figure wins
+    return sum(cells.values()) if cells else None
+
+
+def _clock_path(log, clock):
+    """The critical path of ``clock`` (:func:`~kontur.constraints.flow.parse_critical_path`
+    of its own report in the nextpnr log, not the last clock's)."""
+    head = f"Critical path report for clock '{clock}'"
+    if head not in log:
+        return None
+    section = log.split(head, 1)[1].split("Critical path report for", 1)[0]
+    return parse_critical_path("Critical path report for clock" + section)
+
+
+def report(result):
+    """Return the JSON-ready record of a controller's build (``result`` as :func:`build` returns
+    it): board, device, controller clock, routed Fmax of that clock, critical path, cells,
+    flip-flops, block RAM, DSPs, engines, axes, ports, the step-rate limit and the seed."""
+    from kontur import registry
+    from kontur.machine import Machine
+    item = registry.board(result["board"])
+    log = Path(result["log"]).read_text()
+    build_dir = Path(result["log"]).parent
+    pins = [p for p in build_dir.glob("top.pcf")] + [p for p in build_dir.glob("top.lpf")]
+    ports = parse_ports(pins[0].read_text()) if pins else []
+    rpt = build_dir / "top.rpt"
+    util = result["utilisation"]
+    ecp5 = "TRELLIS_COMB" in util
+    logic = util["TRELLIS_COMB" if ecp5 else "ICESTORM_LC"]
+    # The controller's clock is the slowest constrained one (the board's divided by divide).
+    clock, (fmax, verdict, target) = min(result["fmax"].items(),
+                                         key=lambda kv: kv[1][2] or float("inf"))
+    machine = result.get("machine") or Machine(clock_hz=item.clock_hz)
+    path = _clock_path(log, clock)
+    engines = [{"kind": kind, "variant": spec[0], "width": spec[1]}
+               for kind, spec in (("line", item.line), ("arc", item.arc), ("profile", item.profile))
+               if spec is not None]
+    return {
+        "board": result["board"],
+        "device": str(getattr(item.platform(), "device", "")),
+        "top": result["top"],
+        "clock_mhz": item.clock_hz / 1e6,
+        "clock_name": clock,
+        "fmax_mhz": fmax, "fmax_verdict": verdict, "fmax_target_mhz": target,
+        "critical_path": path,
+        "logic_cell": "TRELLIS_COMB" if ecp5 else "ICESTORM_LC",
+        "cells_used": logic[0], "cells_available": logic[1],
+        "flip_flops": (util["TRELLIS_FF"][0] if "TRELLIS_FF" in util
+                       else parse_flip_flops(rpt.read_text()) if rpt.exists() else None),
+        "block_ram": list(util.get("DP16KD" if ecp5 else "ICESTORM_RAM", (0, 0))),
+        "dsp": list(util.get("MULT18X18D" if ecp5 else "ICESTORM_DSP", (0, 0))),
+        "engines": engines,
+        "axes": sum(1 for p in ports if re.match(r"stepper_0__step__io", p)),
+        "ports": ports,
+        "clocks_per_step": machine.dir_setup + machine.step_width + 1,
+        "steps_per_s": machine.max_step_rate,
+        "seed": result["seed"],
+        "seconds": result["seconds"],
+    }
+
+
+def report_table(rec):
+    """The short table of :func:`report` that ``kontur build --report`` prints."""
+    return (f"report     {rec['board']} {rec['device']}: {rec['cells_used']}/"
+            f"{rec['cells_available']} {rec['logic_cell']}, {rec['flip_flops']} FF, "
+            f"BRAM {rec['block_ram'][0]}, DSP {rec['dsp'][0]}\n"
+            f"           clock {rec['clock_mhz']:g} MHz, Fmax {rec['fmax_mhz']:.2f} MHz, "
+            f"{rec['steps_per_s']:.0f} steps/s ({rec['clocks_per_step']} clocks a step), "
+            f"seed {rec['seed']}\n")
 
 
 def machine_file(board, path):
@@ -123,6 +213,9 @@ def main(argv=None):
     parser.add_argument("--machine", metavar="FILE.toml", default=None,
                         help="the machine file whose link, queue and step/dir timing the "
                              "controller is built with (default: the defaults)")
+    parser.add_argument("--seed", type=int, default=SEED, help="nextpnr's seed")
+    parser.add_argument("--report", metavar="FILE.json", default=None,
+                        help="the build's record (default build/<board>-<top>/report.json)")
     args = parser.parse_args(argv)
     machine = None
     if args.machine is not None:
@@ -137,10 +230,17 @@ def main(argv=None):
             return 2
     build_dir = args.build_dir or ROOT / "build" / f"{args.board}-{args.top}"
     try:
-        build(args.board, build_dir, top=args.top, machine=machine, out=sys.stdout)
+        result = build(args.board, build_dir, top=args.top, machine=machine, seed=args.seed,
+                       out=sys.stdout)
     except ToolchainError as error:
         sys.stderr.write(f"kontur build: {error}\n")
         return 1
+    if args.top == "controller" and result.get("fmax"):
+        rec = report(result)
+        path = Path(args.report or Path(build_dir) / "report.json")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(rec, indent=1) + "\n")
+        sys.stdout.write(report_table(rec) + f"           written to {path}\n")
     if machine is not None:
         sys.stdout.write(f"machine    {args.machine}: {machine.baud} baud, queue of "
                          f"{machine.queue_frames} frames (kontur send --machine "

@@ -198,6 +198,10 @@ def _parser():
                             "and step/dir timing the controller is built with (default: the "
                             "defaults); kontur send checks the queue in its handshake, so "
                             "send with the same file")
+    build.add_argument("--seed", type=int, default=None, help="nextpnr's seed (default 1)")
+    build.add_argument("--report", metavar="FILE.json", default=None,
+                       help="where the controller's build record goes (default "
+                            "<build dir>/report.json)")
     _add_machining(commands)
     return parser
 
@@ -399,7 +403,9 @@ def _build(args, out):
     from kontur.build import main as build
     return build(["--board", args.board, "--top", args.top]
                  + (["--build-dir", args.build_dir] if args.build_dir else [])
-                 + (["--machine", args.machine] if args.machine else []))
+                 + (["--machine", args.machine] if args.machine else [])
+                 + (["--seed", str(args.seed)] if args.seed is not None else [])
+                 + (["--report", args.report] if args.report else []))
 
 
 def main(argv=None):

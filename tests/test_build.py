@@ -80,3 +80,87 @@ def test_make_bitstream_passes_the_machine_file():
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip().splitlines()[-1].endswith(
         "kontur build --board ulx3s --top controller --machine m.toml")
+
+
+# The build record (`kontur build --report`), read from the logs of a real build: the files under
+# tests/golden/build_icebreaker_seed1/ are those `kontur build --board icebreaker --seed 1` wrote
+# (nextpnr's top.tim and the pin file top.pcf, copied unchanged; top.stat is the tail of Yosys's
+# top.rpt holding its last `stat`), not written by hand.
+REAL = ROOT / "tests" / "golden" / "build_icebreaker_seed1"
+
+
+def _real_result(where, seed=1):
+    """The result :func:`kontur.build.build` gave for the real build, its logs copied to
+    ``where``."""
+    where.mkdir(parents=True, exist_ok=True)
+    for name in ("top.tim", "top.pcf"):
+        (where / name).write_text((REAL / name).read_text())
+    (where / "top.rpt").write_text((REAL / "top.stat").read_text())
+    from kontur.constraints.flow import parse_fmax, parse_utilisation
+    log = (REAL / "top.tim").read_text()
+    return {"board": "icebreaker", "top": "controller", "log": where / "top.tim",
+            "utilisation": parse_utilisation(log), "fmax": parse_fmax(log), "seed": seed,
+            "seconds": 0.0, "machine": None}
+
+
+def test_report_of_a_real_icebreaker_build(tmp_path):
+    rec = kontur.build.report(_real_result(tmp_path))
+    assert rec["device"] == "iCE40UP5K" and rec["logic_cell"] == "ICESTORM_LC"
+    assert rec["cells_available"] == 5280                 # the UP5K's logic cells
+    assert 0 < rec["cells_used"] <= 5280
+    assert rec["clock_mhz"] == 6                           # the board's 12 MHz halved
+    assert rec["fmax_mhz"] > rec["clock_mhz"]
+    # Defaults: 1 µs set-up and 2 µs width at 6 MHz are 6 + 12 clocks, one more between pulses.
+    assert rec["clocks_per_step"] == 19 and round(rec["steps_per_s"]) == round(6e6 / 19)
+    assert rec["axes"] == 2                                # X and Y step pins
+    assert "uart_0__rx__io" in rec["ports"] and "stepper_0__enable__io" in rec["ports"]
+    assert [e["kind"] for e in rec["engines"]] == ["line", "arc"]
+    assert rec["critical_path"]["from"] and rec["critical_path"]["to"]
+    assert 0 < rec["flip_flops"] < rec["cells_used"]
+    assert rec["block_ram"][1] == 30 and rec["dsp"][1] == 8
+    assert rec["seed"] == 1
+
+
+def test_seed_reaches_nextpnr(monkeypatch, tmp_path):
+    seeds = []
+
+    def place_and_route(platform, top, build_dir, *, seed):
+        seeds.append(seed)
+        return {"bitstream": "top.bin", "log": "log", "utilisation": {}, "fmax": {},
+                "seed": seed, "seconds": 0.0}
+    monkeypatch.setattr(kontur.build, "place_and_route", place_and_route)
+    assert main(["build", "--seed", "3", "--build-dir", str(tmp_path / "b")]) == 0
+    assert main(["build", "--build-dir", str(tmp_path / "b")]) == 0
+    assert seeds == [3, 1]
+
+
+def test_flip_flops_of_the_last_stat():
+    text = "   7   SB_DFF\n   2   SB_DFFE\n   9 cells\n   5   SB_DFF\n   1   SB_LUT4\n"
+    assert kontur.build.parse_flip_flops(text) == 5 + 2
+    assert kontur.build.parse_flip_flops("no stat here") is None
+
+
+def test_bench_controllers_table_into_benchmarks(tmp_path):
+    import kontur.bench
+    calls = []
+
+    def builder(board, build_dir, *, seed):
+        calls.append((board, seed))
+        return _real_result(Path(build_dir), seed)
+    rows = kontur.bench.controllers(boards=("icebreaker",), seeds=(1, 2), build_root=tmp_path,
+                                    builder=builder)
+    assert calls == [("icebreaker", 1), ("icebreaker", 2)]
+    kontur.bench.controllers(runs=[("icebreaker", 3)], build_root=tmp_path, builder=builder)
+    assert calls[-1] == ("icebreaker", 3)
+    table = kontur.bench.controllers_table(rows)
+    lines = table.splitlines()
+    assert len(lines) == 2 + 2 and "| icebreaker | iCE40UP5K | 2 |" in lines[3]
+    md = tmp_path / "B.md"
+    md.write_text("# Benchmarks\n\n## Area\n\nx\n\n## How\n\ny\n")
+    kontur.bench._write_controllers(md, rows, "cmd")
+    kontur.bench._write_controllers(md, rows[:1], "cmd")     # replaced, not added twice
+    text = md.read_text()
+    assert text.count(kontur.bench.CONTROLLERS_HEADING) == 1
+    assert text.index("## Area") < text.index(kontur.bench.CONTROLLERS_HEADING) \
+        < text.index("## How")
+    assert "| icebreaker | iCE40UP5K | 1 |" in text and "| 2 |" not in text
