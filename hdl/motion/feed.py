@@ -9,7 +9,7 @@ from ..engine import FeedSignature
 from ..spec import ONE, SQRT2          # one axial and one diagonal step (Q2.24)
 
 __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "SQRT2",
-           "rate_limit"]
+           "rate_limit", "override", "OVERRIDE_ONE", "LOOKAHEAD_MARGIN"]
 
 
 
@@ -94,6 +94,24 @@ class FeedDivider(wiring.Component):
         return m
 
 
+#: The feed override's unit: :py:`feed_override` is the factor times 128 (Q2.7), so 128 is
+#: 100 %, 256 200 % and 13 about 10 %.
+OVERRIDE_ONE = 128
+
+#: Steps of margin in the ramp-down look-ahead of an overridden move
+#: (:class:`FeedGenerator`): the look-ahead's one-clock lag, the step counter's and the
+#: accumulator's granularity, and the grid of the deceleration (docs/controller.md).
+LOOKAHEAD_MARGIN = 16
+
+
+def override(percent):
+    """The :py:`feed_override` factor (Q2.7) nearest ``percent`` (10 to 200)."""
+    if isinstance(percent, bool) or not isinstance(percent, int) or not 10 <= percent <= 200:
+        raise ValueError(f"Feed override must be a whole percentage from 10 to 200, "
+                         f"not {percent!r}")
+    return (percent * OVERRIDE_ONE + 50) // 100
+
+
 class FeedGenerator(wiring.Component):
     """The feed: step permissions at a contour speed ramped between a move's rates.
 
@@ -107,8 +125,29 @@ class FeedGenerator(wiring.Component):
     when the accumulator holds the length of the engine's next step: 1 for an axial step, √2
     for a diagonal (:py:`feed.diagonal`), so the tool moves along the contour at the rate
     whatever the direction. A step made takes its length off the accumulator; while a
-    permission waits for the engine (or :py:`hold` is high) the accumulator stands still, so
-    a wait never turns into a burst.
+    permission waits for the engine the accumulator stands still, so a wait never turns into
+    a burst.
+
+    **Hold.** While :py:`hold` is high the rate ramps toward zero at the same acceleration:
+    the steps go on, slower and slower, until the rate is zero (:py:`held`); then no
+    permission is given (not even one already earned). When :py:`hold` drops the rate ramps
+    back toward the move's target. The steps are the engine's, so a held run makes the same
+    steps as an uninterrupted one; only their times differ.
+
+    **Overrides.** The cruise rate is scaled by the feed override (:py:`feed_override`, Q2.7:
+    128 is 100 %), or for a rapid move (:py:`rapid`) by the rapid override
+    (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by
+    a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
+    rate's loop; until it is ready the rate ramps toward the unscaled cruise (a move's first
+    10 clocks) or the previous scaled one. Below 100 % the exit target is the lower of the
+    exit and the scaled cruise. Above 100 % the rate passes the cruise the planner timed the
+    ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
+    the distance it takes to come back down to the cruise from the rate now (every clock the
+    rate rises above the cruise it adds the rate; every full step down it takes the rate
+    off), and the ramp-down starts where that distance and a margin of
+    :data:`LOOKAHEAD_MARGIN` steps reach the planned ramp-down step. So the move still reaches
+    its exit rate before its end. With :py:`hold` low and both overrides at 100 % the
+    generator is exactly the one without these inputs.
 
     Parameters
     ----------
@@ -124,11 +163,22 @@ class FeedGenerator(wiring.Component):
     accel : :py:`In(32)`
         The rate's change a clock, Q0.40 (the configured acceleration).
     hold : :py:`In(1)`
-        No permission while high (the rate goes on).
+        Feed hold (a level): ramp down to a standstill, then no permission; resume on its fall.
+    feed_override : :py:`In(9, init=128)`
+        The feed override, Q2.7 (:func:`override`): the controller sends 13 to 256 (10 % to
+        200 %).
+    rapid_override : :py:`In(2)`
+        The rapid override: the cruise of a rapid move shifted right by it (0: 100 %, 1: 50 %,
+        2: 25 %).
+    rapid : :py:`In(1)`
+        The running move is a rapid (G0): :py:`rapid_override` applies, not
+        :py:`feed_override`.
     rate : :py:`Out(24)`
         The rate now, Q0.24.
     steps : :py:`Out(24)`
         Steps of the running move so far.
+    held : :py:`Out(1)`
+        At a standstill under :py:`hold`.
 
     Raises
     ------
@@ -143,55 +193,149 @@ class FeedGenerator(wiring.Component):
                             f"not {max_rate!r}")
         self._max_rate = max_rate
         super().__init__({
-            "feed":    In(FeedSignature()),
-            "ramp":    In(RampSignature()),
-            "accel":   In(32),
-            "hold":    In(1),
-            "rate":    Out(24),
-            "steps":   Out(24),
+            "feed":           In(FeedSignature()),
+            "ramp":           In(RampSignature()),
+            "accel":          In(32),
+            "hold":           In(1),
+            "feed_override":  In(9, init=OVERRIDE_ONE),
+            "rapid_override": In(2),
+            "rapid":          In(1),
+            "rate":           Out(24),
+            "steps":          Out(24),
+            "held":           Out(1),
         })
 
     @property
     def max_rate(self):
         return self._max_rate
 
+    def _clamp(self, value):
+        return Mux(value > self._max_rate, self._max_rate, value)
+
     def elaborate(self, platform):
         m = Module()
-        p = self.ramp.profile
+        p, start = self.ramp.profile, self.ramp.start
         rate = Signal(40)                       # Q0.40
-        distance = Signal(26)                   # Q2.24: below √2 + 1
         steps = Signal(24)
+        planned = Signal(24)                    # the cruise the ramp-down step was planned for
+        m.d.comb += planned.eq(self._clamp(p.cruise))
+        scaled, slower, ready = self._scale(m)
+        rose, fell = Signal(), Signal()         # how the rate changes at this clock's edge
+        down = self._lookahead(m, rate, steps, planned, rose, fell)
 
+        # The target: zero under hold; the exit from the ramp-down on (the scaled cruise if
+        # lower, below 100 %); else the cruise, scaled once its product is ready.
+        use = ready & ~start
+        exit = Signal(24)
+        m.d.comb += exit.eq(self._clamp(p.exit))
         target = Signal(40)
-        wanted = Mux(steps < p.decelerate, p.cruise, p.exit)
-        m.d.comb += target.eq(Mux(wanted > self._max_rate, self._max_rate, wanted) << 16)
+        with m.If(self.hold):
+            m.d.comb += target.eq(0)
+        with m.Elif(down):
+            m.d.comb += target.eq(Mux(use & slower & (scaled < exit), scaled, exit) << 16)
+        with m.Else():
+            m.d.comb += target.eq(Mux(use, scaled, planned) << 16)
         # One step of the ramp toward the target, and the target itself where that step would
         # pass it: three carry chains (the direction, the step, the overshoot), not five.
         up = Signal()
-        m.d.comb += up.eq(rate <= target)
+        m.d.comb += up.eq(rate < target)
         moved = Signal(41)
         m.d.comb += moved.eq(Mux(up, rate + self.accel, rate - self.accel))
         passed = Signal()
         m.d.comb += passed.eq(Mux(up, moved >= target, moved[40] | (moved <= target)))
         m.d.sync += rate.eq(Mux(passed, target, moved[:40]))
+        m.d.comb += [rose.eq(up), fell.eq(~up & ~passed)]
 
+        stopped = Signal()
+        m.d.comb += stopped.eq(self.hold & (rate == 0))
+        self._steps(m, rate, steps, stopped)
+        m.d.comb += [self.rate.eq(rate[16:]), self.steps.eq(steps), self.held.eq(stopped)]
+        return m
+
+    def _scale(self, m):
+        """The scaled cruise: ``min(cruise * factor >> 7, max_rate)``, by a sequential
+        multiplier (one bit of the factor a clock, high bit first) started at a move's start
+        and whenever the factor changes. Returns it, whether its factor was below 100 %, and
+        whether it is the running move's (cleared at a start, set when it is written)."""
+        p, start = self.ramp.profile, self.ramp.start
+        factor = Signal(9)
+        m.d.comb += factor.eq(Mux(self.rapid, OVERRIDE_ONE >> self.rapid_override,
+                                  self.feed_override))
+        used = Signal(9, init=OVERRIDE_ONE)     # the factor of the product under way
+        bits = Signal(9)                        # its bits still to take, high first
+        product = Signal(33)
+        count = Signal(range(11))               # 10 at the start: 9 bits, then the result
+        scaled, slower, ready = Signal(24), Signal(), Signal()
+        with m.If(start | (factor != used)):
+            m.d.sync += [used.eq(factor), bits.eq(factor), product.eq(0), count.eq(10)]
+        with m.Elif(count > 1):
+            m.d.sync += [
+                product.eq((product << 1) + Mux(bits[8], p.cruise, 0)),
+                bits.eq(bits << 1),
+                count.eq(count - 1),
+            ]
+        with m.Elif(count == 1):
+            m.d.sync += [
+                scaled.eq(self._clamp(product[7:])),
+                slower.eq(used < OVERRIDE_ONE),
+                ready.eq(1),
+                count.eq(0),
+            ]
+        with m.If(start):
+            m.d.sync += ready.eq(0)
+        return scaled, slower, ready
+
+    def _lookahead(self, m, rate, steps, planned, rose, fell):
+        """Whether the move ramps down now: from its planned step on, or earlier where the rate
+        above the planned cruise needs the distance. ``extra`` (Q24.24 step lengths,
+        saturating) is the distance the rate of the clock before takes to come down to
+        ``planned`` at the acceleration: a clock later than the rate, it adds the rate on a
+        rise (exact for a full step, more for a part), takes it off on a full step down (the
+        new rate, so a little less than exact), and keeps it on a part step down. Zero at or
+        below ``planned``, and from a move's start."""
+        p, start = self.ramp.profile, self.ramp.start
+        rose_q, fell_q = Signal(), Signal()
+        m.d.sync += [rose_q.eq(rose), fell_q.eq(fell)]
+        extra = Signal(48)
+        above = Signal()                        # the rate rose above the planned cruise
+        now = rate[16:]
+        grown = Signal(49)
+        shrunk = Signal(49)
+        m.d.comb += [grown.eq(extra + now), shrunk.eq(extra - now)]
+        with m.If(start | (rate <= (planned << 16))):
+            m.d.sync += [extra.eq(0), above.eq(0)]
+        with m.Else():
+            m.d.sync += above.eq(above | rose_q)
+            with m.If(rose_q):
+                m.d.sync += extra.eq(Mux(grown[48], (1 << 48) - 1, grown[:48]))
+            with m.Elif(fell_q):
+                m.d.sync += extra.eq(Mux(shrunk[48], 0, shrunk[:48]))
+        early = Signal()
+        m.d.comb += early.eq(above & (steps + extra[24:] + LOOKAHEAD_MARGIN
+                                      >= p.decelerate))
+        latched = Signal()                      # the ramp-down began early in this move
+        m.d.sync += latched.eq(~start & (latched | early))
+        down = Signal()
+        m.d.comb += down.eq((latched & ~start) | (steps >= p.decelerate))
+        return down
+
+    def _steps(self, m, rate, steps, stopped):
+        """The distance accumulator, the permissions and the move's step count."""
+        distance = Signal(26)                   # Q2.24: below √2 + 1
         length = Mux(self.feed.diagonal, SQRT2, ONE)
         tick = Signal()
         step = Signal()
         grown = distance + rate[16:]
         m.d.comb += [
-            tick.eq(~self.hold & (distance >= length)),
+            tick.eq(~stopped & (distance >= length)),
             self.feed.tick.eq(tick),
             step.eq(tick & self.feed.due),
-            self.rate.eq(rate[16:]),
-            self.steps.eq(steps),
         ]
         with m.If(step):
             m.d.sync += distance.eq(grown - length)
-        with m.Elif(~self.hold & ~tick):            # a pending permission holds its distance
+        with m.Elif(~tick):                         # a pending permission holds its distance
             m.d.sync += distance.eq(grown)
         with m.If(self.ramp.start):
             m.d.sync += steps.eq(Mux(step, 1, 0))
         with m.Elif(step):
             m.d.sync += steps.eq(steps + 1)
-        return m
