@@ -217,24 +217,21 @@ class FeedGenerator(wiring.Component):
         p, start = self.ramp.profile, self.ramp.start
         rate = Signal(40)                       # Q0.40
         steps = Signal(24)
-        planned = Signal(24)                    # the cruise the ramp-down step was planned for
-        m.d.comb += planned.eq(self._clamp(p.cruise))
         scaled, slower, ready = self._scale(m)
         rose, fell = Signal(), Signal()         # how the rate changes at this clock's edge
-        down = self._lookahead(m, rate, steps, planned, rose, fell)
+        down = self._lookahead(m, rate, steps, rose, fell)
 
         # The target: zero under hold; the exit from the ramp-down on (the scaled cruise if
         # lower, below 100 %); else the cruise, scaled once its product is ready.
         use = ready & ~start
-        exit = Signal(24)
-        m.d.comb += exit.eq(self._clamp(p.exit))
+        cruise, exit, wanted = Signal(26), Signal(26), Signal(26)
+        m.d.comb += [
+            cruise.eq(Mux(use, scaled, p.cruise)),
+            exit.eq(Mux(use & slower & (scaled < p.exit), scaled, p.exit)),
+            wanted.eq(Mux(down, exit, cruise)),
+        ]
         target = Signal(40)
-        with m.If(self.hold):
-            m.d.comb += target.eq(0)
-        with m.Elif(down):
-            m.d.comb += target.eq(Mux(use & slower & (scaled < exit), scaled, exit) << 16)
-        with m.Else():
-            m.d.comb += target.eq(Mux(use, scaled, planned) << 16)
+        m.d.comb += target.eq(Mux(self.hold, 0, self._clamp(wanted) << 16))
         # One step of the ramp toward the target, and the target itself where that step would
         # pass it: three carry chains (the direction, the step, the overshoot), not five.
         up = Signal()
@@ -246,77 +243,77 @@ class FeedGenerator(wiring.Component):
         m.d.sync += rate.eq(Mux(passed, target, moved[:40]))
         m.d.comb += [rose.eq(up), fell.eq(~up & ~passed)]
 
+        # Held: under hold in the clock before, whose step reached the target, zero.
+        zero = Signal()
+        m.d.sync += zero.eq(self.hold & passed)
         stopped = Signal()
-        m.d.comb += stopped.eq(self.hold & (rate == 0))
+        m.d.comb += stopped.eq(self.hold & zero)
         self._steps(m, rate, steps, stopped)
         m.d.comb += [self.rate.eq(rate[16:]), self.steps.eq(steps), self.held.eq(stopped)]
         return m
 
     def _scale(self, m):
-        """The scaled cruise: ``min(cruise * factor >> 7, max_rate)``, by a sequential
-        multiplier (one bit of the factor a clock, high bit first) started at a move's start
-        and whenever the factor changes. Returns it, whether its factor was below 100 %, and
-        whether it is the running move's (cleared at a start, set when it is written)."""
+        """The scaled cruise, ``cruise * factor >> 7`` (26 bits, clamped with the target), by a
+        sequential multiplier (one bit of the factor a clock, high bit first) restarted at a
+        move's start and whenever the factor changes. Returns it, whether its factor is below
+        100 %, and whether it is ready (for the running move and the factor now)."""
         p, start = self.ramp.profile, self.ramp.start
         factor = Signal(9)
         m.d.comb += factor.eq(Mux(self.rapid, OVERRIDE_ONE >> self.rapid_override,
                                   self.feed_override))
-        used = Signal(9, init=OVERRIDE_ONE)     # the factor of the product under way
-        bits = Signal(9)                        # its bits still to take, high first
+        used = Signal(9, init=OVERRIDE_ONE)     # the factor of the product
+        busy = Signal()
+        bit = Signal(range(9))                  # the factor's bit to take, high first
         product = Signal(33)
-        count = Signal(range(11))               # 10 at the start: 9 bits, then the result
-        scaled, slower, ready = Signal(24), Signal(), Signal()
+        ready = Signal()
         with m.If(start | (factor != used)):
-            m.d.sync += [used.eq(factor), bits.eq(factor), product.eq(0), count.eq(10)]
-        with m.Elif(count > 1):
+            m.d.sync += [used.eq(factor), busy.eq(1), bit.eq(8), product.eq(0), ready.eq(0)]
+        with m.Elif(busy):
             m.d.sync += [
-                product.eq((product << 1) + Mux(bits[8], p.cruise, 0)),
-                bits.eq(bits << 1),
-                count.eq(count - 1),
+                product.eq((product << 1) + Mux(used.bit_select(bit, 1), p.cruise, 0)),
+                bit.eq(bit - 1),
             ]
-        with m.Elif(count == 1):
-            m.d.sync += [
-                scaled.eq(self._clamp(product[7:])),
-                slower.eq(used < OVERRIDE_ONE),
-                ready.eq(1),
-                count.eq(0),
-            ]
-        with m.If(start):
-            m.d.sync += ready.eq(0)
-        return scaled, slower, ready
+            with m.If(bit == 0):
+                m.d.sync += [busy.eq(0), ready.eq(1)]
+        return product[7:], used < OVERRIDE_ONE, ready
 
-    def _lookahead(self, m, rate, steps, planned, rose, fell):
+    def _lookahead(self, m, rate, steps, rose, fell):
         """Whether the move ramps down now: from its planned step on, or earlier where the rate
-        above the planned cruise needs the distance. ``extra`` (Q24.24 step lengths,
-        saturating) is the distance the rate of the clock before takes to come down to
-        ``planned`` at the acceleration: a clock later than the rate, it adds the rate on a
-        rise (exact for a full step, more for a part), takes it off on a full step down (the
-        new rate, so a little less than exact), and keeps it on a part step down. Zero at or
-        below ``planned``, and from a move's start."""
+        above the planned cruise needs the distance.
+
+        ``extra`` (Q17.16 step lengths) is the distance the rate of the clock before takes to
+        come down to the cruise at the acceleration, plus :data:`LOOKAHEAD_MARGIN`: a clock
+        later than the rate, on a rise it adds the rate (rounded up: exact or more for a full
+        step, more for a part), on a full step down it takes the new rate off (a little less
+        than exact), and it stands on a part step down. Reset (to the margin) at a move's
+        start and while the rate (whole Q0.24) is not above the cruise. The ramp-down begins
+        when the steps made and ``extra`` reach the planned step, or ``extra`` reaches 2**16
+        steps; it is latched until the next move."""
         p, start = self.ramp.profile, self.ramp.start
         rose_q, fell_q = Signal(), Signal()
         m.d.sync += [rose_q.eq(rose), fell_q.eq(fell)]
-        extra = Signal(48)
-        above = Signal()                        # the rate rose above the planned cruise
-        now = rate[16:]
-        grown = Signal(49)
-        shrunk = Signal(49)
-        m.d.comb += [grown.eq(extra + now), shrunk.eq(extra - now)]
-        with m.If(start | (rate <= (planned << 16))):
-            m.d.sync += [extra.eq(0), above.eq(0)]
-        with m.Else():
-            m.d.sync += above.eq(above | rose_q)
-            with m.If(rose_q):
-                m.d.sync += extra.eq(Mux(grown[48], (1 << 48) - 1, grown[:48]))
-            with m.Elif(fell_q):
-                m.d.sync += extra.eq(Mux(shrunk[48], 0, shrunk[:48]))
+        extra = Signal(33, init=LOOKAHEAD_MARGIN << 16)
+        above = Signal()                        # the rate rose above the cruise
+        now = Signal(33)
+        m.d.comb += now.eq(Mux(fell_q, Cat(~rate[24:], C((1 << 17) - 1, 17)), rate[24:]))
+        summed = Signal(34)                     # extra + now + 1: the 1 as a carry in
+        m.d.comb += summed.eq(Cat(C(1, 1), extra) + Cat(C(1, 1), now))
+        with m.If(start | (rate[16:] <= p.cruise)):
+            m.d.sync += [extra.eq(LOOKAHEAD_MARGIN << 16), above.eq(0)]
+        with m.Elif(rose_q | fell_q):
+            m.d.sync += [extra.eq(summed[1:]), above.eq(above | rose_q)]
+        # One subtraction for the planned step and the look-ahead: ``left`` is
+        # ``decelerate - steps - 1`` (its bit 24 set while steps < decelerate), and
+        # steps + extra >= decelerate where the whole steps of extra exceed it.
+        left = Signal(25)
+        m.d.comb += left.eq(p.decelerate + (~steps & ((1 << 24) - 1)))
+        planned = ~left[24]
         early = Signal()
-        m.d.comb += early.eq(above & (steps + extra[24:] + LOOKAHEAD_MARGIN
-                                      >= p.decelerate))
+        m.d.comb += early.eq(above & (extra[32] | planned | (left[:24] < extra[16:32])))
         latched = Signal()                      # the ramp-down began early in this move
         m.d.sync += latched.eq(~start & (latched | early))
         down = Signal()
-        m.d.comb += down.eq((latched & ~start) | (steps >= p.decelerate))
+        m.d.comb += down.eq((latched & ~start) | planned)
         return down
 
     def _steps(self, m, rate, steps, stopped):

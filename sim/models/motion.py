@@ -17,8 +17,8 @@ class FeedGeneratorModel:
 
     WIDTHS = {"cruise": 24, "exit": 24, "decelerate": 24}
     ONE_FACTOR = 128                      # :data:`~kontur.hdl.motion.feed.OVERRIDE_ONE`
-    MARGIN = 16                           # :data:`~kontur.hdl.motion.feed.LOOKAHEAD_MARGIN`
-    EXTRA = 48                            # bits of the look-ahead's distance (Q24.24)
+    MARGIN = 16 << 16                     # :data:`~kontur.hdl.motion.feed.LOOKAHEAD_MARGIN`
+    EXTRA = 1 << 33                       # the look-ahead's distance: Q17.16, modulo this
 
     def __init__(self, *, max_rate=(1 << 24) - 1):
         self.max_rate = max_rate
@@ -28,20 +28,19 @@ class FeedGeneratorModel:
         self.rate = 0                     # Q0.40
         self.distance = 0                 # Q2.24
         self.steps = 0
-        # The scaled cruise and its sequential multiplier.
+        self.zero = False                 # the last clock was under hold and reached zero
+        self.held = False
+        # The scaled cruise: the sequential multiplier.
         self.used = self.ONE_FACTOR
-        self.bits = 0
+        self.busy = False
+        self.bit = 0
         self.product = 0
-        self.count = 0
-        self.scaled = 0
-        self.slower = False
         self.ready = False
         # The ramp-down look-ahead.
         self.rose = self.fell = False
-        self.extra = 0
+        self.extra = self.MARGIN
         self.above = False
         self.latched = False
-        self.held = False
 
     def _check(self, p, accel, feed_override, rapid_override):
         for name, bits in self.WIDTHS.items():
@@ -56,43 +55,31 @@ class FeedGeneratorModel:
         if not 0 <= rapid_override < 4:
             raise ValueError(f"Rapid override must be 0 to 3, not {rapid_override!r}")
 
-    def _clamp(self, value):
-        return min(value, self.max_rate)
-
     def _scale(self, p, start, factor):
-        """The sequential multiplier, one clock: the next state of the scaled cruise."""
+        """The sequential multiplier, one clock."""
         if start or factor != self.used:
-            self.used, self.bits, self.product, self.count = factor, factor, 0, 10
-        elif self.count > 1:
-            self.product = ((self.product << 1) + (p["cruise"] if self.bits >> 8 & 1 else 0)) \
-                % (1 << 33)
-            self.bits = (self.bits << 1) % (1 << 9)
-            self.count -= 1
-        elif self.count == 1:
-            self.scaled = self._clamp(self.product >> 7)
-            self.slower = self.used < self.ONE_FACTOR
-            self.ready = True
-            self.count = 0
-        if start:
+            self.used, self.busy, self.bit, self.product = factor, True, 8, 0
             self.ready = False
+        elif self.busy:
+            taken = p["cruise"] if self.used >> self.bit & 1 else 0
+            self.product = ((self.product << 1) + taken) % (1 << 33)
+            if self.bit == 0:
+                self.busy, self.ready = False, True
+            self.bit = (self.bit - 1) % 16
 
-    def _lookahead(self, p, start, planned):
+    def _lookahead(self, p, start):
         """The look-ahead, one clock: whether the move ramps down now; advances its state."""
-        early = self.above and (self.steps + (self.extra >> 24) + self.MARGIN
+        early = self.above and (self.extra >= 1 << 32
+                                or self.steps + (self.extra >> 16) % (1 << 16)
                                 >= p["decelerate"])
         down = (self.latched and not start) or self.steps >= p["decelerate"]
-        now = self.rate >> 16
-        if start or self.rate <= planned << 16:
-            extra, above = 0, False
-        else:
-            above = self.above or self.rose
-            if self.rose:
-                extra = min(self.extra + now, (1 << self.EXTRA) - 1)
-            elif self.fell:
-                extra = max(self.extra - now, 0)
-            else:
-                extra = self.extra
-        self.extra, self.above = extra, above
+        now = self.rate >> 24
+        if start or self.rate >> 16 <= p["cruise"]:
+            self.extra, self.above = self.MARGIN, False
+        elif self.rose:
+            self.extra, self.above = (self.extra + now + 1) % self.EXTRA, True
+        elif self.fell:
+            self.extra = (self.extra - now) % self.EXTRA
         self.latched = not start and (self.latched or early)
         return down
 
@@ -100,22 +87,18 @@ class FeedGeneratorModel:
               feed_override=ONE_FACTOR, rapid_override=0, rapid=0):
         p = profile
         self._check(p, accel, feed_override, rapid_override)
-        planned = self._clamp(p["cruise"])
-        exit = self._clamp(p["exit"])
         use = self.ready and not start
-        scaled, slower = self.scaled, self.slower
-        down = self._lookahead(p, start, planned)
-        factor = (self.ONE_FACTOR >> rapid_override) if rapid else feed_override
-        self._scale(p, start, factor)
-        if hold:
-            target = 0
-        elif down:
-            target = (scaled if use and slower and scaled < exit else exit) << 16
+        scaled, slower = self.product >> 7, self.used < self.ONE_FACTOR
+        down = self._lookahead(p, start)
+        self._scale(p, start, (self.ONE_FACTOR >> rapid_override) if rapid else feed_override)
+        if down:
+            wanted = scaled if use and slower and scaled < p["exit"] else p["exit"]
         else:
-            target = (scaled if use else planned) << 16
+            wanted = scaled if use else p["cruise"]
+        target = 0 if hold else min(wanted, self.max_rate) << 16
 
         # The distance and the permission (from this clock's rate).
-        stopped = self.held = bool(hold and self.rate == 0)
+        stopped = self.held = bool(hold and self.zero)
         length = SQRT2 if diagonal else ONE
         tick = int(not stopped and self.distance >= length)
         step = bool(tick and due)
@@ -134,5 +117,6 @@ class FeedGeneratorModel:
         moved = self.rate + accel if up else self.rate - accel
         passed = moved >= target if up else moved <= target
         self.rose, self.fell = up, not up and not passed
+        self.zero = bool(hold and passed)
         self.rate = target if passed else moved
         return tick
