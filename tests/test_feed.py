@@ -29,12 +29,13 @@ def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clock
     acceleration ``accel`` (Q0.40), every output compared in every clock. The moves follow one
     another (start at each move's first clock); ``inputs(clock)`` gives the other inputs of a
     clock (``hold``, ``feed_override``, ``rapid_override``, ``rapid``; missing ones at their
-    defaults). Returns the steps as ``(clock, move, diagonal)``."""
+    defaults). Returns the steps as ``(clock, move, diagonal, rate)`` (``rate`` the RTL's
+    output in that clock, Q0.24) and the clocks with ``held`` high."""
     kwargs = {} if max_rate is None else {"max_rate": max_rate}
     dut = FeedGenerator(**kwargs)
     model = FeedGeneratorModel(**kwargs)
     plan = [(p, count) for p, count in moves]
-    stepped = []
+    stepped, held = [], []
 
     async def testbench(ctx):
         index, made, starting = 0, 0, True
@@ -56,9 +57,11 @@ def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clock
             assert ctx.get(dut.feed.tick) == tick, f"clock {clock}"
             assert (ctx.get(dut.rate), ctx.get(dut.steps)) == state, f"clock {clock}"
             assert ctx.get(dut.held) == model.held, f"clock {clock}"
+            if model.held:
+                held.append(clock)
             starting = False
             if tick and d:
-                stepped.append((clock, index, diag))
+                stepped.append((clock, index, diag, state[0]))
                 made += 1
                 if made == count:
                     index, made, starting = index + 1, 0, True
@@ -66,12 +69,12 @@ def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clock
             clock += 1
 
     simulate(dut, testbench, name="feed_generator")
-    return stepped
+    return stepped, held
 
 
 def run(moves, **kwargs):
     """:func:`trace`'s step clocks alone."""
-    return [clock for clock, _, _ in trace(moves, **kwargs)]
+    return [clock for clock, *_ in trace(moves, **kwargs)[0]]
 
 
 class FeedGeneratorTestCase(unittest.TestCase):

@@ -291,7 +291,7 @@ class FeedGenerator(wiring.Component):
         steps; it is latched until the next move."""
         p, start = self.ramp.profile, self.ramp.start
         rose_q, fell_q = Signal(), Signal()
-        m.d.sync += [rose_q.eq(rose), fell_q.eq(fell)]
+        m.d.sync += [rose_q.eq(rose & ~start), fell_q.eq(fell & ~start)]   # this move's
         extra = Signal(33, init=LOOKAHEAD_MARGIN << 16)
         above = Signal()                        # the rate rose above the cruise
         now = Signal(33)

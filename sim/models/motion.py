@@ -116,7 +116,7 @@ class FeedGeneratorModel:
         up = self.rate < target
         moved = self.rate + accel if up else self.rate - accel
         passed = moved >= target if up else moved <= target
-        self.rose, self.fell = up, not up and not passed
+        self.rose, self.fell = up and not start, not up and not passed and not start
         self.zero = bool(hold and passed)
         self.rate = target if passed else moved
         return tick
