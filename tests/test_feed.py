@@ -24,14 +24,16 @@ def accel_of(steps_per_clock2):
 
 
 def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=None,
-          max_rate=None, inputs=lambda clock: {}):
+          max_rate=None, inputs=lambda clock: {}, overrides=True):
     """Run ``moves`` (profiles, each for its step count) through the RTL and the model at the
     acceleration ``accel`` (Q0.40), every output compared in every clock. The moves follow one
     another (start at each move's first clock); ``inputs(clock)`` gives the other inputs of a
     clock (``hold``, ``feed_override``, ``rapid_override``, ``rapid``; missing ones at their
     defaults). Returns the steps as ``(clock, move, diagonal, rate)`` (``rate`` the RTL's
     output in that clock, Q0.24) and the clocks with ``held`` high."""
-    kwargs = {} if max_rate is None else {"max_rate": max_rate}
+    kwargs = {"overrides": overrides}
+    if max_rate is not None:
+        kwargs["max_rate"] = max_rate
     dut = FeedGenerator(**kwargs)
     model = FeedGeneratorModel(**kwargs)
     plan = [(p, count) for p, count in moves]
@@ -132,6 +134,8 @@ class FeedGeneratorTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError, r"^Highest rate must be a positive integer, "
                                                r"not 0$"):
             FeedGenerator(max_rate=0)
+        with self.assertRaisesRegex(TypeError, r"^Overrides must be True or False, not 1$"):
+            FeedGenerator(overrides=1)
 
 
 if __name__ == "__main__":

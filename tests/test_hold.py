@@ -275,6 +275,16 @@ class OverrideTestCase(Checks, unittest.TestCase):
         self.assertAlmostEqual(self.plateau(steps, 800, 1500), 0.1, delta=0.002)
         self.assertAlmostEqual(self.plateau(steps, 2000, 2600), 0.05, delta=0.001)
 
+    def test_without_overrides(self):
+        # Built without them, the generator ignores the overrides and still holds.
+        moves = [planned(200, 0.2, 0.02)]
+        inputs = schedule({0: {"feed_override": 2 * OVERRIDE_ONE}, 600: {"hold": 1},
+                           1300: {"hold": 0}})
+        steps, held = trace(moves, accel=accel_of(A), inputs=inputs, overrides=False)
+        self.check_run(moves, steps, cap=0.2, held=held)
+        self.assertLessEqual(abs(intervals(held)[0][0] - (600 + 500)), 3)
+        self.assertAlmostEqual(self.plateau(steps, 500, 600), 0.2, delta=0.004)
+
     def test_override_factor(self):
         self.assertEqual([override(p) for p in (10, 50, 100, 150, 200)],
                          [13, 64, 128, 192, 256])

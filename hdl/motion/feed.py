@@ -153,6 +153,9 @@ class FeedGenerator(wiring.Component):
     ----------
     max_rate : :class:`int`
         The highest rate, Q0.24 (default: one step a clock); see :func:`rate_limit`.
+    overrides : :class:`bool`
+        With ``False`` the override inputs are ignored (always 100 %) and their multiplier
+        and look-ahead are not built; hold works the same (for a device too small for them).
 
     Members
     -------
@@ -183,15 +186,19 @@ class FeedGenerator(wiring.Component):
     Raises
     ------
     :exc:`TypeError`
-        If ``max_rate`` is not an integer from 1 to 2**24 - 1.
+        If ``max_rate`` is not an integer from 1 to 2**24 - 1, or ``overrides`` not a
+        :class:`bool`.
     """
 
-    def __init__(self, *, max_rate=(1 << 24) - 1):
+    def __init__(self, *, max_rate=(1 << 24) - 1, overrides=True):
         check_width("Highest rate", max_rate)
         if max_rate >= 1 << 24:
             raise TypeError(f"Highest rate must be below 2**24 (one step a clock), "
                             f"not {max_rate!r}")
+        if not isinstance(overrides, bool):
+            raise TypeError(f"Overrides must be True or False, not {overrides!r}")
         self._max_rate = max_rate
+        self._overrides = overrides
         super().__init__({
             "feed":           In(FeedSignature()),
             "ramp":           In(RampSignature()),
@@ -208,6 +215,10 @@ class FeedGenerator(wiring.Component):
     @property
     def max_rate(self):
         return self._max_rate
+
+    @property
+    def overrides(self):
+        return self._overrides
 
     def _clamp(self, value):
         return Mux(value > self._max_rate, self._max_rate, value)
@@ -258,6 +269,8 @@ class FeedGenerator(wiring.Component):
         move's start and whenever the factor changes. Returns it, whether its factor is below
         100 %, and whether it is ready (for the running move and the factor now)."""
         p, start = self.ramp.profile, self.ramp.start
+        if not self._overrides:
+            return p.cruise, C(0), C(0)
         factor = Signal(9)
         m.d.comb += factor.eq(Mux(self.rapid, OVERRIDE_ONE >> self.rapid_override,
                                   self.feed_override))
@@ -290,6 +303,8 @@ class FeedGenerator(wiring.Component):
         when the steps made and ``extra`` reach the planned step, or ``extra`` reaches 2**16
         steps; it is latched until the next move."""
         p, start = self.ramp.profile, self.ramp.start
+        if not self._overrides:
+            return steps >= p.decelerate
         rose_q, fell_q = Signal(), Signal()
         m.d.sync += [rose_q.eq(rose & ~start), fell_q.eq(fell & ~start)]   # this move's
         extra = Signal(33, init=LOOKAHEAD_MARGIN << 16)

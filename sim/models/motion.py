@@ -11,7 +11,7 @@ class FeedGeneratorModel:
     ``profile`` is a dict with ``cruise``, ``exit`` (Q0.24) and ``decelerate``; ``accel`` is
     Q0.40; ``hold`` a level, ``feed_override`` the Q2.7 factor (128: 100 %),
     ``rapid_override`` the rapid's shift (0, 1, 2: 100, 50, 25 %), ``rapid`` whether the move
-    is a rapid. :meth:`cycle` returns ``tick`` for the clock, then advances; after it,
+    is a rapid; ``overrides=False``, the generator built without them. :meth:`cycle` returns ``tick`` for the clock, then advances; after it,
     :attr:`held` is that clock's ``held``.
     """
 
@@ -20,8 +20,9 @@ class FeedGeneratorModel:
     MARGIN = 16 << 16                     # :data:`~kontur.hdl.motion.feed.LOOKAHEAD_MARGIN`
     EXTRA = 1 << 33                       # the look-ahead's distance: Q17.16, modulo this
 
-    def __init__(self, *, max_rate=(1 << 24) - 1):
+    def __init__(self, *, max_rate=(1 << 24) - 1, overrides=True):
         self.max_rate = max_rate
+        self.overrides = overrides
         self.reset()
 
     def reset(self):
@@ -90,7 +91,10 @@ class FeedGeneratorModel:
         use = self.ready and not start
         scaled, slower = self.product >> 7, self.used < self.ONE_FACTOR
         down = self._lookahead(p, start)
-        self._scale(p, start, (self.ONE_FACTOR >> rapid_override) if rapid else feed_override)
+        factor = (self.ONE_FACTOR >> rapid_override) if rapid else feed_override
+        # Without the overrides the factor is 100 %, where the look-ahead never acts (the
+        # rate rises above a move's cruise only after its planned ramp-down step).
+        self._scale(p, start, factor if self.overrides else self.ONE_FACTOR)
         if down:
             wanted = scaled if use and slower and scaled < p["exit"] else p["exit"]
         else:
