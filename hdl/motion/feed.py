@@ -138,8 +138,8 @@ class FeedGenerator(wiring.Component):
     128 is 100 %), or for a rapid move (:py:`rapid`) by the rapid override
     (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by
     a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
-    rate's loop; until it is ready the rate ramps toward the unscaled cruise (a move's first
-    10 clocks) or the previous scaled one. Below 100 % the exit target is the lower of the
+    rate's loop; until it is ready (10 clocks after a move's start or a change of the factor)
+    the rate ramps toward the unscaled cruise. Below 100 % the exit target is the lower of the
     exit and the scaled cruise. Above 100 % the rate passes the cruise the planner timed the
     ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
     the distance it takes to come back down to the cruise from the rate now (every clock the
