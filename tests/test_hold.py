@@ -285,6 +285,27 @@ class OverrideTestCase(Checks, unittest.TestCase):
         self.assertLessEqual(abs(intervals(held)[0][0] - (600 + 500)), 3)
         self.assertAlmostEqual(self.plateau(steps, 500, 600), 0.2, delta=0.004)
 
+    def test_random_inputs_against_model(self):
+        # Any profiles, waits and diagonals, and every input changed at random times, to
+        # values the controller never sends too (a factor of 0 or 511, the rapid shift 3):
+        # the RTL is the model, clock by clock (trace asserts it).
+        rng = random.Random(25)
+        moves = [(profile(rng.random() * 0.3, rng.random() * 0.3, rng.randrange(40)),
+                  rng.randrange(1, 40)) for _ in range(12)]
+        changes, clock = {}, 0
+        while clock < 4000:
+            clock += rng.randrange(1, 200)
+            changes[clock] = rng.choice([
+                {"hold": rng.randrange(2)}, {"rapid": rng.randrange(2)},
+                {"rapid_override": rng.randrange(4)},
+                {"feed_override": rng.choice([0, 1, 13, 100, 128, 129, 256, 511])}])
+        steps, held = trace(moves, accel=accel_of(2e-3), inputs=schedule(changes),
+                            due=lambda clock: int(rng.random() < 0.8),
+                            diagonal=lambda step: step % 3 == 0, max_rate=Q24 // 5,
+                            clocks=4000)
+        self.assertGreater(len(steps), 100)
+        self.assertGreater(len(held), 10)
+
     def test_override_factor(self):
         self.assertEqual([override(p) for p in (10, 50, 100, 150, 200)],
                          [13, 64, 128, 192, 256])
