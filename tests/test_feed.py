@@ -23,16 +23,21 @@ def accel_of(steps_per_clock2):
     return round(steps_per_clock2 * (1 << 40))
 
 
-def run(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=None,
-        max_rate=None):
+def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=None,
+          max_rate=None, inputs=lambda clock: {}, overrides=True):
     """Run ``moves`` (profiles, each for its step count) through the RTL and the model at the
-    acceleration ``accel`` (Q0.40); return the clocks of the steps. The moves follow one
-    another (start at each move's first clock)."""
-    kwargs = {} if max_rate is None else {"max_rate": max_rate}
+    acceleration ``accel`` (Q0.40), every output compared in every clock. The moves follow one
+    another (start at each move's first clock); ``inputs(clock)`` gives the other inputs of a
+    clock (``hold``, ``feed_override``, ``rapid_override``, ``rapid``; missing ones at their
+    defaults). Returns the steps as ``(clock, move, diagonal, rate)`` (``rate`` the RTL's
+    output in that clock, Q0.24) and the clocks with ``held`` high."""
+    kwargs = {"overrides": overrides}
+    if max_rate is not None:
+        kwargs["max_rate"] = max_rate
     dut = FeedGenerator(**kwargs)
     model = FeedGeneratorModel(**kwargs)
     plan = [(p, count) for p, count in moves]
-    stepped = []
+    stepped, held = [], []
 
     async def testbench(ctx):
         index, made, starting = 0, 0, True
@@ -40,16 +45,25 @@ def run(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=
         while index < len(plan) and (clocks is None or clock < clocks):
             p, count = plan[index]
             d, diag = due(clock), diagonal(len(stepped))
+            extra = inputs(clock)
             ctx.set(dut.ramp.profile, p)
             ctx.set(dut.accel, accel)
             ctx.set(dut.ramp.start, starting)
             ctx.set(dut.feed.due, d)
             ctx.set(dut.feed.diagonal, diag)
-            tick = model.cycle(profile=p, accel=accel, start=starting, due=d, diagonal=diag)
+            for name in ("hold", "feed_override", "rapid_override", "rapid"):
+                ctx.set(getattr(dut, name), extra.get(name, getattr(dut, name).init))
+            state = (model.rate >> 16, model.steps)
+            tick = model.cycle(profile=p, accel=accel, start=starting, due=d, diagonal=diag,
+                               **extra)
             assert ctx.get(dut.feed.tick) == tick, f"clock {clock}"
+            assert (ctx.get(dut.rate), ctx.get(dut.steps)) == state, f"clock {clock}"
+            assert ctx.get(dut.held) == model.held, f"clock {clock}"
+            if model.held:
+                held.append(clock)
             starting = False
             if tick and d:
-                stepped.append(clock)
+                stepped.append((clock, index, diag, state[0]))
                 made += 1
                 if made == count:
                     index, made, starting = index + 1, 0, True
@@ -57,7 +71,12 @@ def run(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=
             clock += 1
 
     simulate(dut, testbench, name="feed_generator")
-    return stepped
+    return stepped, held
+
+
+def run(moves, **kwargs):
+    """:func:`trace`'s step clocks alone."""
+    return [clock for clock, *_ in trace(moves, **kwargs)[0]]
 
 
 class FeedGeneratorTestCase(unittest.TestCase):
@@ -115,6 +134,8 @@ class FeedGeneratorTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError, r"^Highest rate must be a positive integer, "
                                                r"not 0$"):
             FeedGenerator(max_rate=0)
+        with self.assertRaisesRegex(TypeError, r"^Overrides must be True or False, not 1$"):
+            FeedGenerator(overrides=1)
 
 
 if __name__ == "__main__":

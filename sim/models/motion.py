@@ -9,42 +9,118 @@ class FeedGeneratorModel:
     """Clock-by-clock model of :class:`kontur.hdl.motion.feed.FeedGenerator`.
 
     ``profile`` is a dict with ``cruise``, ``exit`` (Q0.24) and ``decelerate``; ``accel`` is
-    Q0.40. :meth:`cycle` returns ``tick`` for the clock, then advances.
+    Q0.40; ``hold`` a level, ``feed_override`` the Q2.7 factor (128: 100 %),
+    ``rapid_override`` the rapid's shift (0, 1, 2: 100, 50, 25 %), ``rapid`` whether the move
+    is a rapid; ``overrides=False``, the generator built without them. :meth:`cycle` returns ``tick`` for the clock, then advances; after it,
+    :attr:`held` is that clock's ``held``.
     """
 
     WIDTHS = {"cruise": 24, "exit": 24, "decelerate": 24}
+    ONE_FACTOR = 128                      # :data:`~kontur.hdl.motion.feed.OVERRIDE_ONE`
+    MARGIN = 16 << 16                     # :data:`~kontur.hdl.motion.feed.LOOKAHEAD_MARGIN`
+    EXTRA = 1 << 33                       # the look-ahead's distance: Q17.16, modulo this
 
-    def __init__(self, *, max_rate=(1 << 24) - 1):
+    def __init__(self, *, max_rate=(1 << 24) - 1, overrides=True):
         self.max_rate = max_rate
+        self.overrides = overrides
         self.reset()
 
     def reset(self):
         self.rate = 0                     # Q0.40
         self.distance = 0                 # Q2.24
         self.steps = 0
+        self.zero = False                 # the last clock was under hold and reached zero
+        self.held = False
+        # The scaled cruise: the sequential multiplier.
+        self.used = self.ONE_FACTOR
+        self.busy = False
+        self.bit = 0
+        self.product = 0
+        self.ready = False
+        # The ramp-down look-ahead.
+        self.rose = self.fell = False
+        self.extra = self.MARGIN
+        self.above = False
+        self.latched = False
 
-    def cycle(self, *, profile, accel, start=0, due=0, diagonal=0, hold=0):
-        p = profile
+    def _check(self, p, accel, feed_override, rapid_override):
         for name, bits in self.WIDTHS.items():
             if not 0 <= p[name] < 1 << bits:
                 raise ValueError(f"Profile {name} must be an unsigned {bits}-bit integer, "
                                  f"not {p[name]!r}")
         if not 0 <= accel < 1 << 32:
             raise ValueError(f"Acceleration must be an unsigned 32-bit integer, not {accel!r}")
-        wanted = p["cruise"] if self.steps < p["decelerate"] else p["exit"]
-        target = min(wanted, self.max_rate) << 16
+        if not 0 <= feed_override < 1 << 9:
+            raise ValueError(f"Feed override must be an unsigned 9-bit integer, "
+                             f"not {feed_override!r}")
+        if not 0 <= rapid_override < 4:
+            raise ValueError(f"Rapid override must be 0 to 3, not {rapid_override!r}")
+
+    def _scale(self, p, start, factor):
+        """The sequential multiplier, one clock."""
+        if start or factor != self.used:
+            self.used, self.busy, self.bit, self.product = factor, True, 8, 0
+            self.ready = False
+        elif self.busy:
+            taken = p["cruise"] if self.used >> self.bit & 1 else 0
+            self.product = ((self.product << 1) + taken) % (1 << 33)
+            if self.bit == 0:
+                self.busy, self.ready = False, True
+            self.bit = (self.bit - 1) % 16
+
+    def _lookahead(self, p, start):
+        """The look-ahead, one clock: whether the move ramps down now; advances its state."""
+        early = self.above and (self.extra >= 1 << 32
+                                or self.steps + (self.extra >> 16) % (1 << 16)
+                                >= p["decelerate"])
+        down = (self.latched and not start) or self.steps >= p["decelerate"]
+        now = self.rate >> 24
+        if start or self.rate >> 16 <= p["cruise"]:
+            self.extra, self.above = self.MARGIN, False
+        elif self.rose:
+            self.extra, self.above = (self.extra + now + 1) % self.EXTRA, True
+        elif self.fell:
+            self.extra = (self.extra - now) % self.EXTRA
+        self.latched = not start and (self.latched or early)
+        return down
+
+    def cycle(self, *, profile, accel, start=0, due=0, diagonal=0, hold=0,
+              feed_override=ONE_FACTOR, rapid_override=0, rapid=0):
+        p = profile
+        self._check(p, accel, feed_override, rapid_override)
+        use = self.ready and not start
+        scaled, slower = self.product >> 7, self.used < self.ONE_FACTOR
+        down = self._lookahead(p, start)
+        factor = (self.ONE_FACTOR >> rapid_override) if rapid else feed_override
+        # Without the overrides the factor is 100 %, where the look-ahead never acts (the
+        # rate rises above a move's cruise only after its planned ramp-down step).
+        self._scale(p, start, factor if self.overrides else self.ONE_FACTOR)
+        if down:
+            wanted = scaled if use and slower and scaled < p["exit"] else p["exit"]
+        else:
+            wanted = scaled if use else p["cruise"]
+        target = 0 if hold else min(wanted, self.max_rate) << 16
+
+        # The distance and the permission (from this clock's rate).
+        stopped = self.held = bool(hold and self.zero)
         length = SQRT2 if diagonal else ONE
-        tick = int(not hold and self.distance >= length)
+        tick = int(not stopped and self.distance >= length)
         step = bool(tick and due)
         grown = self.distance + (self.rate >> 16)
         if step:
             self.distance = grown - length
-        elif not hold and not tick:
+        elif not tick:
             self.distance = grown
-        diff = target - self.rate
-        self.rate = target if abs(diff) <= accel else self.rate + (accel if diff > 0 else -accel)
         if start:
             self.steps = int(step)
         elif step:
             self.steps += 1
+
+        # The rate: one acceleration toward the target, never past it.
+        up = self.rate < target
+        moved = self.rate + accel if up else self.rate - accel
+        passed = moved >= target if up else moved <= target
+        self.rose, self.fell = up and not start, not up and not passed and not start
+        self.zero = bool(hold and passed)
+        self.rate = target if passed else moved
         return tick
