@@ -116,9 +116,10 @@ class _UnitPort:
 
 def StatusFields():
     """The STATUS reply's fields that come from outside the replies: the position, the free
-    queue slots, and whether a turn is queued or running."""
+    queue slots, whether a turn is queued or running; the state, the alarm's cause and the
+    inputs active (their bytes, as the reply has them)."""
     return data.StructLayout({"position": data.ArrayLayout(signed(32), 2), "free": 8,
-                              "moving": 1})
+                              "moving": 1, "state": 8, "cause": 8, "inputs": 8})
 
 
 class Dispatcher(wiring.Component):
@@ -384,11 +385,13 @@ class TurnQueue(wiring.Component):
 
 
 class Replies(wiring.Component):
-    """The replies to the host: outcomes first, then errors, then status.
+    """The replies to the host: status first, then outcomes, then errors.
 
+    A query is answered ``STATUS`` as soon as the reply being sent is out, ahead of any
+    outcome waiting (queries that come meanwhile are answered by that one ``STATUS``).
     Outcomes wait in a FIFO for the serial line; each goes out as ``OUTCOME`` with its number
     (every queued frame's, counted from reset). An error code from the decoder goes out as
-    ``ERROR`` when no outcome waits, and a query is answered ``STATUS`` when neither does.
+    ``ERROR`` when no outcome waits.
 
     Members
     -------
@@ -399,7 +402,7 @@ class Replies(wiring.Component):
     query : :py:`In(1)`
         A checked QUERY frame ended in this clock.
     status : :py:`In(StatusFields())`
-        The position, free slots and moving flag a STATUS reply carries.
+        What a STATUS reply carries (but the error flag, :py:`error_sent`).
     o : :py:`Out(stream.Signature(FrameEncoder.Reply()))`
         To the frame encoder.
     error_sent : :py:`Out(1)`
@@ -426,7 +429,18 @@ class Replies(wiring.Component):
         with m.If(self.query):
             m.d.sync += query.eq(1)
         sending = self.o.valid & self.o.ready
-        with m.If(outcomes.r_rdy):
+        status = self.status
+        with m.If(query):
+            m.d.comb += [
+                reply.kind.eq(STATUS),
+                reply.payload.as_value().eq(Cat(status.position, status.free, status.moving,
+                                                self.error_sent, C(0, 6), status.state,
+                                                status.cause, status.inputs)),
+                self.o.valid.eq(1),
+            ]
+            with m.If(sending):
+                m.d.sync += query.eq(0)
+        with m.Elif(outcomes.r_rdy):
             m.d.comb += [
                 reply.kind.eq(OUTCOME),
                 reply.payload[0].eq(number),
@@ -445,12 +459,4 @@ class Replies(wiring.Component):
             ]
             with m.If(sending):
                 m.d.sync += self.error_sent.eq(1)
-        with m.Elif(query):
-            m.d.comb += [
-                reply.kind.eq(STATUS),
-                reply.payload.as_value().eq(Cat(self.status.as_value(), self.error_sent)),
-                self.o.valid.eq(1),
-            ]
-            with m.If(sending):
-                m.d.sync += query.eq(0)
         return m
