@@ -246,7 +246,8 @@ class Dispatcher(wiring.Component):
             m.d.sync += self.accel.eq(little(payload, 0, 4))
         with m.If(self.abort):
             # The frames queued before the abort: those in the queue, and one being read.
-            m.d.sync += flush.eq(queued + Mux(held | (index != length), 1, 0))
+            # (not the one taken in this clock: its turn is the turn queue's to end)
+            m.d.sync += flush.eq(queued + Mux((held & ~take) | (index != length), 1, 0))
         with m.Elif(take & aborting):
             m.d.sync += flush.eq(flush - 1)
         m.d.comb += [
@@ -265,7 +266,8 @@ class TurnQueue(wiring.Component):
     turn. A dwell's turn ends after its clocks (or at :py:`abort`), any other turn at once,
     ``ABORTED`` if the dispatcher marked it so. A move's turn starts the feed generator's ramp
     toward its profile (:py:`ramp`); outside a move's turn the profile is zero (the rate ramps
-    down to rest). The engines' steps are merged on :py:`motion` (the directions of the engine
+    down to rest). At :py:`abort` every turn in the FIFO ends ``ABORTED`` (an engine's through
+    the engine's abort). The engines' steps are merged on :py:`motion` (the directions of the engine
     whose turn it is, or of the table's first engine).
 
     Parameters
@@ -325,6 +327,9 @@ class TurnQueue(wiring.Component):
         room = self.outcome.ready
         rows = [(row.unit, getattr(self.units, row.name)) for row in self._units]
         dwell_left = Signal(32)
+        flush = Signal(range(turns.depth + 2))
+        flushing = flush != 0
+        stopped = self.abort | flushing
         for number, port in rows:
             m.d.comb += [port.status.ready.eq(room & (turn == number)),
                          port.abort.eq(self.abort)]
@@ -335,16 +340,22 @@ class TurnQueue(wiring.Component):
                                  self.outcome.payload.eq(port.status.payload.outcome)]
             with m.Case(DWELL_UNIT):
                 m.d.comb += [
-                    self.outcome.valid.eq(started & ((dwell_left == 0) | self.abort)),
-                    self.outcome.payload.eq(Mux(self.abort, Outcome.ABORTED, Outcome.DONE)),
+                    self.outcome.valid.eq(started & ((dwell_left == 0) | stopped)),
+                    self.outcome.payload.eq(Mux(stopped, Outcome.ABORTED, Outcome.DONE)),
                 ]
             with m.Default():
                 m.d.comb += [
                     self.outcome.valid.eq(turns.r_rdy),
-                    self.outcome.payload.eq(Mux(current.aborted, Outcome.ABORTED,
+                    self.outcome.payload.eq(Mux(current.aborted | flushing, Outcome.ABORTED,
                                                 Outcome.DONE)),
                 ]
         complete = self.outcome.valid & self.outcome.ready
+        # An abort ends every turn queued before it ABORTED (an engine's by the engine's abort,
+        # the others here): those in the FIFO, and one written in that clock.
+        with m.If(self.abort):
+            m.d.sync += flush.eq(turns.r_level + (self.i.valid & self.i.ready))
+        with m.Elif(complete & flushing):
+            m.d.sync += flush.eq(flush - 1)
         m.d.comb += turns.r_en.eq(complete)
         with m.If(complete):
             m.d.sync += started.eq(0)
