@@ -63,7 +63,7 @@ class FastRun:
     def _build(self, text):
         (self.build_dir / "top.v").write_text(text)
         command = ["verilator", "--cc", "--exe", "--build", "-O3", "--top-module", "top",
-                   "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
+                   "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE", "-Wno-CASEOVERLAP",
                    "-Wno-SYMRSVDWORD", "--prefix", "Vtop", "-Mdir", "obj", "-o", "fastrun",
                    "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
                    *(["--trace"] if self.waves else []), "top.v", str(HARNESS)]
