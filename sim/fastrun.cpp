@@ -14,7 +14,7 @@
 //     first step (kontur.sim.testbench.hostlink.write_schedule): a line "I word" (the pins
 //     before any event), then "offset P word" (the pins from then) or "offset U" (send an
 //     UNLOCK). Each event applied is written "A clock P word" or "A clock U". With a schedule
-//     the host sends no more queued frames once one is answered ABORTED or by an ERROR, and
+//     the host sends no more queued frames once one is answered other than DONE, and
 //     a QUERY waits for every event too (as HostLink does).
 
 #include <cstdint>
@@ -146,11 +146,10 @@ int main(int argc, char **argv) {
         bool reset = clock < 4;
         top->rst = reset;
         // ---- the schedule: machining time counts from the first step -------------------
-        if (!based && !reset && answered == queued_sent) {
-            bool only_queries = true;
-            for (const auto &frame : frames)
-                if (frame.size() < 2 || frame[1] != QUERY) only_queries = false;
-            if (only_queries) { based = true; base = clock; }
+        if (!based && !reset && answered == queued_sent && level_index == levels.size()
+            && (frames.empty() || (frames.front().size() >= 2 && frames.front()[1] == QUERY))) {
+            based = true;                  // no step, and the host waits to ask
+            base = clock;
         }
         while (based && !schedule.empty() && clock >= base + schedule.front().offset) {
             Event event = schedule.front();
@@ -241,7 +240,7 @@ int main(int argc, char **argv) {
                             outstanding--;
                             answered++;
                             // The machine stopped the stream: send no more of it.
-                            if (scheduled && (reply[1] == ERROR || reply[4] == 2)) {
+                            if (scheduled && (reply[1] == ERROR || reply[4] != 0)) {
                                 std::deque<std::vector<uint8_t>> queries;
                                 for (auto &frame : frames)
                                     if (frame.size() >= 2 && frame[1] == QUERY)

@@ -232,18 +232,34 @@ class StopTestCase(unittest.TestCase):
 
     def test_frames_refused_in_alarm(self):
         # The e-stop pressed at the first step: the line ends ABORTED after a step or two,
-        # the frame that comes next is dropped (ERROR 6), the host sends no more.
+        # the frames that come after the trip end REFUSED, the host sends no more.
         frames, expected = program()
         result, _ = run(frames, [(0, pins("estop"))], clocks=30_000)
         self.assertEqual(steps_of(result), expected[:len(result.steps)])
         self.assertLessEqual(len(result.steps), 2)
         outcomes = [r.fields for _, r in result.replies if r.kind == OUTCOME]
-        self.assertEqual(outcomes, [(0, 0), (1, 0), (2, 2)])      # CONFIG, FEED; LINE aborted
-        errors = [r.fields for _, r in result.replies if r.kind == ERROR]
-        self.assertTrue(errors)
-        self.assertEqual(set(errors), {(6,)})
+        self.assertEqual(outcomes[:3], [(0, 0), (1, 0), (2, 2)])  # CONFIG, FEED; LINE aborted
+        self.assertGreater(len(outcomes), 3)
+        self.assertEqual({o for _, o in outcomes[3:]}, {1})      # refused
+        self.assertEqual([r for _, r in result.replies if r.kind == ERROR], [])
         (_, status), = statuses(result)
         self.assertEqual(status[4:6], (4, 1))                     # ALARM, the e-stop
+
+    def test_unlock_then_frames_run(self):
+        # The e-stop pressed before anything is sent, released, unlocked: the program sent
+        # then runs whole.
+        rate = round(0.05 * Q24)
+        frames = [protocol.query(), protocol.config((1 << 32) - 1),
+                  protocol.feed(rate, rate, 1 << 20), protocol.line(30, -10), protocol.stop()]
+        result, _ = run(frames, [(0, pins("estop")), (100, pins()), (200, ("unlock",))],
+                        clocks=30_000)
+        self.assertEqual(steps_of(result), registry.steps("line", {"x": 30, "y": -10},
+                                                          width=12))
+        self.assertEqual([r.fields for _, r in result.replies if r.kind == OUTCOME],
+                         [(n, 0) for n in range(4)])
+        states = [(f[4], f[5]) for _, f in statuses(result)]
+        self.assertEqual(states, [(0, 0), (0, 0), (0, 0)])         # IDLE after the UNLOCK
+        self.assertEqual(statuses(result)[-1][1][:2], (30, -10))
 
     def test_status_ahead_of_outcomes_and_its_latency(self):
         # QUERYs every 500 clocks while the arc runs: each answered STATUS (RUN) within

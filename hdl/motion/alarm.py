@@ -5,7 +5,7 @@ it is active, a limit switch when it becomes active: the controller enters ALARM
 clock. :py:`enter` (one clock) is the controller's ABORT (every queued frame ends
 ``ABORTED``, the engines stop), :py:`halt` (from that clock on) drops every step of the
 step/dir stage still in its direction set-up; a pulse already on its pin is finished. In
-ALARM the frame decoder refuses every queued frame (``ERROR`` 6). UNLOCK leaves ALARM unless
+ALARM the dispatcher refuses every queued frame (``REFUSED``, without running it). UNLOCK leaves ALARM unless
 the e-stop is still active; a limit still pressed does not keep it (the axis may then be moved
 off the switch, as Grbl allows).
 """

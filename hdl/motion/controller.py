@@ -85,7 +85,7 @@ class MotionController(wiring.Component):
     ``polarity``). A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
     clock its filtered level changes, and ALARM from then on: the step/dir stage drops every
     step still in its direction set-up (a pulse on its pin is finished), every queued frame
-    ends ``ABORTED``, every queued frame that comes in ALARM is dropped (``ERROR`` 6); UNLOCK
+    ends ``ABORTED``, every queued frame that comes in ALARM ends ``REFUSED``; UNLOCK
     leaves ALARM unless the e-stop is still active. The position counts the pulses on the step
     pins: the steps actually made.
 
@@ -324,7 +324,7 @@ class MotionController(wiring.Component):
             alarm.unlock.eq(self.decoder.unlock),
             alarm.busy.eq(self.dispatcher.pending | self.turns.busy),
             self.stepdir.halt.eq(alarm.halt),
-            self.decoder.alarm.eq(alarm.halt),
+            self.dispatcher.alarm.eq(alarm.halt),
             self.alarm.eq(alarm.alarm),
         ]
 

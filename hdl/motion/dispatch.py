@@ -35,9 +35,10 @@ NONE_UNIT, DWELL_UNIT = 0, 3
 
 def Turn(highest=DWELL_UNIT):
     """A queued frame's turn: which unit it runs on (``0`` to ``highest``), whether it was
-    aborted before it ran, and its argument (a move's feed profile, or a dwell's clocks)."""
+    aborted before it ran or refused (taken in ALARM), and its argument (a move's feed
+    profile, or a dwell's clocks)."""
     return data.StructLayout({"unit": unsigned(highest.bit_length()), "aborted": 1,
-                              "argument": Profile()})
+                              "refused": 1, "argument": Profile()})
 
 
 def little(payload, first, count, *, signed_value=False):
@@ -131,7 +132,8 @@ class Dispatcher(wiring.Component):
     its turn written on :py:`turn`, when the engine takes it. Any other frame is taken at once:
     FEED sets the profile of the turns after it, CONFIG :py:`accel`, DWELL's turn carries its
     clocks. After :py:`abort` every frame queued before it (in the queue, or being read) is
-    taken without being offered, its turn marked aborted.
+    taken without being offered, its turn marked aborted. While :py:`alarm` is high every
+    other frame is taken without being offered too, its turn marked refused.
 
     Parameters
     ----------
@@ -150,6 +152,8 @@ class Dispatcher(wiring.Component):
         A frame was committed into the queue in this clock.
     abort : :py:`In(1)`
         A checked ABORT frame ended in this clock.
+    alarm : :py:`In(1)`
+        The controller is in ALARM (or entering it): refuse the frames.
     cmd : :py:`Out(Signature({name: Out(stream.Signature(frame))}))`
         The engines' commands, one stream for each row of the table.
     turn : :py:`Out(stream.Signature(Turn(highest)))`
@@ -171,6 +175,7 @@ class Dispatcher(wiring.Component):
             "r":       In(stream.Signature(8)),
             "commit":  In(1),
             "abort":   In(1),
+            "alarm":   In(1),
             "cmd":     Out(wiring.Signature({
                 unit.name: Out(stream.Signature(unit.engine.signature.frame))
                 for unit in self._units})),
@@ -226,7 +231,8 @@ class Dispatcher(wiring.Component):
             for frame_type in sorted(units):
                 with m.Case(frame_type):
                     m.d.comb += unit.eq(units[frame_type])
-        offer = held & turn.ready & ~aborting
+        refusing = ~aborting & self.alarm
+        offer = held & turn.ready & ~aborting & ~self.alarm
         ready = C(1)
         for row in self._units:
             cmd = getattr(self.cmd, row.name)
@@ -234,15 +240,16 @@ class Dispatcher(wiring.Component):
             m.d.comb += cmd.valid.eq(offer & (unit == row.unit))
             ready = Mux(unit == row.unit, cmd.ready, ready)
         m.d.comb += [
-            turn.valid.eq(held & (aborting | ready)),
+            turn.valid.eq(held & (aborting | self.alarm | ready)),
             take.eq(turn.valid & turn.ready),
-            turn.payload.unit.eq(Mux(aborting, NONE_UNIT, unit)),
+            turn.payload.unit.eq(Mux(aborting | self.alarm, NONE_UNIT, unit)),
             turn.payload.aborted.eq(aborting),
+            turn.payload.refused.eq(refusing),
             turn.payload.argument.eq(Mux(unit == DWELL_UNIT, little(payload, 0, 4), profile)),
         ]
-        with m.If(take & ~aborting & (kind == FEED)):
+        with m.If(take & ~aborting & ~self.alarm & (kind == FEED)):
             m.d.sync += profile.eq(little(payload, 0, 9))
-        with m.If(take & ~aborting & (kind == CONFIG)):
+        with m.If(take & ~aborting & ~self.alarm & (kind == CONFIG)):
             m.d.sync += self.accel.eq(little(payload, 0, 4))
         with m.If(self.abort):
             # The frames queued before the abort: those in the queue, and one being read.
@@ -346,8 +353,9 @@ class TurnQueue(wiring.Component):
             with m.Default():
                 m.d.comb += [
                     self.outcome.valid.eq(turns.r_rdy),
-                    self.outcome.payload.eq(Mux(current.aborted | flushing, Outcome.ABORTED,
-                                                Outcome.DONE)),
+                    self.outcome.payload.eq(
+                        Mux(current.refused & ~flushing, Outcome.REFUSED,
+                            Mux(current.aborted | flushing, Outcome.ABORTED, Outcome.DONE))),
                 ]
         complete = self.outcome.valid & self.outcome.ready
         # An abort ends every turn queued before it ABORTED (an engine's by the engine's abort,

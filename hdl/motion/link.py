@@ -57,7 +57,8 @@ ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never execute
 
 A STATUS answers a QUERY (or an UNLOCK) ahead of any OUTCOME still waiting: it is sent as
 soon as the reply being sent is out. In ALARM (an e-stop or a limit switch tripped: see
-:mod:`kontur.hdl.motion.alarm`) every queued frame is dropped with ``ERROR`` 6.
+:mod:`kontur.hdl.motion.alarm`) every queued frame that comes ends ``REFUSED`` without
+running (one that came before the trip ends ``ABORTED``).
 
 The length of every frame type is fixed, but PROFILE's, which is the engine's: a decoder knows
 the lengths of its controller (:func:`host_lengths`), and a controller without the engine has
@@ -77,7 +78,7 @@ from amaranth.lib.wiring import In, Out
 from .queue import QueueWriteSignature
 
 __all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
-           "ABORT", "UNLOCK", "OUTCOME", "STATUS", "ERROR", "STATES", "REFUSED_IN_ALARM",
+           "ABORT", "UNLOCK", "OUTCOME", "STATUS", "ERROR", "STATES",
            "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
            "host_lengths", "profile_bytes", "crc16_byte", "FrameDecoder", "FrameEncoder"]
 
@@ -97,13 +98,9 @@ LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, AB
 #: STATUS's state codes (:class:`kontur.hdl.motion.alarm.State`).
 STATES = ("IDLE", "RUN", "HOLD", "HOMING", "ALARM")
 
-#: The ERROR code of a queued frame refused in ALARM.
-REFUSED_IN_ALARM = 6
-
 #: ERROR codes.
 ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
-          4: "serial framing error or overrun", 5: "frame queue full",
-          REFUSED_IN_ALARM: "refused in ALARM (send UNLOCK)"}
+          4: "serial framing error or overrun", 5: "frame queue full"}
 
 
 
@@ -158,8 +155,7 @@ class FrameDecoder(wiring.Component):
     queued type is written into the frame queue (:class:`~kontur.hdl.motion.queue.FrameQueue`) as it
     arrives, its type byte then its payload, and committed only when its CRC checks; a frame
     whose CRC does not check is rolled back (code 1), one the queue has no room for is dropped
-    (code 5), so the reader never sees a byte of a dropped frame; while :py:`alarm` is high
-    a queued frame is rolled back at its end however good (code 6). An immediate type signals
+    (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals
     on :py:`query`, :py:`abort` or :py:`unlock` when its CRC checks. :py:`error` carries the code of each
     dropped frame (and of the serial errors given on :py:`line_error`, code 4).
 
@@ -179,8 +175,6 @@ class FrameDecoder(wiring.Component):
         Bytes from the host.
     line_error : :py:`In(1)`
         A character was lost on the line (framing error or overrun).
-    alarm : :py:`In(1)`
-        Refuse queued frames (the controller is in ALARM).
     q : :py:`Out(QueueWriteSignature())`
         To the frame queue's write side (bytes, commit, rollback; the room left).
     query, abort, unlock : :py:`Out(1)`
@@ -218,7 +212,6 @@ class FrameDecoder(wiring.Component):
         super().__init__({
             "i":          In(stream.Signature(8)),
             "line_error": In(1),
-            "alarm":      In(1),
             "q":          Out(QueueWriteSignature()),
             "query":      Out(1),
             "abort":      Out(1),
@@ -302,8 +295,6 @@ class FrameDecoder(wiring.Component):
                 with m.If(take):
                     with m.If(Cat(byte, received) != crc):
                         drop(1, rollback=True)
-                    with m.Elif(queued & self.alarm):
-                        drop(REFUSED_IN_ALARM, rollback=True)
                     with m.Else():
                         m.d.comb += [
                             self.q.commit.eq(queued),

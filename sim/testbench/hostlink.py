@@ -16,11 +16,12 @@ dir`` at each rising step edge, ``R clock type payload`` for each reply, ``A clo
 
 **Scheduled events** (``schedule``, :func:`write_schedule`): the switch pins and UNLOCK frames
 at given clocks after the first step (machining time: the first rising step edge is its
-zero; if every frame is answered before any step, that clock is). ``("pins", word)`` sets the
+zero; if before any step every frame sent is answered and a QUERY is next, that clock is). ``("pins", word)`` sets the
 controller's :py:`inputs` to ``word`` in that clock (sampled at its end); ``("unlock",)``
 sends an UNLOCK then (after the bytes being sent). With a schedule the host behaves as a host
-that stops a stream the machine has stopped: after an ``ABORTED`` outcome or an ``ERROR`` it
-sends no more queued frames (those in flight are answered ``ABORTED`` or ``ERROR`` 6), and a
+that stops a stream the machine has stopped: after an outcome other than ``DONE`` or an
+``ERROR`` it sends no more queued frames (those in flight are answered ``ABORTED``, or
+``REFUSED`` when they reach the machine in ALARM), and a
 ``QUERY`` waits for every event too, so the last one reads the state after them.
 """
 
@@ -193,14 +194,14 @@ class HostLink:
                         if reply.kind in (OUTCOME, ERROR):
                             self.outstanding -= 1
                             self.answered += 1
-                            if self.scheduled and (reply.kind == ERROR or reply.fields[1] == 2):
+                            if self.scheduled and (reply.kind == ERROR or reply.fields[1]):
                                 # The machine stopped the stream: send no more of it.
                                 self.frames = [f for f in self.frames if f[1] == QUERY]
                     self._rx_state = "idle"
         # ---- the schedule: machining time counts from the first step ----------------------
         if self._base is None and self.answered == self.sent and \
-                all(f[1] == QUERY for f in self.frames):
-            self._base = self.clock                    # no step before every frame answered
+                (not self.frames or self.frames[0][1] == QUERY):
+            self._base = self.clock                    # no step, and the host waits to ask
         while self.schedule and self._base is not None and \
                 self.clock >= self._base + self.schedule[0][0]:
             _, event = self.schedule.pop(0)
