@@ -272,6 +272,9 @@ def _add_machining(commands):
     _machine_options(send)
     send.add_argument("--port", required=True, metavar="DEVICE",
                       help="the serial port (a device, or a pyserial URL)")
+    send.add_argument("--unlock", action="store_true",
+                      help="leave ALARM first (an UNLOCK instead of the handshake's QUERY; "
+                           "refused while the e-stop is pressed)")
     send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                       help="how long the board may take to answer a QUERY, and to answer a "
                            "frame beyond its planned time (default 10)")
@@ -383,7 +386,7 @@ def _send(args, out):
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
         with Stop() as stop, port, _progress(len(frames), "frames") as bar:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
-                       timeout=args.timeout, stop=stop)
+                       timeout=args.timeout, stop=stop, unlock=args.unlock)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum
