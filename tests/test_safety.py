@@ -317,5 +317,56 @@ class ModelTestCase(unittest.TestCase):
             safety_run(times, [(1, "hold")])
 
 
+#: A line and an arc, quick on Amaranth's simulator (10 steps/mm, a fast link).
+TINY = "G21 G90\nG1 X3 Y0 F3000\nG3 X0 Y3 I-3 J0\n"
+
+
+class RunTestCase(unittest.TestCase):
+    def machine(self):
+        from kontur.machine import Machine
+        return Machine(clock_hz=registry.board("icebreaker").clock_hz, steps_per_mm=10,
+                       baud=1_000_000, accel=5000, input_filter_us=5)
+
+    def test_events_on_amaranth_against_the_model(self):
+        # The e-stop part-way through the arc, an UNLOCK refused while it is pressed, then
+        # released and unlocked; a limit on the way back trips again and stays the cause.
+        from kontur.machining import execute, prepare
+        job = prepare(TINY, machine=self.machine(), name="tiny.ngc")
+        half = job.seconds / 2
+        events = [(half, "estop"), (half + 0.05, "unlock"), (half + 0.1, "estop-release"),
+                  (half + 0.15, "unlock"), (half + 0.2, "limit-y")]
+        model = execute(job, "model", events=events)
+        rtl = execute(job, "amaranth", events=events)          # checked inside, and here:
+        self.assertEqual(rtl.steps, job.steps[:len(rtl.steps)])
+        self.assertLess(abs(len(rtl.steps) - len(model.steps)), 0.05 * len(job.steps))
+        self.assertEqual((model.final_state, model.alarm), ("ALARM", ["limit_y"]))
+        self.assertEqual((rtl.final_state, rtl.alarm), ("ALARM", ["limit_y"]))
+        self.assertEqual([e["alarm"] for e in rtl.events], [True, True, True, False, True])
+        x = sum(dx for dx, _ in rtl.steps)
+        self.assertEqual(rtl.end[0], x)
+
+    def test_command_line(self):
+        import json
+        import tempfile
+        from pathlib import Path
+
+        from kontur.cli import main
+        with tempfile.TemporaryDirectory() as folder:
+            program = Path(folder) / "tiny.ngc"
+            program.write_text(TINY)
+            out = Path(folder) / "out"
+            self.assertEqual(main(["run", str(program), "--out", str(out), "--steps-per-mm",
+                                   "10", "--event", "limit-x@0.05"]), 0)
+            data = json.loads((out / "summary.json").read_text())
+            self.assertEqual((data["final_state"], data["alarm"]), ("ALARM", ["limit_x"]))
+            self.assertEqual(data["events"], [{"at": 0.05, "event": "limit-x", "alarm": True}])
+            steps = (out / "steps.txt").read_text().splitlines()
+            self.assertEqual(len(steps), data["steps"])
+            self.assertLess(len(steps), 30 + 24)              # stopped before the end
+            for bad in ("hold@1", "estop", "estop@-1", "estop@x"):
+                self.assertEqual(main(["run", str(program), "--out", str(out),
+                                       "--event", bad]), 2)
+
+
 if __name__ == "__main__":
     unittest.main()
