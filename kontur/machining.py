@@ -671,6 +671,8 @@ def summary_text(data, out_dir=None):
         f"end        ({data['end_mm'][0]:.4f}, {data['end_mm'][1]:.4f}) mm = "
         f"({data['end_steps'][0]}, {data['end_steps'][1]}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]
+           else f", stopped short of the programmed end {tuple(data['programmed_end_steps'])}"
+           if any(e["alarm"] for e in data.get("events", ()))
            else f", NOT the programmed end {tuple(data['programmed_end_steps'])}"),
     ]
     for event in data.get("events", ()):

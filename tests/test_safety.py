@@ -300,6 +300,25 @@ class StopTestCase(unittest.TestCase):
               f"({latency / BIT:.0f} bit times)")
 
 
+class ProtocolTestCase(unittest.TestCase):
+    def test_status_and_unlock_frames(self):
+        # A STATUS written here from the protocol's table (sync, type 0x81, length 13, the
+        # fields little-endian, CRC-16/CCITT of type, length and payload, high byte first).
+        import binascii
+        import struct
+        body = bytes([0x81, 13]) + struct.pack("<iiBBBBB", -5, 7, 3, 1, 4, 0b101, 0b100001)
+        frame = bytes([0xA5]) + body + binascii.crc_hqx(body, 0xFFFF).to_bytes(2, "big")
+        (reply,) = protocol.ReplyParser().feed(frame)
+        self.assertEqual(reply.fields, (-5, 7, 3, 1, 4, 5, 33))
+        self.assertEqual(reply.state, "ALARM")
+        self.assertEqual(str(reply), "ALARM at (-5, 7), 3 queue slots free, flags 0x01, "
+                                     "tripped: estop, limit_y, active: estop, feed_hold")
+        unlock = bytes([0xA5, 0x22, 0]) + binascii.crc_hqx(bytes([0x22, 0]), 0xFFFF) \
+            .to_bytes(2, "big")
+        self.assertEqual(protocol.unlock(), unlock)
+        self.assertEqual(protocol.CommandParser().feed(unlock), [("unlock",)])
+
+
 class ModelTestCase(unittest.TestCase):
     def test_safety_run(self):
         times = [0.1 * n for n in range(1, 101)]                  # 100 steps over 10 s
