@@ -232,7 +232,8 @@ class Dispatcher(wiring.Component):
                 with m.Case(frame_type):
                     m.d.comb += unit.eq(units[frame_type])
         refusing = ~aborting & self.alarm
-        offer = held & turn.ready & ~aborting & ~self.alarm
+        # Nothing is handed over in an abort's clock: the frame waits, and is aborted next.
+        offer = held & turn.ready & ~aborting & ~self.alarm & ~self.abort
         ready = C(1)
         for row in self._units:
             cmd = getattr(self.cmd, row.name)
@@ -240,7 +241,7 @@ class Dispatcher(wiring.Component):
             m.d.comb += cmd.valid.eq(offer & (unit == row.unit))
             ready = Mux(unit == row.unit, cmd.ready, ready)
         m.d.comb += [
-            turn.valid.eq(held & (aborting | self.alarm | ready)),
+            turn.valid.eq(held & ~self.abort & (aborting | self.alarm | ready)),
             take.eq(turn.valid & turn.ready),
             turn.payload.unit.eq(Mux(aborting | self.alarm, NONE_UNIT, unit)),
             turn.payload.aborted.eq(aborting),
@@ -252,9 +253,9 @@ class Dispatcher(wiring.Component):
         with m.If(take & ~aborting & ~self.alarm & (kind == CONFIG)):
             m.d.sync += self.accel.eq(little(payload, 0, 4))
         with m.If(self.abort):
-            # The frames queued before the abort: those in the queue, and one being read.
-            # (not the one taken in this clock: its turn is the turn queue's to end)
-            m.d.sync += flush.eq(queued + Mux((held & ~take) | (index != length), 1, 0))
+            # The frames queued before the abort: those in the queue, and one being read or
+            # held (none is taken in this clock).
+            m.d.sync += flush.eq(queued + Mux(held | (index != length), 1, 0))
         with m.Elif(take & aborting):
             m.d.sync += flush.eq(flush - 1)
         m.d.comb += [
@@ -359,9 +360,9 @@ class TurnQueue(wiring.Component):
                 ]
         complete = self.outcome.valid & self.outcome.ready
         # An abort ends every turn queued before it ABORTED (an engine's by the engine's abort,
-        # the others here): those in the FIFO, and one written in that clock.
+        # the others here): those in the FIFO (the dispatcher writes none in that clock).
         with m.If(self.abort):
-            m.d.sync += flush.eq(turns.r_level + (self.i.valid & self.i.ready))
+            m.d.sync += flush.eq(turns.r_level)
         with m.Elif(complete & flushing):
             m.d.sync += flush.eq(flush - 1)
         m.d.comb += turns.r_en.eq(complete)
