@@ -6,6 +6,10 @@ Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests onl
   stepper drivers on PMOD1A, pin 1 step X, pin 2 step Y, pin 3 dir X, pin 4 dir Y, pin 7 the
   drivers' enable, active low (FPGA pins 4, 2, 47, 45, 3); the serial line is the board's
   ``uart`` (FTDI channel B: FPGA pins 6 rx, 9 tx), as ``amaranth_boards`` defines it;
+* ``switches`` (:class:`~kontur.hdl.top.ControllerTop`): the six switch inputs of
+  :data:`kontur.hdl.motion.inputs.INPUTS` on PMOD1B, pin 1 e-stop, 2 limit X, 3 limit Y, 4
+  probe, 7 cycle start, 8 feed hold (FPGA pins 43, 38, 34, 31, 42, 36), each with the
+  iCE40's pull-up: a switch connects its pin to ground (PMOD1B pin 5 or 11);
 * ``shift_in`` (:class:`~kontur.hdl.top.ShiftInTop` through :class:`~kontur.hdl.top.PinnedTop`, for the
   place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
   PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
@@ -19,7 +23,7 @@ two of its pins, which the benchmark builds never share with the LEDs or buttons
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.icebreaker import ICEBreakerPlatform
 
-__all__ = ["ICEBreakerPlatform", "STEPPER", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
+__all__ = ["ICEBreakerPlatform", "STEPPER", "SWITCHES", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
 
 _PMOD1A = ("pmod", 0)
 _PMOD1B = ("pmod", 1)
@@ -32,6 +36,13 @@ STEPPER = [
              Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),     # X, Y; 1 = negative
              Subsignal("enable", PinsN("7", dir="o", conn=_PMOD1A)),   # EN/ENA-: low = on
              _LVCMOS),
+]
+
+#: The switch inputs, in the order of :data:`kontur.hdl.motion.inputs.INPUTS`.
+SWITCHES = [
+    Resource("switches", 0,
+             Pins("1 2 3 4 7 8", dir="i", conn=_PMOD1B),
+             Attrs(IO_STANDARD="SB_LVCMOS", PULLUP=1)),
 ]
 
 SHIFT_IN = [
@@ -56,9 +67,10 @@ SHIFT_IN = [
 
 
 def platform():
-    """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER` and :data:`SHIFT_IN`."""
+    """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER`, :data:`SWITCHES` and
+    :data:`SHIFT_IN`."""
     board = ICEBreakerPlatform()
-    board.add_resources(STEPPER + SHIFT_IN)
+    board.add_resources(STEPPER + SWITCHES + SHIFT_IN)
     return board
 
 

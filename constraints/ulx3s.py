@@ -7,6 +7,10 @@ Two uses, one resource set each:
   (GP1, A10), dir X on ``0-`` (GN0, C11), dir Y on ``1-`` (GN1, A11), enable (active low) on
   ``2+`` (GP2, A9); ``led_g`` (busy) and ``led_r`` (error) on the board's LEDs 0 and 1 (B2,
   C2); the serial line is the board's own ``uart`` (the FTDI's USB serial port: rx M1, tx L4);
+  ``switches``, the six inputs of :data:`kontur.hdl.motion.inputs.INPUTS` on J1 with the
+  ECP5's pull-ups: e-stop ``3+`` (GP3), limit X ``3-`` (GN3), limit Y ``4+`` (GP4), probe
+  ``4-`` (GN4), cycle start ``5+`` (GP5), feed hold ``5-`` (GN5); a switch connects its pin to
+  ground;
 * :func:`bench_platform`, the place-and-route benchmarks: a ``shift_in`` resource for any
   :class:`~kontur.hdl.top.ShiftInTop` on the first pins of the GPIO header (``0+``, ``0-``, ``1+``,
   ...).
@@ -18,7 +22,7 @@ All LVCMOS33. The board's clock is 25 MHz. Amaranth's ULX3S platform asks for
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.ulx3s import ULX3S_85F_Platform
 
-__all__ = ["ULX3S_85F_Platform", "STEPPER", "FREE_PINS", "platform", "bench_platform"]
+__all__ = ["ULX3S_85F_Platform", "STEPPER", "SWITCHES", "FREE_PINS", "platform", "bench_platform"]
 
 _GPIO = ("gpio", 0)
 _LVCMOS33 = Attrs(IO_TYPE="LVCMOS33")
@@ -34,10 +38,17 @@ STEPPER = [
 ]
 
 
+#: The switch inputs, in the order of :data:`kontur.hdl.motion.inputs.INPUTS`.
+SWITCHES = [
+    Resource("switches", 0, Pins("3+ 3- 4+ 4- 5+ 5-", dir="i", conn=_GPIO),
+             Attrs(IO_TYPE="LVCMOS33", PULLMODE="UP")),
+]
+
+
 def platform():
-    """Return a new :class:`ULX3S_85F_Platform` with :data:`STEPPER`."""
+    """Return a new :class:`ULX3S_85F_Platform` with :data:`STEPPER` and :data:`SWITCHES`."""
     board = ULX3S_85F_Platform()
-    board.add_resources(STEPPER)
+    board.add_resources(STEPPER + SWITCHES)
     return board
 
 #: The pins a ``shift_in`` resource takes, in order: the GPIO header's pairs 0 to 13.

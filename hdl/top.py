@@ -277,7 +277,9 @@ class ControllerTop(Elaboratable):
     later than the controller's members, all alike, so the direction set-up and the pulse width
     are kept); the green LED (``led_g``) lights while frames are queued or running, the red one
     (``led_r``) once a frame has been dropped. The receiver synchronises ``rx`` itself; ``tx``
-    comes straight from the transmitter's flip-flop.
+    comes straight from the transmitter's flip-flop. The switch inputs on the ``switches``
+    resource (six pins, :data:`~kontur.hdl.motion.inputs.INPUTS`' order, pulled up) go to the
+    controller's :py:`inputs`, which synchronises them itself.
 
     With ``divide`` 2 the controller runs on half the board's clock (a flip-flop toggled by
     the board's clock, constrained as such for nextpnr; the I/O registers on it too), for a
@@ -337,10 +339,13 @@ class ControllerTop(Elaboratable):
         m.submodules.step_buffer = step = io.FFBuffer("o", stepper.step, o_domain=domain)
         m.submodules.dir_buffer = dir_ = io.FFBuffer("o", stepper.dir, o_domain=domain)
         m.submodules.enable_buffer = enable = io.FFBuffer("o", stepper.enable, o_domain=domain)
+        m.submodules.switch_buffer = switches = io.Buffer(
+            "i", platform.request("switches", 0, dir="-"))
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
         m.d.comb += [
             controller.rx.eq(rx.i),
+            controller.inputs.eq(switches.i),
             tx.o.eq(controller.tx),
             step.o.eq(controller.motion.step),
             dir_.o.eq(controller.motion.dir),
@@ -407,6 +412,8 @@ class DemoTop(Elaboratable):
         m.submodules.step_buffer = step_buffer = io.FFBuffer("o", stepper.step)
         m.submodules.dir_buffer = dir_buffer = io.FFBuffer("o", stepper.dir)
         m.submodules.enable_buffer = enable_buffer = io.FFBuffer("o", stepper.enable)
+        m.submodules.switch_buffer = switches = io.Buffer(
+            "i", platform.request("switches", 0, dir="-"))
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
         m.submodules.button = button = io.Buffer("i", platform.request("button", 0, dir="-"))

@@ -242,6 +242,11 @@ def _add_machining(commands):
     run.add_argument("--out", metavar="DIR", default=None,
                      help="where the outputs go (default build/run/<program>)")
     run.add_argument("--vcd", action="store_true", help="write DIR/run.vcd (RTL engines)")
+    run.add_argument("--event", action="append", default=[], metavar="WHAT@SECONDS",
+                     help="a scripted event at that much machining time after the first step "
+                          "(repeatable): estop, estop-release, limit-x, limit-y, "
+                          "limit-x-release, limit-y-release (the switch inputs), unlock (an "
+                          "UNLOCK frame); the e-stop or a limit stops the program in ALARM")
     run.add_argument("--compress", type=int, default=None, metavar="N",
                      help="time compression of an RTL run: rates N times the planned ones "
                           "(default: the largest power of two the step timing and the link "
@@ -271,6 +276,9 @@ def _add_machining(commands):
     _machine_options(send)
     send.add_argument("--port", required=True, metavar="DEVICE",
                       help="the serial port (a device, or a pyserial URL)")
+    send.add_argument("--unlock", action="store_true",
+                      help="leave ALARM first (an UNLOCK instead of the handshake's QUERY; "
+                           "refused while the e-stop is pressed)")
     send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                       help="how long the board may take to answer a QUERY, and to answer a "
                            "frame beyond its planned time (default 10)")
@@ -318,6 +326,7 @@ def _run(args, out):
         raise UsageError(f"--max-steps must be a positive integer, not {args.max_steps}")
     if args.vcd and args.engine == "model":
         raise UsageError("--vcd needs an RTL engine (amaranth, icarus, verilator)")
+    events = _events(args.event)
     job = _job(args)
     if args.compress is not None:
         check_compress(job, args.compress)
@@ -333,12 +342,34 @@ def _run(args, out):
             def progress(made):
                 bar.update(made - bar.n)
             result = execute(job, args.engine, compress=args.compress,
-                             vcd=staging / "run.vcd" if args.vcd else None, progress=progress)
+                             vcd=staging / "run.vcd" if args.vcd else None, progress=progress,
+                             events=events)
         data = write_outputs(job, result, out_dir, staging=staging)
     finally:
         shutil.rmtree(staging, ignore_errors=True)      # gone already when moved into place
     out.write(summary_text(data, out_dir))
     return 0
+
+
+def _events(texts):
+    """``(seconds, name)`` of each ``--event WHAT@SECONDS`` (:exc:`kontur.trace.UsageError`
+    for one that is not)."""
+    import math
+
+    from kontur.sim.models.motion import EVENTS
+    from kontur.trace import UsageError
+    events = []
+    for text in texts:
+        name, _, at = text.partition("@")
+        try:
+            seconds = float(at)
+        except ValueError:
+            seconds = math.nan
+        if name not in EVENTS or not (math.isfinite(seconds) and seconds >= 0):
+            raise UsageError(f"--event {text}: expected WHAT@SECONDS, WHAT one of "
+                             f"{', '.join(EVENTS)} and SECONDS a time of at least 0")
+        events.append((seconds, name))
+    return events
 
 
 def _send(args, out):
@@ -359,7 +390,7 @@ def _send(args, out):
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
         with Stop() as stop, port, _progress(len(frames), "frames") as bar:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
-                       timeout=args.timeout, stop=stop)
+                       timeout=args.timeout, stop=stop, unlock=args.unlock)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum
@@ -437,7 +468,7 @@ def _main(argv):
         # argparse (3.11) leaves a positional given only as "--" unconverted, an empty list:
         # a missing argument, a usage error like any other.
         for name, value in vars(args).items():
-            if isinstance(value, list):
+            if isinstance(value, list) and name != "event":
                 parser.error(f"argument {name.upper()}: expected an integer")
         if args.command == "trace":
             return _trace(args, sys.stdout)

@@ -12,6 +12,13 @@ dir_setup_us = 1.0         # step/dir timing of the drivers
 step_width_us = 2.0
 queue_frames = 32          # at least 2
 cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them needs it)
+input_filter_us = 100      # the switch inputs' glitch filter, at most 10 000 (10 ms)
+estop = "nc"               # each input's switch: "nc" (normally closed) or "no" (open)
+limit_x = "nc"
+limit_y = "nc"
+probe = "no"
+cycle_start = "no"
+feed_hold = "nc"
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -31,12 +38,22 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
    and fit its 32-bit field (:attr:`Machine.accel_q40`).
 4. ``max_feed``: at most the step rate the step/dir timing allows (one step every
    ``dir_setup + step_width + 1`` clocks per axis).
+5. ``input_filter_us``: more than 0, at most 10 000 (10 ms); the switches' kinds ``"nc"`` or
+   ``"no"``.
 """
 
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ["Machine", "MachineError"]
+__all__ = ["Machine", "MachineError", "SWITCHES"]
+
+#: The switch inputs' keys, and their default kinds (as :data:`kontur.hdl.motion.inputs.
+#: DEFAULT_POLARITY`).
+SWITCHES = {"estop": "nc", "limit_x": "nc", "limit_y": "nc", "probe": "no",
+            "cycle_start": "no", "feed_hold": "nc"}
+
+#: The longest input filter, µs.
+MAX_INPUT_FILTER_US = 10_000
 
 
 class MachineError(ValueError):
@@ -56,8 +73,19 @@ class Machine:
     step_width_us: float = 2.0
     queue_frames: int = 32
     cutter_radius: float = None       # mm: G41/G42's (None: a program with them is refused)
+    input_filter_us: float = 100.0
+    estop: str = "nc"
+    limit_x: str = "nc"
+    limit_y: str = "nc"
+    probe: str = "no"
+    cycle_start: str = "no"
+    feed_hold: str = "nc"
 
     def __post_init__(self):
+        for name in SWITCHES:
+            if getattr(self, name) not in ("nc", "no"):
+                raise MachineError(f"{name} must be \"nc\" (normally closed) or \"no\" "
+                                   f"(normally open), not {getattr(self, name)!r}")
         if self.cutter_radius is not None:
             value = self.cutter_radius
             if isinstance(value, bool) or not isinstance(value, (int, float)) \
@@ -65,7 +93,7 @@ class Machine:
                 raise MachineError(f"cutter_radius must be a number of at least 0 (mm), not "
                                    f"{value!r}")
         for item in fields(self):
-            if item.name == "cutter_radius":
+            if item.name == "cutter_radius" or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -76,6 +104,9 @@ class Machine:
             if int(getattr(self, name)) != getattr(self, name):
                 raise MachineError(f"{name} must be an integer, not {getattr(self, name)!r}")
             object.__setattr__(self, name, int(getattr(self, name)))
+        if self.input_filter_us > MAX_INPUT_FILTER_US:
+            raise MachineError(f"input_filter_us must be at most {MAX_INPUT_FILTER_US} (10 ms), "
+                               f"not {self.input_filter_us!r}")
         if not 2 <= self.queue_frames <= 255:
             raise MachineError(f"queue_frames must be an integer from 2 to 255 (STATUS reports "
                                f"the free slots in a byte), not {self.queue_frames!r}")
@@ -120,6 +151,16 @@ class Machine:
     def step_width(self):
         """Step pulse width in clocks."""
         return max(1, math.ceil(self.step_width_us * 1e-6 * self.clock_hz))
+
+    @property
+    def input_filter(self):
+        """The switch inputs' glitch filter in clocks (at least 1)."""
+        return max(1, math.ceil(self.input_filter_us * 1e-6 * self.clock_hz))
+
+    @property
+    def polarity(self):
+        """Each switch input's kind, ``"nc"`` or ``"no"``."""
+        return {name: getattr(self, name) for name in SWITCHES}
 
     @property
     def max_step_rate(self):

@@ -40,6 +40,7 @@ from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, read, sweep
 from kontur.machine import Machine, MachineError
 from kontur.planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
+from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
            "estimate_steps", "deviation", "write_outputs", "summary_text", "RunError",
@@ -119,6 +120,9 @@ class Result:
     wall: float = 0.0
     simulated: float = None
     notes: list = field(default_factory=list)
+    final_state: str = "IDLE"         # the controller's state at the end (STATUS's)
+    alarm: list = field(default_factory=list)      # the inputs that tripped (ALARM's cause)
+    events: list = field(default_factory=list)     # the scripted events as they were taken
 
 
 def _move_steps(move, spm):
@@ -308,7 +312,7 @@ def _plan_times(job):
 
 
 def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, build_root=None,
-            progress=None):
+            progress=None, events=()):
     """Run ``job`` on ``engine`` (one of :data:`ENGINES`); return the :class:`Result`.
 
     ``compress`` is the time compression of an RTL run (default :func:`auto_compress`); it is
@@ -316,7 +320,11 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     the compression): more than :func:`max_compress` allows is refused. ``vcd``
     a path for the waveform (RTL engines; with ``vcd_clocks``, on Verilator, of the first
     that many clocks only); ``progress`` a callable taking the steps made so far,
-    called now and then (Verilator, Amaranth).
+    called now and then (Verilator, Amaranth). ``events``: ``(seconds, name)`` pairs
+    (:data:`kontur.sim.models.motion.EVENTS`: the e-stop, the limits, UNLOCK) at that much
+    machining time after the first step; the model (:func:`kontur.sim.models.motion.
+    safety_run`) stops the program at the first trip, the RTL runs drive the switch pins and
+    send the UNLOCKs then, and are checked against it (:func:`_check_events`).
 
     Raises
     ------
@@ -332,10 +340,18 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     if compress is not None:
         check_compress(job, compress)
     expected = job.steps
+    events = list(events)
     if engine == "model":
         if vcd is not None:
             raise ValueError("a waveform comes from an RTL run, not the model")
-        return Result("model", expected, _plan_times(job), job.end)
+        times = _plan_times(job)
+        if not events:
+            return Result("model", expected, times, job.end)
+        model = safety_run(times, events)
+        steps = expected[:model["steps"]]
+        end = (job.start[0] + sum(dx for dx, _ in steps), job.start[1] + sum(dy for _, dy in steps))
+        return Result("model", steps, times[:len(steps)], end, final_state=model["state"],
+                      alarm=model["alarm"], events=model["events"])
     from kontur.sim.testbench.hostlink import steps_of
     from kontur.hdl.motion.protocol import query
     compress = auto_compress(job) if compress is None else compress
@@ -343,7 +359,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     machine = job.machine
     divisor = round(machine.clock_hz / machine.baud)
     bound = MAX_CLOCKS[engine]
-    planned = job.seconds / compress * machine.clock_hz
+    planned = max([job.seconds] + [at for at, _ in events]) / compress * machine.clock_hz
     link = sum(len(f) for f in frames) * 10 * divisor
     if planned + link > bound:
         from kontur.trace import UsageError
@@ -353,8 +369,9 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     max_clocks = int(min(bound, 2 * (planned + link) + 10 * machine.clock_hz / compress
                          + 1_000_000))
     controller = registry.make_controller(job.board, machine)
+    schedule = _schedule(events, machine, compress)
     # The final position is read back after the program: the host sends a QUERY once every
-    # frame before it is answered.
+    # frame before it is answered (and every event taken).
     sent = frames + [query()]
     started = time.monotonic()
     if engine == "verilator":
@@ -363,27 +380,101 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
         started = time.monotonic()                      # the build apart
         run = fast.run(sent, divisor=divisor, window=machine.queue_frames,
                        max_clocks=max_clocks, vcd=vcd, vcd_clocks=vcd_clocks,
-                       progress=progress)
+                       progress=progress, schedule=schedule)
     elif engine == "amaranth":
         from kontur.sim.testbench.hostlink import run_amaranth
         run = run_amaranth(controller, sent, divisor=divisor, window=machine.queue_frames,
-                           max_clocks=max_clocks, vcd=vcd, progress=progress)
+                           max_clocks=max_clocks, vcd=vcd, progress=progress,
+                           schedule=schedule)
     else:
         from kontur.sim.runners import CocotbBuild
         build = CocotbBuild(controller, engine, _root(build_root, "cocotb"),
                             waves=vcd is not None, quiet=True)
         started = time.monotonic()
         run = build.run_controller(sent, divisor=divisor, window=machine.queue_frames,
-                                   max_clocks=max_clocks, vcd=vcd)
+                                   max_clocks=max_clocks, vcd=vcd, schedule=schedule,
+                                   idle=controller.idle_inputs)
     wall = time.monotonic() - started
     steps = steps_of(run)
-    _check(job, run, steps, expected, len(frames))
+    model = None
+    if events:
+        model = safety_run(_plan_times(job), events)
+        slack = 1 if engine == "icarus" else 0        # cocotb drives the pins a clock later
+        _check_events(job, run, steps, expected, model, machine.input_filter + 2 + slack)
+    else:
+        _check(job, run, steps, expected, len(frames))
     times = [clock * compress / machine.clock_hz for clock, _, _ in run.steps]
     first = times[0] if times else 0.0
     times = [t - first for t in times]
-    (status,) = [reply.fields for _, reply in run.replies if reply.kind == 0x81][-1:] or [None]
-    return Result(engine, steps, times, (status[0], status[1]), compress, run.clocks, wall,
-                  run.clocks / machine.clock_hz)
+    status = [reply for _, reply in run.replies if reply.kind == 0x81][-1]
+    from kontur.hdl.motion.protocol import input_names
+    result = Result(engine, steps, times, (status.fields[0], status.fields[1]), compress,
+                    run.clocks, wall, run.clocks / machine.clock_hz, final_state=status.state,
+                    alarm=input_names(status.fields[5]))
+    if model is not None:
+        base = run.steps[0][0] if run.steps else None
+        result.events = [dict(taken, taken_at=(clock - base) * compress / machine.clock_hz
+                              if base is not None else None)
+                         for taken, (clock, _) in zip(model["events"], run.applied)]
+    return result
+
+
+def _schedule(events, machine, compress):
+    """The switch pins and UNLOCKs of ``events`` (``(seconds, name)``, machining time) as a
+    host link's schedule: clocks after the first step at ``compress``, each pin event the
+    whole pin word after it (:func:`kontur.hdl.motion.inputs.pin_levels`)."""
+    from kontur.hdl.motion.inputs import pin_levels
+    from kontur.sim.models.motion import EVENTS
+    schedule, pressed = [], set()
+    for at, name in sorted(events, key=lambda item: item[0]):
+        offset = round(at * machine.clock_hz / compress)
+        switch, press = EVENTS[name]
+        if switch is None:
+            schedule.append((offset, ("unlock",)))
+            continue
+        (pressed.add if press else pressed.discard)(switch)
+        schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity))))
+    return schedule
+
+
+def _check_events(job, run, steps, expected, model, bound):
+    """An RTL run with scripted events against the model (:func:`kontur.sim.models.motion.
+    safety_run`): the steps made are the program's first ones, step for step; none rises
+    later than ``bound`` clocks after the first trip's pin changed; every frame sent is
+    answered, none ``DONE`` after one ``ABORTED``; each UNLOCK's STATUS and the last say
+    ALARM where the model does, with its cause; the position read back is the steps made."""
+    from kontur.hdl.motion.link import OUTCOME, STATUS
+    from kontur.hdl.motion.protocol import input_names
+    if steps != expected[:len(steps)]:
+        at = next(i for i, (a, b) in enumerate(zip(steps, expected)) if a != b) \
+            if len(steps) <= len(expected) else len(expected)
+        raise RunError(f"the RTL's steps differ from the program's at step {at}")
+    if model["stopped"] is not None:
+        (trip,) = [clock for (clock, event), taken in zip(run.applied, model["events"])
+                   if taken["at"] == model["stopped"] and event[0] == "pins"][:1]
+        late = [clock for clock, _, _ in run.steps if clock > trip + bound]
+        if late:
+            raise RunError(f"a step rose {late[0] - trip} clocks after the trip's pin changed, "
+                           f"more than the bound of {bound}")
+    outcomes = [reply.fields[1] for _, reply in run.replies if reply.kind == OUTCOME]
+    if 2 in outcomes and 0 in outcomes[outcomes.index(2):]:
+        raise RunError("a frame ended DONE after one ended ABORTED")
+    status = [reply for _, reply in run.replies if reply.kind == STATUS]
+    unlocks = [taken for taken in model["events"] if taken["event"] == "unlock"]
+    if len(status) != len(unlocks) + 1:
+        raise RunError(f"{len(status)} STATUS replies, expected one for each of the "
+                       f"{len(unlocks)} UNLOCKs and the last QUERY")
+    for reply, taken in zip(status, unlocks + [{"alarm": model["state"] == "ALARM"}]):
+        if (reply.state == "ALARM") != taken["alarm"]:
+            raise RunError(f"the RTL reports {reply.state} where the model says "
+                           f"{'ALARM' if taken['alarm'] else 'no ALARM'}")
+    final = status[-1].fields
+    if model["state"] == "ALARM" and input_names(final[5]) != model["alarm"]:
+        raise RunError(f"the RTL's ALARM cause {input_names(final[5])} is not the model's "
+                       f"{model['alarm']}")
+    end = (job.start[0] + sum(dx for dx, _ in steps), job.start[1] + sum(dy for _, dy in steps))
+    if final[:2] != end:
+        raise RunError(f"the position read back, {final[:2]}, is not the steps made {end}")
 
 
 def _check(job, run, steps, expected, count):
@@ -521,6 +612,9 @@ def summary(job, result):
         "clocks_per_second": (result.clocks / result.wall if result.clocks and result.wall
                               else None),
         "machine_seconds_traced": result.times[-1] if result.times else 0.0,
+        "final_state": result.final_state,
+        "alarm": list(result.alarm),
+        "events": [dict(event) for event in result.events],
     }
     if job.contours:
         data["cutter_radius_mm"] = job.machine.cutter_radius
@@ -577,9 +671,21 @@ def summary_text(data, out_dir=None):
         f"end        ({data['end_mm'][0]:.4f}, {data['end_mm'][1]:.4f}) mm = "
         f"({data['end_steps'][0]}, {data['end_steps'][1]}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]
+           else f", stopped short of the programmed end {tuple(data['programmed_end_steps'])}"
+           if any(e["alarm"] for e in data.get("events", ()))
            else f", NOT the programmed end {tuple(data['programmed_end_steps'])}"),
     ]
-    if data["engine"] != "model":
+    for event in data.get("events", ()):
+        taken = event.get("taken_at")
+        lines.append(f"event      {event['event']} at {event['at']:g} s"
+                     + (f" (taken at {taken:.6f} s)" if taken is not None else "")
+                     + (": ALARM" if event["alarm"] else ": no ALARM"))
+    lines.append(f"state      {data['final_state']}"
+                 + (f" (tripped: {', '.join(data['alarm'])})" if data.get("alarm") else ""))
+    if data["engine"] != "model" and data.get("events"):
+        lines.append("checked    the RTL's steps are the program's first ones, none after the "
+                     "stop bound, the state and the position read back as the model's")
+    elif data["engine"] != "model":
         lines.append("checked    the RTL's steps equal the model's, every frame DONE, the "
                      "position read back")
     if out_dir is not None:

@@ -235,7 +235,8 @@ def make_controller(board_name, machine):
                             profile=profile,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
-                            step_width=machine.step_width)
+                            step_width=machine.step_width, input_filter=machine.input_filter,
+                            polarity=machine.polarity)
 
 
 def check(kind_name, payload, width):

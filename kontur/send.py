@@ -3,8 +3,9 @@
 The program is prepared as for ``kontur run`` (:func:`kontur.machining.prepare`: read,
 on the lattice, planned, its frames), checked whole before anything moves, then:
 
-1. The handshake: a ``QUERY``, whose ``STATUS`` must come within the timeout and show the board
-   idle (not moving), with as many free queue slots as the machine file's ``queue_frames`` (an
+1. The handshake: a ``QUERY`` (an ``UNLOCK`` with ``unlock``), whose ``STATUS`` must come within
+   the timeout and show the board idle (not moving, not in ALARM: an e-stop or a limit switch
+   tripped), with as many free queue slots as the machine file's ``queue_frames`` (an
    idle controller reports its whole queue free: the frames it holds, not the bytes of its
    block RAM) and at the program's start (the position since reset). A board that does not
    answer, or answers otherwise, was built for another machine file, is busy, or has moved:
@@ -29,7 +30,7 @@ import math
 import signal
 import time
 
-from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATUS
+from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATES, STATUS
 
 from kontur.hdl.motion import protocol
 from kontur.sim import processes
@@ -187,9 +188,10 @@ class _Sender:
     # ---- untrusted replies ----------------------------------------------------------------
 
     def check_flags(self, fields, *, abort=True):
-        x, y, free, flags = fields
-        if flags & ~(MOVING | ERRORED):
-            self.fail(f"the board sent a STATUS with flags {flags:#04x}, which no controller "
+        x, y, free, flags, state = fields[:5]
+        if flags & ~(MOVING | ERRORED) or state >= len(STATES):
+            what = f"flags {flags:#04x}" if flags & ~(MOVING | ERRORED) else f"state {state}"
+            self.fail(f"the board sent a STATUS with {what}, which no controller "
                       f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?",
                       abort=abort)
 
@@ -242,9 +244,9 @@ class _Sender:
 
     # ---- the three steps ------------------------------------------------------------------
 
-    def handshake(self):
+    def handshake(self, unlock=False):
         baud = self.job.machine.baud
-        self.write(protocol.query())
+        self.write(protocol.unlock() if unlock else protocol.query())
         deadline = time.monotonic() + self.timeout
         while True:
             self.check_interrupt()
@@ -264,7 +266,14 @@ class _Sender:
                           f"(is the baud of the bitstream's machine file the same?)", abort=False)
 
     def check_board(self, fields):
-        x, y, free, flags = fields
+        x, y, free, flags = fields[:4]
+        self.check_flags(fields, abort=False)
+        if STATES[fields[4]] == "ALARM":
+            tripped = ", ".join(protocol.input_names(fields[5])) or "nothing"
+            active = ", ".join(protocol.input_names(fields[6])) or "none"
+            self.fail(f"the board is in ALARM (tripped: {tripped}; inputs active now: "
+                      f"{active}) at ({x}, {y}) steps: release the e-stop, then send with "
+                      f"--unlock (a limit may stay pressed); nothing was sent", abort=False)
         if flags & MOVING:
             self.fail(f"the board is moving (at ({x}, {y}) steps, {free} queue slots free): it "
                       f"is running another program; wait for its end or reset the board",
@@ -371,7 +380,7 @@ class _Sender:
         if status is None:
             message += f"; no STATUS: where the machine stopped is unknown{trouble}"
         else:
-            x, y, _, flags = status
+            x, y, _, flags = status[:4]
             spm = self.job.machine.steps_per_mm
             verb = "is still moving, at" if flags & MOVING else "stopped at"
             message += f"; the machine {verb} ({x}, {y}) steps = {_mm((x, y), spm)}"
@@ -382,7 +391,7 @@ class _Sender:
         raise SendInterrupted(message, signum)
 
 
-def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None):
+def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False):
     """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
     anything with ``write``, ``read`` and ``in_waiting``) after the handshake; return the final
     position read back (steps).
@@ -391,7 +400,8 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None):
     (s) is how long the board may take to answer the handshake's and the last ``QUERY``, and
     how much longer than :data:`PACE` times its planned time a frame may take to be answered;
     ``out`` where to write what the machine says besides (a file). ``stop`` (a :class:`Stop`,
-    or any callable) returns a signal number once the send must stop.
+    or any callable) returns a signal number once the send must stop. ``unlock``: the
+    handshake sends UNLOCK instead of QUERY (its STATUS must then show the ALARM left).
 
     Raises
     ------
@@ -406,7 +416,7 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None):
         raise ValueError(f"The timeout must be a positive number of seconds, not {timeout!r}")
     sender = _Sender(job, port, progress=progress, timeout=timeout, out=out, stop=stop)
     try:
-        sender.handshake()
+        sender.handshake(unlock)
         sender.stream()
         return sender.finish()
     except _LinkDown as error:

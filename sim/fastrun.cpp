@@ -7,13 +7,20 @@
 // frame before it to be answered), and parses the replies on tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
 // "R clock type payload-hex" for every reply. Python sees the run only through these files.
 //
-// usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD [VCD_CLOCKS]]
+// usage: fastrun [--schedule=FILE] FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD [VCD_CLOCKS]]
 //   VCD_CLOCKS: dump only the first VCD_CLOCKS clocks (default: all)
 //   FRAMES: for each frame a 16-bit little-endian length, then its bytes.
+//   --schedule=FILE: the switch pins (port "inputs") and UNLOCK frames at clocks after the
+//     first step (kontur.sim.testbench.hostlink.write_schedule): a line "I word" (the pins
+//     before any event), then "offset P word" (the pins from then) or "offset U" (send an
+//     UNLOCK). Each event applied is written "A clock P word" or "A clock U". With a schedule
+//     the host sends no more queued frames once one is answered other than DONE, and
+//     a QUERY waits for every event too (as HostLink does).
 
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <memory>
 #include <vector>
@@ -24,7 +31,10 @@
 #include "verilated_vcd_c.h"
 #endif
 
-static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82, QUERY = 0x20, ABORT = 0x21;
+static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82, QUERY = 0x20, ABORT = 0x21,
+                     UNLOCK = 0x22;
+
+struct Event { unsigned long long offset; bool unlock; unsigned word; };
 
 static uint16_t crc16(const std::vector<uint8_t> &data) {
     uint16_t crc = 0xFFFF;
@@ -37,12 +47,48 @@ static uint16_t crc16(const std::vector<uint8_t> &data) {
     return crc;
 }
 
+static void append_bits(std::vector<uint8_t> &levels, const std::vector<uint8_t> &frame) {
+    for (uint8_t byte : frame) {
+        levels.push_back(0);
+        for (int i = 0; i < 8; i++) levels.push_back((byte >> i) & 1);
+        levels.push_back(1);
+    }
+}
+
 int main(int argc, char **argv) {
+    const char *schedule_path = nullptr;
+    if (argc > 1 && std::strncmp(argv[1], "--schedule=", 11) == 0) {
+        schedule_path = argv[1] + 11;
+        argv[1] = argv[0];
+        argv++;
+        argc--;
+    }
     if (argc < 6) {
-        std::fprintf(stderr, "usage: fastrun FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS "
-                             "[VCD [VCD_CLOCKS]]\n");
+        std::fprintf(stderr, "usage: fastrun [--schedule=FILE] FRAMES EVENTS DIVISOR WINDOW "
+                             "MAX_CLOCKS [VCD [VCD_CLOCKS]]\n");
         return 2;
     }
+    std::deque<Event> schedule;
+    unsigned pins = 0;
+    if (schedule_path) {
+        FILE *file = std::fopen(schedule_path, "r");
+        if (!file) { std::perror("fastrun"); return 1; }
+        char line[128];
+        while (std::fgets(line, sizeof line, file)) {
+            unsigned long long offset;
+            char what;
+            unsigned word = 0;
+            if (line[0] == 'I') {
+                if (std::sscanf(line + 1, "%u", &pins) != 1) return 1;
+            } else if (std::sscanf(line, "%llu %c %u", &offset, &what, &word) >= 2) {
+                schedule.push_back(Event{offset, what == 'U', word});
+            }
+        }
+        std::fclose(file);
+    }
+    const bool scheduled = !schedule.empty();
+    bool based = false;
+    unsigned long long base = 0;
     FILE *in = std::fopen(argv[1], "rb");
     FILE *out = std::fopen(argv[2], "w");
     if (!in || !out) { std::perror("fastrun"); return 1; }
@@ -92,27 +138,51 @@ int main(int argc, char **argv) {
 
     top->rst = 1;
     top->rx = 1;
+    top->inputs = pins;
     top->clk = 0;
     top->eval();
     unsigned long long clock = 0;
     for (; clock < max_clocks; clock++) {
         bool reset = clock < 4;
         top->rst = reset;
+        // ---- the schedule: machining time counts from the first step -------------------
+        if (!based && !reset && answered == queued_sent && level_index == levels.size()
+            && (frames.empty() || (frames.front().size() >= 2 && frames.front()[1] == QUERY))) {
+            based = true;                  // no step, and the host waits to ask
+            base = clock;
+        }
+        while (based && !schedule.empty() && clock >= base + schedule.front().offset) {
+            Event event = schedule.front();
+            schedule.pop_front();
+            if (event.unlock) {
+                std::fprintf(out, "A %llu U\n", clock);
+                if (level_index == levels.size()) {
+                    levels.clear();
+                    level_index = 0;
+                    level_left = divisor;
+                }
+                std::vector<uint8_t> body = {UNLOCK, 0};
+                uint16_t crc = crc16(body);
+                append_bits(levels, {SYNC, UNLOCK, 0, (uint8_t)(crc >> 8), (uint8_t)crc});
+            } else {
+                std::fprintf(out, "A %llu P %u\n", clock, event.word);
+                pins = event.word;
+            }
+        }
+        top->inputs = pins;
         // ---- host to machine -----------------------------------------------------------
         if (!reset && level_index == levels.size() && !frames.empty()) {
             const std::vector<uint8_t> &frame = frames.front();
             bool queued = frame.size() < 2 || (frame[1] != QUERY && frame[1] != ABORT);
-            // A QUERY waits for every frame before it to be answered; an ABORT goes at once.
+            // A QUERY waits for every frame before it to be answered (and every event); an
+            // ABORT goes at once.
             bool may = queued ? outstanding < window
-                              : (frame[1] == ABORT || answered == queued_sent);
+                              : (frame[1] == ABORT || (answered == queued_sent
+                                                       && schedule.empty()));
             if (may) {
                 levels.clear();
                 level_index = 0;
-                for (uint8_t byte : frame) {
-                    levels.push_back(0);
-                    for (int i = 0; i < 8; i++) levels.push_back((byte >> i) & 1);
-                    levels.push_back(1);
-                }
+                append_bits(levels, frame);
                 outstanding += queued;
                 queued_sent += queued;
                 level_left = divisor;
@@ -140,8 +210,10 @@ int main(int argc, char **argv) {
         // ---- the pins, after the edge: the values of clock + 1 -----------------------------
         unsigned step = top->motion___05Fstep;
         unsigned rising = step & ~previous_step;
-        if (rising)
+        if (rising) {
             std::fprintf(out, "S %llu %u %u\n", clock + 1, rising, (unsigned)top->motion___05Fdir);
+            if (!based) { based = true; base = clock + 1; }
+        }
         previous_step = step;
         unsigned tx = top->tx;
         if (rx_state == 0) {
@@ -164,7 +236,18 @@ int main(int argc, char **argv) {
                         for (size_t i = 3; i < reply.size() - 2; i++)
                             std::fprintf(out, " %02x", reply[i]);
                         std::fprintf(out, "\n");
-                        if (reply[1] == OUTCOME || reply[1] == ERROR) { outstanding--; answered++; }
+                        if (reply[1] == OUTCOME || reply[1] == ERROR) {
+                            outstanding--;
+                            answered++;
+                            // The machine stopped the stream: send no more of it.
+                            if (scheduled && (reply[1] == ERROR || reply[4] != 0)) {
+                                std::deque<std::vector<uint8_t>> queries;
+                                for (auto &frame : frames)
+                                    if (frame.size() >= 2 && frame[1] == QUERY)
+                                        queries.push_back(frame);
+                                frames.swap(queries);
+                            }
+                        }
                     }
                     reply.clear();
                 }
@@ -172,7 +255,7 @@ int main(int argc, char **argv) {
         }
         // Done: everything sent and answered, the line quiet for a while.
         if (frames.empty() && level_index == levels.size() && answered == queued_sent
-            && rx_state == 0) {
+            && rx_state == 0 && schedule.empty()) {
             if (idle_after == 0) idle_after = clock + 64 * divisor;
             if (clock >= idle_after) break;
         } else {

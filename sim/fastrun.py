@@ -18,7 +18,7 @@ from pathlib import Path
 
 from kontur.sim import processes
 from kontur.sim.runners import SimulatorError, _locked, verilator_environment
-from kontur.sim.testbench.hostlink import Run, parse_events, write_frames
+from kontur.sim.testbench.hostlink import Run, parse_events, write_frames, write_schedule
 
 __all__ = ["FastRun", "Run"]
 
@@ -42,6 +42,7 @@ class FastRun:
         from amaranth.back import verilog
 
         verilator_environment()
+        self.idle = getattr(top, "idle_inputs", 0)          # the switch pins, all idle
         text = verilog.convert(top, name="top", emit_src=False)
         source = HARNESS.read_text()
         digest = hashlib.sha256(f"{int(waves)}\n{source}\n{text}".encode()).hexdigest()[:16]
@@ -62,7 +63,7 @@ class FastRun:
     def _build(self, text):
         (self.build_dir / "top.v").write_text(text)
         command = ["verilator", "--cc", "--exe", "--build", "-O3", "--top-module", "top",
-                   "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE",
+                   "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE", "-Wno-CASEOVERLAP",
                    "-Wno-SYMRSVDWORD", "--prefix", "Vtop", "-Mdir", "obj", "-o", "fastrun",
                    "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
                    *(["--trace"] if self.waves else []), "top.v", str(HARNESS)]
@@ -75,8 +76,9 @@ class FastRun:
             raise SimulatorError(f"the Verilator build of the controller failed; see {log}")
 
     def run(self, frames, *, divisor, window, max_clocks, vcd=None, vcd_clocks=None,
-            progress=None):
-        """Run ``frames`` (a list of bytes objects, in order); return a :class:`Run`. With
+            progress=None, schedule=()):
+        """Run ``frames`` (a list of bytes objects, in order), and ``schedule`` on the switch
+        pins (:class:`kontur.sim.testbench.hostlink.HostLink`'s); return a :class:`Run`. With
         ``vcd``, the waveform of the run (of its first ``vcd_clocks`` clocks, if given) is
         written there.
         ``progress``, if given, is called with the number of steps made so far about twice a
@@ -90,7 +92,9 @@ class FastRun:
         runs.mkdir(exist_ok=True)
         run_dir = Path(tempfile.mkdtemp(prefix="run-", dir=runs))
         write_frames(run_dir / "frames.bin", frames)
-        command = [str(self.binary), str(run_dir / "frames.bin"), str(run_dir / "events.txt"),
+        write_schedule(run_dir / "schedule.txt", schedule, self.idle)
+        command = [str(self.binary), f"--schedule={run_dir / 'schedule.txt'}",
+                   str(run_dir / "frames.bin"), str(run_dir / "events.txt"),
                    str(divisor), str(window), str(max_clocks)]
         if vcd is not None:
             command.append(str(Path(vcd).resolve()))
@@ -102,12 +106,13 @@ class FastRun:
         seconds = time.monotonic() - started
         if code not in (0, 3):
             raise SimulatorError(f"the controller run failed (status {code}); see {run_dir}")
-        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text())
+        applied = []
+        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text(), applied)
         if code == 3:
             raise SimulatorError(f"the program did not end within {max_clocks} clocks "
                                  f"({run_dir})")
         shutil.rmtree(run_dir, ignore_errors=True)
-        return Run(steps, replies, clocks, seconds)
+        return Run(steps, replies, clocks, seconds, applied)
 
     @staticmethod
     def _wait(process, events, progress):

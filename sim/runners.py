@@ -291,11 +291,14 @@ class CocotbBuild:
         check_outcomes(data["record"])
         return data["record"]
 
-    def run_controller(self, frames, *, divisor, window, max_clocks, vcd=None):
+    def run_controller(self, frames, *, divisor, window, max_clocks, vcd=None, schedule=(),
+                       idle=None):
         """Run ``frames`` through this build of a machine controller with the host of
         :class:`kontur.sim.testbench.hostlink.HostLink` (the cocotb test
-        :mod:`kontur.sim.testbench.controller_run`); return its :class:`kontur.sim.testbench.hostlink.Run`."""
-        from kontur.sim.testbench.hostlink import Run, parse_events, write_frames
+        :mod:`kontur.sim.testbench.controller_run`), and ``schedule`` on its switch pins from
+        ``idle``; return its :class:`kontur.sim.testbench.hostlink.Run`."""
+        from kontur.sim.testbench.hostlink import Run, parse_events, write_frames, \
+            write_schedule
 
         if vcd is not None and not self.waves:
             raise ValueError("a waveform needs a build made with waves=True")
@@ -303,6 +306,11 @@ class CocotbBuild:
         write_frames(run_dir / "frames.bin", frames)
         spec = {"frames": str(run_dir / "frames.bin"), "events": str(run_dir / "events.txt"),
                 "divisor": divisor, "window": window, "max_clocks": max_clocks}
+        if schedule or idle is not None:
+            from kontur.hdl.motion.inputs import idle_pins
+            write_schedule(run_dir / "schedule.txt", schedule,
+                           idle_pins() if idle is None else idle)
+            spec["schedule"] = str(run_dir / "schedule.txt")
         (run_dir / "run.json").write_text(json.dumps(spec))
         started = time.monotonic()
         self._run("kontur.sim.testbench.controller_run", run_dir, vcd=vcd is not None,
@@ -311,12 +319,13 @@ class CocotbBuild:
         if not (run_dir / "events.txt").exists():
             raise SimulatorError(f"the {self.simulator} run did not end within {max_clocks} "
                                  f"clocks, or failed; see {run_dir / 'run.log'}")
-        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text())
+        applied = []
+        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text(), applied)
         if vcd is not None:
             dump = "dump.vcd" if self.simulator == "verilator" else "engine.vcd"
             shutil.copyfile(run_dir / dump, vcd)
         shutil.rmtree(run_dir, ignore_errors=True)
-        return Run(steps, replies, clocks, seconds)
+        return Run(steps, replies, clocks, seconds, applied)
 
     def test(self, test_module, *, env=None, testcase=None):
         """Run the cocotb tests of ``test_module`` on this build; raise :exc:`AssertionError`

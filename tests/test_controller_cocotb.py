@@ -17,6 +17,7 @@ import cocotb
 import pytest
 
 from kontur.hdl.motion.controller import MotionController
+from kontur.hdl.motion.inputs import pin_levels
 from kontur.hdl.motion.link import ERROR, OUTCOME, STATUS
 from kontur import registry
 from kontur.hdl.motion import protocol
@@ -60,15 +61,19 @@ def part():
     ]
 
 
-async def run_program(dut, frames, *, query=False):
+async def run_program(dut, frames, *, query=False, schedule=(), applied=None):
     """Reset, send ``frames`` with the window flow control, record every clock's pins until
     all are answered (and then, with ``query``, until the reply to a QUERY); return
     ``(levels, moves, replies)``: the pins each clock, ``(clock, dx, dy)`` at each rising step
-    edge, the replies."""
+    edge, the replies. ``schedule``: the switch pins' events (``applied`` gets them as
+    applied)."""
     levels = []
     result = await run_cocotb(dut, frames + ([protocol.query()] if query else []),
                               divisor=round(MACHINE.clock_hz / MACHINE.baud),
-                              window=MACHINE.queue_frames, max_clocks=3_000_000, levels=levels)
+                              window=MACHINE.queue_frames, max_clocks=3_000_000, levels=levels,
+                              schedule=schedule)
+    if applied is not None:
+        applied += result.applied
     moves = [(clock, dx, dy) for (clock, _, _), (dx, dy) in zip(result.steps,
                                                                 steps_of(result))]
     return levels, moves, [reply for _, reply in result.replies]
@@ -129,6 +134,37 @@ async def corrupt_frame(dut):
     moves = [(dx, dy) for _, dx, dy in moves]
     skipped = segments[3]
     assert moves == [s for seg in segments if seg is not skipped for s in seg.steps]
+
+
+@cocotb.test()
+async def estop_mid_arc(dut):
+    # The e-stop pressed half-way through the first arc (line 3, by the plan's times): no
+    # rising step edge later than the bound (the filter, 1 clock here, the synchroniser's 2,
+    # and 1 for cocotb's driver, which sets the pins a clock after the host decides), every
+    # pulse whole, every frame after the running one ABORTED (or REFUSED, once in ALARM), the
+    # position read back the steps made, ALARM with the e-stop as its cause.
+    segments, frames = planned()
+    items = plan(segments, MACHINE)
+    seconds = items[0].seconds + items[1].seconds + items[2].seconds / 2
+    estop = pin_levels(["estop"])
+    applied = []
+    levels, moves, replies = await run_program(
+        dut, frames, query=True, schedule=[(round(seconds * MACHINE.clock_hz), ("pins", estop))],
+        applied=applied)
+    made = [(dx, dy) for _, dx, dy in moves]
+    program = [s for seg in segments for s in seg.steps]
+    assert made == program[:len(made)]
+    before = len(segments[0].steps) + len(segments[1].steps)
+    assert before < len(made) < before + len(segments[2].steps)
+    (trip, _), = applied
+    assert moves[-1][0] <= trip + 1 + 2 + 1, (moves[-1][0], trip)
+    outcomes = [r.fields[1] for r in replies if r.kind == OUTCOME]
+    first = outcomes.index(2)
+    assert set(outcomes[:first]) == {0} and set(outcomes[first:]) <= {1, 2}
+    status = [r for r in replies if r.kind == STATUS][-1]
+    assert status.fields[:2] == (sum(dx for dx, _ in made), sum(dy for _, dy in made))
+    assert (status.state, status.fields[5], status.fields[6]) == ("ALARM", 1, 1)
+    check_timing(levels, moves)
 
 
 @pytest.mark.cocotb

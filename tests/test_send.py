@@ -62,7 +62,7 @@ class FakeMachine:
 
     def __init__(self, window, *, outcome=None, drop=None, error_code=1, offset=(0, 0),
                  silent_after=None, profile=None, free=None, flags=0, at=(0, 0), first=0,
-                 misbehave=None, after=0, mute=False):
+                 misbehave=None, after=0, mute=False, state=0, alarm=0, inputs=0):
         self.window = window
         self.parser = protocol.CommandParser(profile=profile)
         self.kinds = []
@@ -75,6 +75,8 @@ class FakeMachine:
         self.misbehave, self.after, self.mute = misbehave, after, mute
         self.free = window if free is None else free
         self.flags = flags
+        self.state, self.alarm, self.inputs = state, alarm, inputs
+        self.unlocks = 0
         self.first = first
         self.pending = bytearray()
         self.later = []
@@ -96,8 +98,9 @@ class FakeMachine:
         x, y = self.position
         if self.count:
             x, y = x + self.offset[0], y + self.offset[1]
-        return protocol.frame(0x81, struct.pack("<iiBB", x, y, max(self.free - self.unanswered,
-                                                                   0), self.flags))
+        return protocol.frame(0x81, struct.pack("<iiBBBBB", x, y,
+                                                max(self.free - self.unanswered, 0), self.flags,
+                                                self.state, self.alarm, self.inputs))
 
     def write(self, data):
         if self.closed or (self.misbehave == "write" and self.count >= self.after):
@@ -110,6 +113,12 @@ class FakeMachine:
                 assert self.unanswered <= self.window, "the host overran the window"
                 self.later.append((self.count, event[1], event[2]))
                 self.count += 1
+            elif event[0] == "unlock":
+                # Grbl's rule, as the gateware's: not while the e-stop (input 0) is active.
+                self.unlocks += 1
+                if self.state == 4 and not self.inputs & 1:
+                    self.state = self.alarm = 0
+                self.pending += self.status()
             elif event[0] == "query":
                 self.queries += 1
                 if not (self.mute or self.acting_up and self.misbehave == "dead"):
@@ -370,7 +379,24 @@ HANDSHAKES = {
                                  r"reset"),
     "no controller": (dict(flags=0x40), r"^the board sent a STATUS with flags 0x40, which no "
                                         r"controller sets"),
+    "unknown state": (dict(state=7), r"^the board sent a STATUS with state 7, which no "
+                                     r"controller sets"),
+    "alarm": (dict(state=4, alarm=3, inputs=1),
+              r"^the board is in ALARM \(tripped: estop, limit_x; inputs active now: estop\) "
+              r"at \(0, 0\) steps: release the e-stop, then send with --unlock"),
 }
+
+
+def test_unlock_leaves_alarm_unless_the_estop_is_pressed():
+    # The e-stop released, a limit still pressed: --unlock's UNLOCK leaves ALARM, the program
+    # runs. The e-stop still pressed: the UNLOCK's STATUS shows ALARM, nothing is sent.
+    port = FakeMachine(4, state=4, alarm=2, inputs=2)
+    within(10, send, quick_job(), port, timeout=0.3, unlock=True)
+    assert port.unlocks == 1 and port.count > 0
+    port = FakeMachine(4, state=4, alarm=1, inputs=1)
+    with pytest.raises(SendError, match=r"^the board is in ALARM \(tripped: estop;"):
+        within(10, send, quick_job(), port, timeout=0.3, unlock=True)
+    assert port.unlocks == 1 and port.count == 0
 
 
 @pytest.mark.parametrize("case", HANDSHAKES)
@@ -397,7 +423,7 @@ def test_the_gateware_reports_its_queue_length_when_idle():
                                       queue_frames=frames)
         run = run_amaranth(controller, [protocol.query()], divisor=8, window=frames,
                            max_clocks=5000)
-        assert [reply.fields for _, reply in run.replies] == [(0, 0, frames, 0)]
+        assert [reply.fields for _, reply in run.replies] == [(0, 0, frames, 0, 0, 0, 0)]
 
 
 # ---- a misbehaving machine -------------------------------------------------------------------

@@ -16,7 +16,9 @@ from ..elements._checks import check_width
 from ..engine import MotionSignature
 from .dispatch import (DWELL_UNIT, NONE_UNIT, Dispatcher, EngineUnit, Replies, Turn, TurnQueue,
                        UnitSignature, little, raw_bits)
+from .alarm import Alarm
 from .feed import FeedGenerator, rate_limit
+from .inputs import INPUTS, Inputs, check_polarity, idle_pins
 from .link import (ARC, CONFIG, DWELL, FEED, LENGTHS, LINE, PROFILE, QUERY, ABORT, STOP,
                    FrameDecoder, FrameEncoder, profile_bytes)
 from .player import check_engine
@@ -78,6 +80,15 @@ class MotionController(wiring.Component):
     ``ABORT`` stops the motion at once (the engines' abort) and ends every frame queued before
     it ``ABORTED``.
 
+    The switch inputs (:py:`inputs`: e-stop, limits, probe, cycle start, feed hold;
+    :class:`~.inputs.Inputs`) are synchronised and filtered (``input_filter`` clocks,
+    ``polarity``). A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
+    clock its filtered level changes, and ALARM from then on: the step/dir stage drops every
+    step still in its direction set-up (a pulse on its pin is finished), every queued frame
+    ends ``ABORTED``, every queued frame that comes in ALARM ends ``REFUSED``; UNLOCK
+    leaves ALARM unless the e-stop is still active. The position counts the pulses on the step
+    pins: the steps actually made.
+
     The engines' steps go through :class:`~kontur.hdl.motion.stepdir.StepDirStage` (``dir_setup``,
     ``step_width``); the feed never permits steps closer than ``dir_setup + step_width + 1``
     clocks, so the pulses always fit. The maximum step rate is therefore ``clock_hz /
@@ -108,11 +119,17 @@ class MotionController(wiring.Component):
         free slots in a byte).
     dir_setup, step_width : :class:`int`
         Step/dir timing in clocks (see :class:`~kontur.hdl.motion.stepdir.StepDirStage`).
+    input_filter : :class:`int`
+        Clocks an input's new level must hold (:class:`~.inputs.InputFilter`; default 1).
+    polarity : :class:`dict`
+        ``"nc"`` or ``"no"`` per input (:data:`~.inputs.DEFAULT_POLARITY` for the others).
 
     Members
     -------
     rx : :py:`In(1, init=1)`
         Serial line from the host.
+    inputs : :py:`In(6, init=idle)`
+        The switch pins (:data:`~.inputs.INPUTS`), every one idle by default.
     tx : :py:`Out(1, init=1)`
         Serial line to the host.
     motion : :py:`Out(MotionSignature(2))`
@@ -125,6 +142,8 @@ class MotionController(wiring.Component):
         Frames are queued or running.
     error : :py:`Out(1)`
         A frame has been dropped since reset (sticky).
+    alarm : :py:`Out(1)`
+        In ALARM.
 
     Raises
     ------
@@ -137,7 +156,8 @@ class MotionController(wiring.Component):
     """
 
     def __init__(self, *, line, arc, profile=None, engines=(), clock_hz=12e6, baud=115200,
-                 queue_frames=32, dir_setup=12, step_width=24):
+                 queue_frames=32, dir_setup=12, step_width=24, input_filter=1,
+                 polarity=None):
         check_engine(line)
         check_engine(arc)
         if profile is not None:
@@ -160,6 +180,10 @@ class MotionController(wiring.Component):
         check_width("Direction setup", dir_setup, minimum=0)
         check_width("Step pulse width", step_width)
         divisor = divisor_for(clock_hz, baud)
+        check_width("Input filter", input_filter)
+        self._input_filter = input_filter
+        self._polarity = check_polarity(polarity)
+        self._idle = idle_pins(self._polarity)
         self._table = tuple(table)
         self._profile = profile
         self._queue_frames = queue_frames
@@ -171,12 +195,14 @@ class MotionController(wiring.Component):
         self._lengths = dict(sorted(lengths.items()))       # the queued types, by type
         super().__init__({
             "rx":       In(1, init=1),
+            "inputs":   In(len(INPUTS), init=self._idle),
             "tx":       Out(1, init=1),
             "motion":   Out(MotionSignature(2)),
             "enable":   Out(1),
             "position": Out(data.ArrayLayout(signed(32), 2)),
             "busy":     Out(1),
             "error":    Out(1),
+            "alarm":    Out(1),
         })
 
     @property
@@ -192,6 +218,19 @@ class MotionController(wiring.Component):
     def table(self):
         """The engine table: one :class:`~.dispatch.EngineUnit` for each engine."""
         return self._table
+
+    @property
+    def idle_inputs(self):
+        """The pin word of :py:`inputs` with every input idle."""
+        return self._idle
+
+    @property
+    def input_filter(self):
+        return self._input_filter
+
+    @property
+    def polarity(self):
+        return dict(self._polarity)
 
     @property
     def max_step_rate(self):
@@ -213,8 +252,10 @@ class MotionController(wiring.Component):
         self.encoder = FrameEncoder()
         self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
         self.stepdir = StepDirStage(dir_setup=self._dir_setup, step_width=self._step_width)
+        self.input_stage = Inputs(filter=self._input_filter, polarity=self._polarity)
+        self.alarm_unit = Alarm()
         for name in ("uart_rx", "uart_tx", "decoder", "queue", "dispatcher", "turns", "replies",
-                     "encoder", "feed", "stepdir"):
+                     "encoder", "feed", "stepdir", "input_stage", "alarm_unit"):
             m.submodules[name] = getattr(self, name)
         decoder, dispatcher, turns, replies = self.decoder, self.dispatcher, self.turns, \
             self.replies
@@ -227,7 +268,10 @@ class MotionController(wiring.Component):
         wiring.connect(m, self.uart_rx.o, decoder.i)
         wiring.connect(m, decoder.q, self.queue.w)
         wiring.connect(m, self.queue.r, dispatcher.r)
-        m.d.comb += [dispatcher.commit.eq(decoder.q.commit), dispatcher.abort.eq(decoder.abort)]
+        # An ABORT: the host's, or an input tripped (ALARM).
+        abort = Signal()
+        m.d.comb += [abort.eq(decoder.abort | self.alarm_unit.enter),
+                     dispatcher.commit.eq(decoder.q.commit), dispatcher.abort.eq(abort)]
 
         # The engines, from the table: commands from the dispatcher, turns in the turn queue.
         for row in self._table:
@@ -235,30 +279,34 @@ class MotionController(wiring.Component):
             wiring.connect(m, getattr(dispatcher.cmd, row.name), row.engine.cmd)
             wiring.connect(m, UnitSignature.of(row.engine), getattr(turns.units, row.name))
         wiring.connect(m, dispatcher.turn, turns.i)
-        m.d.comb += turns.abort.eq(decoder.abort)
+        m.d.comb += turns.abort.eq(abort)
 
         # The feed: permissions for the engine whose turn it is.
         wiring.connect(m, turns.feed, self.feed.feed)
         wiring.connect(m, turns.ramp, self.feed.ramp)
         m.d.comb += self.feed.accel.eq(dispatcher.accel)
 
-        # Motion: the position, and the pins.
+        # Motion: the pins, and the position: the pulses on them.
         wiring.connect(m, turns.motion, self.stepdir.i)
         wiring.connect(m, self.stepdir.o, wiring.flipped(self.motion))
         for axis in range(2):
-            with m.If(turns.motion.step[axis]):
+            with m.If(self.stepdir.made[axis]):
                 m.d.sync += self.position[axis].eq(
-                    self.position[axis] + Mux(turns.motion.dir[axis], -1, 1))
+                    self.position[axis] + Mux(self.stepdir.o.dir[axis], -1, 1))
         m.d.sync += self.enable.eq(1)
+        self._safety(m)
 
         # Replies: outcomes, errors, status.
         wiring.connect(m, turns.outcome, replies.outcome)
         wiring.connect(m, decoder.error, replies.error)
         m.d.comb += [
-            replies.query.eq(decoder.query),
+            replies.query.eq(decoder.query | decoder.unlock),
             replies.status.position.eq(self.position),
             replies.status.free.eq(dispatcher.free),
             replies.status.moving.eq(turns.busy),
+            replies.status.state.eq(self.alarm_unit.state),
+            replies.status.cause.eq(self.alarm_unit.cause),
+            replies.status.inputs.eq(self.input_stage.active),
             self.busy.eq(dispatcher.pending | turns.busy),
             self.error.eq(replies.error_sent),
         ]
@@ -266,6 +314,19 @@ class MotionController(wiring.Component):
         wiring.connect(m, self.encoder.o, self.uart_tx.i)
         m.d.comb += self.tx.eq(self.uart_tx.tx)
         return m
+
+    def _safety(self, m):
+        """The inputs and the ALARM: the e-stop and limits stop the pins and the frames."""
+        stage, alarm = self.input_stage, self.alarm_unit
+        m.d.comb += [
+            stage.pins.eq(self.inputs),
+            alarm.active.eq(stage.active),
+            alarm.unlock.eq(self.decoder.unlock),
+            alarm.busy.eq(self.dispatcher.pending | self.turns.busy),
+            self.stepdir.halt.eq(alarm.halt),
+            self.dispatcher.alarm.eq(alarm.halt),
+            self.alarm.eq(alarm.alarm),
+        ]
 
 
 def _check_table(table):

@@ -35,9 +35,10 @@ NONE_UNIT, DWELL_UNIT = 0, 3
 
 def Turn(highest=DWELL_UNIT):
     """A queued frame's turn: which unit it runs on (``0`` to ``highest``), whether it was
-    aborted before it ran, and its argument (a move's feed profile, or a dwell's clocks)."""
+    aborted before it ran or refused (taken in ALARM), and its argument (a move's feed
+    profile, or a dwell's clocks)."""
     return data.StructLayout({"unit": unsigned(highest.bit_length()), "aborted": 1,
-                              "argument": Profile()})
+                              "refused": 1, "argument": Profile()})
 
 
 def little(payload, first, count, *, signed_value=False):
@@ -116,9 +117,10 @@ class _UnitPort:
 
 def StatusFields():
     """The STATUS reply's fields that come from outside the replies: the position, the free
-    queue slots, and whether a turn is queued or running."""
+    queue slots, whether a turn is queued or running; the state, the alarm's cause and the
+    inputs active (their bytes, as the reply has them)."""
     return data.StructLayout({"position": data.ArrayLayout(signed(32), 2), "free": 8,
-                              "moving": 1})
+                              "moving": 1, "state": 8, "cause": 8, "inputs": 8})
 
 
 class Dispatcher(wiring.Component):
@@ -130,7 +132,8 @@ class Dispatcher(wiring.Component):
     its turn written on :py:`turn`, when the engine takes it. Any other frame is taken at once:
     FEED sets the profile of the turns after it, CONFIG :py:`accel`, DWELL's turn carries its
     clocks. After :py:`abort` every frame queued before it (in the queue, or being read) is
-    taken without being offered, its turn marked aborted.
+    taken without being offered, its turn marked aborted. While :py:`alarm` is high every
+    other frame is taken without being offered too, its turn marked refused.
 
     Parameters
     ----------
@@ -149,6 +152,8 @@ class Dispatcher(wiring.Component):
         A frame was committed into the queue in this clock.
     abort : :py:`In(1)`
         A checked ABORT frame ended in this clock.
+    alarm : :py:`In(1)`
+        The controller is in ALARM (or entering it): refuse the frames.
     cmd : :py:`Out(Signature({name: Out(stream.Signature(frame))}))`
         The engines' commands, one stream for each row of the table.
     turn : :py:`Out(stream.Signature(Turn(highest)))`
@@ -170,6 +175,7 @@ class Dispatcher(wiring.Component):
             "r":       In(stream.Signature(8)),
             "commit":  In(1),
             "abort":   In(1),
+            "alarm":   In(1),
             "cmd":     Out(wiring.Signature({
                 unit.name: Out(stream.Signature(unit.engine.signature.frame))
                 for unit in self._units})),
@@ -225,7 +231,9 @@ class Dispatcher(wiring.Component):
             for frame_type in sorted(units):
                 with m.Case(frame_type):
                     m.d.comb += unit.eq(units[frame_type])
-        offer = held & turn.ready & ~aborting
+        refusing = ~aborting & self.alarm
+        # Nothing is handed over in an abort's clock: the frame waits, and is aborted next.
+        offer = held & turn.ready & ~aborting & ~self.alarm & ~self.abort
         ready = C(1)
         for row in self._units:
             cmd = getattr(self.cmd, row.name)
@@ -233,18 +241,20 @@ class Dispatcher(wiring.Component):
             m.d.comb += cmd.valid.eq(offer & (unit == row.unit))
             ready = Mux(unit == row.unit, cmd.ready, ready)
         m.d.comb += [
-            turn.valid.eq(held & (aborting | ready)),
+            turn.valid.eq(held & ~self.abort & (aborting | self.alarm | ready)),
             take.eq(turn.valid & turn.ready),
-            turn.payload.unit.eq(Mux(aborting, NONE_UNIT, unit)),
+            turn.payload.unit.eq(Mux(aborting | self.alarm, NONE_UNIT, unit)),
             turn.payload.aborted.eq(aborting),
+            turn.payload.refused.eq(refusing),
             turn.payload.argument.eq(Mux(unit == DWELL_UNIT, little(payload, 0, 4), profile)),
         ]
-        with m.If(take & ~aborting & (kind == FEED)):
+        with m.If(take & ~aborting & ~self.alarm & (kind == FEED)):
             m.d.sync += profile.eq(little(payload, 0, 9))
-        with m.If(take & ~aborting & (kind == CONFIG)):
+        with m.If(take & ~aborting & ~self.alarm & (kind == CONFIG)):
             m.d.sync += self.accel.eq(little(payload, 0, 4))
         with m.If(self.abort):
-            # The frames queued before the abort: those in the queue, and one being read.
+            # The frames queued before the abort: those in the queue, and one being read or
+            # held (none is taken in this clock).
             m.d.sync += flush.eq(queued + Mux(held | (index != length), 1, 0))
         with m.Elif(take & aborting):
             m.d.sync += flush.eq(flush - 1)
@@ -264,7 +274,8 @@ class TurnQueue(wiring.Component):
     turn. A dwell's turn ends after its clocks (or at :py:`abort`), any other turn at once,
     ``ABORTED`` if the dispatcher marked it so. A move's turn starts the feed generator's ramp
     toward its profile (:py:`ramp`); outside a move's turn the profile is zero (the rate ramps
-    down to rest). The engines' steps are merged on :py:`motion` (the directions of the engine
+    down to rest). At :py:`abort` every turn in the FIFO ends ``ABORTED`` (an engine's through
+    the engine's abort). The engines' steps are merged on :py:`motion` (the directions of the engine
     whose turn it is, or of the table's first engine).
 
     Parameters
@@ -324,6 +335,9 @@ class TurnQueue(wiring.Component):
         room = self.outcome.ready
         rows = [(row.unit, getattr(self.units, row.name)) for row in self._units]
         dwell_left = Signal(32)
+        flush = Signal(range(turns.depth + 2))
+        flushing = flush != 0
+        stopped = self.abort | flushing
         for number, port in rows:
             m.d.comb += [port.status.ready.eq(room & (turn == number)),
                          port.abort.eq(self.abort)]
@@ -334,16 +348,23 @@ class TurnQueue(wiring.Component):
                                  self.outcome.payload.eq(port.status.payload.outcome)]
             with m.Case(DWELL_UNIT):
                 m.d.comb += [
-                    self.outcome.valid.eq(started & ((dwell_left == 0) | self.abort)),
-                    self.outcome.payload.eq(Mux(self.abort, Outcome.ABORTED, Outcome.DONE)),
+                    self.outcome.valid.eq(started & ((dwell_left == 0) | stopped)),
+                    self.outcome.payload.eq(Mux(stopped, Outcome.ABORTED, Outcome.DONE)),
                 ]
             with m.Default():
                 m.d.comb += [
                     self.outcome.valid.eq(turns.r_rdy),
-                    self.outcome.payload.eq(Mux(current.aborted, Outcome.ABORTED,
-                                                Outcome.DONE)),
+                    self.outcome.payload.eq(
+                        Mux(current.refused & ~flushing, Outcome.REFUSED,
+                            Mux(current.aborted | flushing, Outcome.ABORTED, Outcome.DONE))),
                 ]
         complete = self.outcome.valid & self.outcome.ready
+        # An abort ends every turn queued before it ABORTED (an engine's by the engine's abort,
+        # the others here): those in the FIFO (the dispatcher writes none in that clock).
+        with m.If(self.abort):
+            m.d.sync += flush.eq(turns.r_level)
+        with m.Elif(complete & flushing):
+            m.d.sync += flush.eq(flush - 1)
         m.d.comb += turns.r_en.eq(complete)
         with m.If(complete):
             m.d.sync += started.eq(0)
@@ -384,11 +405,13 @@ class TurnQueue(wiring.Component):
 
 
 class Replies(wiring.Component):
-    """The replies to the host: outcomes first, then errors, then status.
+    """The replies to the host: status first, then outcomes, then errors.
 
+    A query is answered ``STATUS`` as soon as the reply being sent is out, ahead of any
+    outcome waiting (queries that come meanwhile are answered by that one ``STATUS``).
     Outcomes wait in a FIFO for the serial line; each goes out as ``OUTCOME`` with its number
     (every queued frame's, counted from reset). An error code from the decoder goes out as
-    ``ERROR`` when no outcome waits, and a query is answered ``STATUS`` when neither does.
+    ``ERROR`` when no outcome waits.
 
     Members
     -------
@@ -399,7 +422,7 @@ class Replies(wiring.Component):
     query : :py:`In(1)`
         A checked QUERY frame ended in this clock.
     status : :py:`In(StatusFields())`
-        The position, free slots and moving flag a STATUS reply carries.
+        What a STATUS reply carries (but the error flag, :py:`error_sent`).
     o : :py:`Out(stream.Signature(FrameEncoder.Reply()))`
         To the frame encoder.
     error_sent : :py:`Out(1)`
@@ -426,7 +449,18 @@ class Replies(wiring.Component):
         with m.If(self.query):
             m.d.sync += query.eq(1)
         sending = self.o.valid & self.o.ready
-        with m.If(outcomes.r_rdy):
+        status = self.status
+        with m.If(query):
+            m.d.comb += [
+                reply.kind.eq(STATUS),
+                reply.payload.as_value().eq(Cat(status.position, status.free, status.moving,
+                                                self.error_sent, C(0, 6), status.state,
+                                                status.cause, status.inputs)),
+                self.o.valid.eq(1),
+            ]
+            with m.If(sending):
+                m.d.sync += query.eq(0)
+        with m.Elif(outcomes.r_rdy):
             m.d.comb += [
                 reply.kind.eq(OUTCOME),
                 reply.payload[0].eq(number),
@@ -445,12 +479,4 @@ class Replies(wiring.Component):
             ]
             with m.If(sending):
                 m.d.sync += self.error_sent.eq(1)
-        with m.Elif(query):
-            m.d.comb += [
-                reply.kind.eq(STATUS),
-                reply.payload.as_value().eq(Cat(self.status.as_value(), self.error_sent)),
-                self.o.valid.eq(1),
-            ]
-            with m.If(sending):
-                m.d.sync += query.eq(0)
         return m

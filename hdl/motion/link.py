@@ -33,6 +33,8 @@ PROFILE   0x16  one frame of the controller's equidistant engine (cutter    yes
 QUERY     0x20  (none): asks for a STATUS reply                            no
 ABORT     0x21  (none): stops the motion at once and ends every queued     no
                 frame ABORTED
+UNLOCK    0x22  (none): leaves ALARM, unless the e-stop is still active;   no
+                answered by a STATUS (whose state says whether it did)
 ========  ====  =========================================================  ==========
 
 Machine to host:
@@ -42,10 +44,21 @@ frame     type  payload
 ========  ====  ==========================================================
 OUTCOME   0x80  number: uint8 (the queued frame's, counted from 0 after
                 reset); outcome: uint8 (0 done, 1 refused, 2 aborted)
-STATUS    0x81  x, y: int32 absolute position; free: uint8 queue slots;
-                flags: uint8 (bit 0 moving, bit 1 an error was reported)
+STATUS    0x81  x, y: int32 absolute position (the steps made on the pins);
+                free: uint8 queue slots; flags: uint8 (bit 0 moving, bit 1
+                an error was reported); state: uint8 (:data:`STATES`);
+                alarm: uint8, the inputs that tripped since ALARM began
+                (bit 0 e-stop, 1 limit X, 2 limit Y; 0 out of ALARM);
+                inputs: uint8, the inputs active now, filtered (bit 0
+                e-stop, 1 limit X, 2 limit Y, 3 probe, 4 cycle start, 5
+                feed hold)
 ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
 ========  ====  ==========================================================
+
+A STATUS answers a QUERY (or an UNLOCK) ahead of any OUTCOME still waiting: it is sent as
+soon as the reply being sent is out. In ALARM (an e-stop or a limit switch tripped: see
+:mod:`kontur.hdl.motion.alarm`) every queued frame that comes ends ``REFUSED`` without
+running (one that came before the trip ends ``ABORTED``).
 
 The length of every frame type is fixed, but PROFILE's, which is the engine's: a decoder knows
 the lengths of its controller (:func:`host_lengths`), and a controller without the engine has
@@ -65,12 +78,13 @@ from amaranth.lib.wiring import In, Out
 from .queue import QueueWriteSignature
 
 __all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
-           "ABORT", "OUTCOME", "STATUS", "ERROR", "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
+           "ABORT", "UNLOCK", "OUTCOME", "STATUS", "ERROR", "STATES",
+           "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
            "host_lengths", "profile_bytes", "crc16_byte", "FrameDecoder", "FrameEncoder"]
 
 SYNC = 0xA5
 LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
-QUERY, ABORT = 0x20, 0x21
+QUERY, ABORT, UNLOCK = 0x20, 0x21, 0x22
 OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 
 #: Frames that go into the queue.
@@ -79,7 +93,10 @@ QUEUED = (LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE)
 #: Payload length of every frame type of fixed length, both directions (PROFILE's is the
 #: controller's: :func:`host_lengths`).
 LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
-           OUTCOME: 2, STATUS: 10, ERROR: 1}
+           UNLOCK: 0, OUTCOME: 2, STATUS: 13, ERROR: 1}
+
+#: STATUS's state codes (:class:`kontur.hdl.motion.alarm.State`).
+STATES = ("IDLE", "RUN", "HOLD", "HOMING", "ALARM")
 
 #: ERROR codes.
 ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
@@ -91,14 +108,14 @@ def host_lengths(profile=None):
     """The payload length of every frame type from the host to a controller whose PROFILE
     frames carry ``profile`` bytes (``None``: a controller without a profile engine, which
     does not know the type); a dict: the fixed types in the order of :data:`QUEUED`, QUERY,
-    ABORT, then PROFILE.
+    ABORT, UNLOCK, then PROFILE.
 
     Raises
     ------
     :exc:`ValueError`
         If ``profile`` is not an integer from 1 to 255 (a length byte).
     """
-    table = {kind: LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT) if kind in LENGTHS}
+    table = {kind: LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT, UNLOCK) if kind in LENGTHS}
     if profile is not None:
         if isinstance(profile, bool) or not isinstance(profile, int) or not 1 <= profile <= 255:
             raise ValueError(f"A PROFILE payload must be 1 to 255 bytes, not {profile!r}")
@@ -138,8 +155,8 @@ class FrameDecoder(wiring.Component):
     queued type is written into the frame queue (:class:`~kontur.hdl.motion.queue.FrameQueue`) as it
     arrives, its type byte then its payload, and committed only when its CRC checks; a frame
     whose CRC does not check is rolled back (code 1), one the queue has no room for is dropped
-    (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals on
-    :py:`query` or :py:`abort` when its CRC checks. :py:`error` carries the code of each
+    (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals
+    on :py:`query`, :py:`abort` or :py:`unlock` when its CRC checks. :py:`error` carries the code of each
     dropped frame (and of the serial errors given on :py:`line_error`, code 4).
 
     Parameters
@@ -149,7 +166,8 @@ class FrameDecoder(wiring.Component):
         ``None`` (the default): the controller has none, and PROFILE is an unknown type.
     queued : :class:`dict` or ``None``
         Instead of ``profile``: the payload length of every queued frame type the controller
-        knows (its engine table's types and the fixed ones); QUERY and ABORT are added.
+        knows (its engine table's types and the fixed ones); QUERY, ABORT and UNLOCK are
+        added.
 
     Members
     -------
@@ -159,8 +177,8 @@ class FrameDecoder(wiring.Component):
         A character was lost on the line (framing error or overrun).
     q : :py:`Out(QueueWriteSignature())`
         To the frame queue's write side (bytes, commit, rollback; the room left).
-    query, abort : :py:`Out(1)`
-        A checked QUERY or ABORT frame ended in this clock.
+    query, abort, unlock : :py:`Out(1)`
+        A checked QUERY, ABORT or UNLOCK frame ended in this clock.
     error : :py:`Out(stream.Signature(8))`
         Codes of dropped frames (:data:`ERRORS`); a code not yet taken is replaced by the
         next.
@@ -197,6 +215,7 @@ class FrameDecoder(wiring.Component):
             "q":          Out(QueueWriteSignature()),
             "query":      Out(1),
             "abort":      Out(1),
+            "unlock":     Out(1),
             "error":      Out(stream.Signature(8)),
         })
 
@@ -281,6 +300,7 @@ class FrameDecoder(wiring.Component):
                             self.q.commit.eq(queued),
                             self.query.eq(kind == QUERY),
                             self.abort.eq(kind == ABORT),
+                            self.unlock.eq(kind == UNLOCK),
                         ]
                         m.next = "Hunt"
         # Every byte is taken at once, but in the clock between a payload and its CRC.

@@ -16,11 +16,11 @@ import struct
 from dataclasses import dataclass
 
 from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
-                             OUTCOME, PROFILE, QUERY, STATUS, STOP, SYNC, host_lengths,
-                             profile_bytes)
+                             OUTCOME, PROFILE, QUERY, STATES, STATUS, STOP, SYNC, UNLOCK,
+                             host_lengths, profile_bytes)
 
 __all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "profile",
-           "profile_layout", "query", "abort", "Reply", "ReplyParser", "CommandParser", "crc"]
+           "profile_layout", "query", "abort", "unlock", "Reply", "ReplyParser", "CommandParser", "crc"]
 
 
 def crc(body):
@@ -118,19 +118,45 @@ def abort():
     return frame(ABORT)
 
 
+def unlock():
+    return frame(UNLOCK)
+
+
+#: The bits of STATUS's inputs byte and alarm byte (:data:`kontur.hdl.motion.inputs.INPUTS`).
+INPUT_NAMES = ("estop", "limit_x", "limit_y", "probe", "cycle_start", "feed_hold")
+
+
+def input_names(bits):
+    """The names of the inputs set in a STATUS's inputs (or alarm) byte."""
+    return [name for bit, name in enumerate(INPUT_NAMES) if bits >> bit & 1]
+
+
 @dataclass(frozen=True)
 class Reply:
-    """A reply from the machine: ``kind`` (OUTCOME, STATUS, ERROR) and its fields."""
+    """A reply from the machine: ``kind`` (OUTCOME, STATUS, ERROR) and its fields (a STATUS's:
+    ``x, y, free, flags, state, alarm, inputs``)."""
     kind: int
     fields: tuple
+
+    @property
+    def state(self):
+        """A STATUS's state, by name (``"IDLE"``, ``"RUN"``, ``"HOLD"``, ``"HOMING"``,
+        ``"ALARM"``; ``"state N"`` for a code no controller sends)."""
+        code = self.fields[4]
+        return STATES[code] if code < len(STATES) else f"state {code}"
 
     def __str__(self):
         if self.kind == OUTCOME:
             number, outcome = self.fields
             return f"frame {number}: {('done', 'refused', 'aborted')[outcome]}"
         if self.kind == STATUS:
-            x, y, free, flags = self.fields
-            return f"at ({x}, {y}), {free} queue slots free, flags {flags:#04x}"
+            x, y, free, flags, _, alarm, inputs = self.fields
+            text = f"{self.state} at ({x}, {y}), {free} queue slots free, flags {flags:#04x}"
+            if alarm:
+                text += f", tripped: {', '.join(input_names(alarm))}"
+            if inputs:
+                text += f", active: {', '.join(input_names(inputs))}"
+            return text
         return f"error: {ERRORS.get(self.fields[0], self.fields[0])}"
 
 
@@ -141,7 +167,7 @@ class ReplyParser:
     so a reply stream joined in the middle resynchronises at the next good frame.
     """
 
-    FORMATS = {OUTCOME: "<BB", STATUS: "<iiBB", ERROR: "<B"}
+    FORMATS = {OUTCOME: "<BB", STATUS: "<iiBBBBB", ERROR: "<B"}
 
     def __init__(self):
         self.buffer = bytearray()
@@ -182,7 +208,8 @@ class CommandParser:
     """The machine's frame decoder (:class:`kontur.hdl.motion.link.FrameDecoder`), byte for byte.
 
     :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
-    queued frame, ``("query",)``, ``("abort",)``, ``("error", code)`` for a dropped frame. Like
+    queued frame, ``("query",)``, ``("abort",)``, ``("unlock",)``, ``("error", code)`` for a
+    dropped frame. Like
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
     the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
@@ -237,5 +264,7 @@ class CommandParser:
                 return ("query",)
             if self.kind == ABORT:
                 return ("abort",)
+            if self.kind == UNLOCK:
+                return ("unlock",)
             return ("frame", self.kind, bytes(self.body[2:]))
         return None

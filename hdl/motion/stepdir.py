@@ -20,6 +20,13 @@ class StepDirStage(wiring.Component):
     ``dir_setup`` clocks before the rising edge and held until the axis's next step. Steps of
     one axis must therefore come at least ``dir_setup + step_width + 1`` clocks apart.
 
+    :py:`halt` stops the pins at once without a runt pulse: while it is high a step still in
+    its direction set-up is dropped, a step offered is not taken, and a pulse already on the
+    pin is finished (its full ``step_width``). So the last rising edge of a step output comes
+    in the first clock of :py:`halt` at the latest. :py:`made` marks every pulse that reaches
+    its pin (high in its first clock, with its direction on :py:`o.dir`): the steps actually
+    made, from which the controller counts its position.
+
     Parameters
     ----------
     axes : :class:`int`
@@ -35,6 +42,10 @@ class StepDirStage(wiring.Component):
         The engine's motion.
     o : :py:`Out(MotionSignature(axes))`
         The re-timed step and direction outputs.
+    halt : :py:`In(1)`
+        No new pulse (see above).
+    made : :py:`Out(axes)`
+        A pulse begins on the axis's step output in this clock.
 
     Raises
     ------
@@ -47,7 +58,8 @@ class StepDirStage(wiring.Component):
         check_width("Step pulse width", step_width)
         self._dir_setup = dir_setup
         self._step_width = step_width
-        super().__init__({"i": In(MotionSignature(axes)), "o": Out(MotionSignature(axes))})
+        super().__init__({"i": In(MotionSignature(axes)), "o": Out(MotionSignature(axes)),
+                          "halt": In(1), "made": Out(axes)})
 
     @property
     def dir_setup(self):
@@ -62,12 +74,15 @@ class StepDirStage(wiring.Component):
         setup, width = self._dir_setup, self._step_width
         for axis in range(self.i.signature.axes):
             left = Signal(range(setup + width + 1), name=f"left_{axis}")
-            with m.If(self.i.step[axis]):
+            with m.If(self.halt & (left > width)):
+                m.d.sync += left.eq(0)              # still in its set-up: dropped
+            with m.Elif(self.i.step[axis] & ~self.halt):
                 m.d.sync += [
                     left.eq(setup + width),
                     self.o.dir[axis].eq(self.i.dir[axis]),
                 ]
             with m.Elif(left != 0):
                 m.d.sync += left.eq(left - 1)
-            m.d.comb += self.o.step[axis].eq((left != 0) & (left <= width))
+            m.d.comb += [self.o.step[axis].eq((left != 0) & (left <= width)),
+                         self.made[axis].eq(left == width)]
         return m

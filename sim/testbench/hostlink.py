@@ -11,38 +11,55 @@ is over (:attr:`HostLink.done`) when every frame is sent and answered and the li
 quiet for 64 bit times.
 
 Its record is the one ``fastrun`` writes (:class:`Run`, :func:`parse_events`): ``S clock step
-dir`` at each rising step edge, ``R clock type payload`` for each reply, ``E clock`` at the end.
+dir`` at each rising step edge, ``R clock type payload`` for each reply, ``A clock P word`` or
+``A clock U`` for each scheduled event applied, ``E clock`` at the end.
+
+**Scheduled events** (``schedule``, :func:`write_schedule`): the switch pins and UNLOCK frames
+at given clocks after the first step (machining time: the first rising step edge is its
+zero; if before any step every frame sent is answered and a QUERY is next, that clock is). ``("pins", word)`` sets the
+controller's :py:`inputs` to ``word`` in that clock (sampled at its end); ``("unlock",)``
+sends an UNLOCK then (after the bytes being sent). With a schedule the host behaves as a host
+that stops a stream the machine has stopped: after an outcome other than ``DONE`` or an
+``ERROR`` it sends no more queued frames (those in flight are answered ``ABORTED``, or
+``REFUSED`` when they reach the machine in ALARM), and a
+``QUERY`` waits for every event too, so the last one reads the state after them.
 """
 
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from kontur.hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY
+from kontur.hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY, UNLOCK
 
-from kontur.hdl.motion.protocol import Reply, ReplyParser
+from kontur.hdl.motion.protocol import Reply, ReplyParser, unlock
 from kontur.sim.processes import SimulatorError
 
 __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
-           "run_cocotb", "read_frames", "write_frames"]
+           "run_cocotb", "read_frames", "write_frames", "write_schedule", "read_schedule"]
 
 
 @dataclass
 class Run:
     """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
     ``replies`` ``(clock, Reply)`` (:class:`kontur.hdl.motion.protocol.Reply`), the clocks simulated
-    and the seconds it took (a build apart)."""
+    and the seconds it took (a build apart); ``applied``: ``(clock, event)`` for each scheduled
+    event, when it was applied."""
     steps: list
     replies: list
     clocks: int
     seconds: float = 0.0
+    applied: list = field(default_factory=list)
 
 
-def parse_events(text):
-    """The ``(steps, replies, clocks)`` of an events file."""
+def parse_events(text, applied=None):
+    """The ``(steps, replies, clocks)`` of an events file (the events applied appended to
+    ``applied``, a list, if given)."""
     steps, replies, clocks = [], [], 0
     for line in text.splitlines():
         kind, *fields = line.split()
-        if kind == "S":
+        if kind == "A" and applied is not None:
+            applied.append((int(fields[0]), ("pins", int(fields[2])) if fields[1] == "P"
+                            else ("unlock",)))
+        elif kind == "S":
             steps.append(tuple(int(f) for f in fields))
         elif kind == "R":
             reply_kind = int(fields[1], 16)
@@ -60,8 +77,33 @@ def format_events(run):
     lines += [f"R {clock} {reply.kind:02x}" + "".join(
                   f" {b:02x}" for b in struct.pack(ReplyParser.FORMATS[reply.kind], *reply.fields))
               for clock, reply in run.replies]
+    lines += [f"A {clock} P {event[1]}" if event[0] == "pins" else f"A {clock} U"
+              for clock, event in run.applied]
     lines.append(f"E {run.clocks}")
     return "\n".join(lines) + "\n"
+
+
+def write_schedule(path, schedule, idle):
+    """Write a schedule (``(offset, event)`` pairs) as ``fastrun`` reads it: ``I word`` (the
+    pins before any event), then ``offset P word`` or ``offset U`` a line."""
+    from pathlib import Path
+    lines = [f"I {idle}"] + [f"{offset} P {event[1]}" if event[0] == "pins" else f"{offset} U"
+                             for offset, event in schedule]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def read_schedule(path):
+    """``(schedule, idle)`` of a file written by :func:`write_schedule`."""
+    from pathlib import Path
+    schedule, idle = [], 0
+    for line in Path(path).read_text().splitlines():
+        fields = line.split()
+        if fields[0] == "I":
+            idle = int(fields[1])
+        else:
+            schedule.append((int(fields[0]), ("pins", int(fields[2])) if fields[1] == "P"
+                             else ("unlock",)))
+    return schedule, idle
 
 
 def steps_of(run):
@@ -88,13 +130,23 @@ class HostLink:
     inject : dict
         ``{clock: bytes}``: bytes put on the line at those clocks besides the frames (line
         noise, a frame out of turn).
+    schedule : list
+        ``(offset, event)`` pairs: events at ``offset`` clocks after the first step (see the
+        module's text).
+    idle : int
+        The switch pins' word before any event (:attr:`pins`).
 
     A ``QUERY`` among the frames is sent once every frame before it is answered (it asks for
     the position after them); an ``ABORT`` goes at once.
     """
 
-    def __init__(self, frames, *, divisor, window, inject=None):
+    def __init__(self, frames, *, divisor, window, inject=None, schedule=(), idle=0):
         self.frames = list(frames)
+        self.schedule = sorted(schedule, key=lambda item: item[0])
+        self.scheduled = bool(self.schedule)
+        self.pins = idle
+        self.applied = []
+        self._base = None                  # machining time's zero: the first step's clock
         self.divisor = divisor
         self.window = window
         self.inject = dict(inject or {})
@@ -122,6 +174,8 @@ class HostLink:
         rising = step & ~self._previous_step
         if rising:
             self.steps.append((self.clock, rising, direction))
+            if self._base is None:
+                self._base = self.clock
         self._previous_step = step
         # ---- machine to host: the middle of each bit of tx -----------------------------
         if self._rx_state == "idle":
@@ -140,13 +194,28 @@ class HostLink:
                         if reply.kind in (OUTCOME, ERROR):
                             self.outstanding -= 1
                             self.answered += 1
+                            if self.scheduled and (reply.kind == ERROR or reply.fields[1]):
+                                # The machine stopped the stream: send no more of it.
+                                self.frames = [f for f in self.frames if f[1] == QUERY]
                     self._rx_state = "idle"
+        # ---- the schedule: machining time counts from the first step ----------------------
+        if self._base is None and self.answered == self.sent and \
+                (not self.frames or self.frames[0][1] == QUERY):
+            self._base = self.clock                    # no step, and the host waits to ask
+        while self.schedule and self._base is not None and \
+                self.clock >= self._base + self.schedule[0][0]:
+            _, event = self.schedule.pop(0)
+            self.applied.append((self.clock, event))
+            if event[0] == "pins":
+                self.pins = event[1]
+            else:
+                self._levels += self._bits(unlock())
         # ---- host to machine: the next frame once the window allows it -----------------
         if not self._levels and self.frames:
             kind = self.frames[0][1]
             queued = kind not in (QUERY, ABORT)
             if (self.outstanding < self.window if queued else
-                    kind == ABORT or self.answered == self.sent):
+                    kind == ABORT or self.answered == self.sent and not self.schedule):
                 frame = self.frames.pop(0)
                 self.outstanding += queued
                 self.sent += queued
@@ -155,7 +224,7 @@ class HostLink:
             self._levels += self._bits(self.inject.pop(self.clock))
         level = self._levels.pop(0) if self._levels else 1
         busy = self.frames or self._levels or self.inject or self.answered < self.sent or \
-            self._rx_state != "idle"
+            self._rx_state != "idle" or self.schedule
         self._quiet = 0 if busy else self._quiet + 1
         self.clock += 1
         return level
@@ -167,15 +236,17 @@ class HostLink:
 
     def run(self, seconds=0.0):
         """The :class:`Run` recorded so far."""
-        return Run(list(self.steps), list(self.replies), self.clock, seconds)
+        return Run(list(self.steps), list(self.replies), self.clock, seconds,
+                   list(self.applied))
 
 
 def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, vcd=None,
-                 levels=None, progress=None):
+                 levels=None, progress=None, schedule=()):
     """Run ``frames`` through ``controller`` (a
     :class:`~kontur.hdl.motion.controller.MotionController`) in Amaranth's simulator with a
     :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
-    ``(step, dir)`` is appended to it.
+    ``(step, dir)`` is appended to it. ``schedule``: events on the switch pins
+    (:class:`HostLink`), from the controller's idle pins.
 
     Raises :exc:`kontur.sim.processes.SimulatorError` if the run does not end within ``max_clocks``.
     """
@@ -184,7 +255,8 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
     from amaranth.sim import Simulator
 
 
-    host = HostLink(frames, divisor=divisor, window=window, inject=inject)
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject, schedule=schedule,
+                    idle=controller.idle_inputs)
 
     async def testbench(ctx):
         for clock in range(max_clocks):
@@ -195,6 +267,7 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
                 levels.append((step, direction))
             ctx.set(controller.rx, host.cycle(tx=ctx.get(controller.tx), step=step,
                                               direction=direction))
+            ctx.set(controller.inputs, host.pins)
             if host.done:
                 return
             await ctx.tick()
@@ -213,29 +286,37 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
     return host.run(time.monotonic() - started)
 
 
-async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, levels=None):
+async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, levels=None,
+                     schedule=(), idle=None):
     """:func:`run_amaranth` on a cocotb ``dut`` (the controller's Verilog: ports ``clk``,
-    ``rst``, ``rx``, ``tx``, ``motion__step``, ``motion__dir``): start its clock, reset it, run
-    a :class:`HostLink`; return the :class:`Run` (:exc:`AssertionError` if it does not end
+    ``rst``, ``rx``, ``tx``, ``inputs``, ``motion__step``, ``motion__dir``): start its clock,
+    reset it, run a :class:`HostLink` (its switch pins from ``idle``, default the default
+    polarity's idle word); return the :class:`Run` (:exc:`AssertionError` if it does not end
     within ``max_clocks``)."""
+    from kontur.hdl.motion.inputs import idle_pins
     import time
 
     from cocotb.clock import Clock
     from cocotb.triggers import ReadOnly, RisingEdge
 
     Clock(dut.clk, 1, unit="us").start(start_high=False)
+    idle = idle_pins() if idle is None else idle
     dut.rst.value = 1
     dut.rx.value = 1
+    dut.inputs.value = idle
     for _ in range(4):
         await RisingEdge(dut.clk)
     dut.rst.value = 0
-    host = HostLink(frames, divisor=divisor, window=window, inject=inject)
+    host = HostLink(frames, divisor=divisor, window=window, inject=inject, schedule=schedule,
+                    idle=idle)
+    inputs_pin = dut.inputs
     started = time.monotonic()
     step_pin, dir_pin, tx_pin, rx_pin = dut.motion__step, dut.motion__dir, dut.tx, dut.rx
     level = 1
     for _ in range(max_clocks):
         await RisingEdge(dut.clk)
         rx_pin.value = level                # applied after this edge: sampled at the next
+        inputs_pin.value = host.pins
         await ReadOnly()
         step, direction = int(step_pin.value), int(dir_pin.value)
         if levels is not None:
