@@ -280,6 +280,7 @@ _G_REFUSED = {180: "only the XY plane (G17) is supported", 190: "only the XY pla
               **{code: _CANNED for code in (730, 740, 810, 820, 830, 840, 850, 860, 870, 880,
                                             890)}}
 _M_GROUPS = {0: "stopping", 1: "stopping", 2: "stopping", 30: "stopping", 6: "tool change",
+             61: "tool change",
              3: "spindle", 4: "spindle", 5: "spindle", 7: "coolant", 8: "coolant",
              9: "coolant"}
 _LETTERS = set("DFGHIJLMNPQRSTXYZ")
@@ -367,8 +368,8 @@ class _Structure:
                 self.links[index] = {"sub": opened[2]}
             elif keyword == "return":
                 sub = next((entry for entry in reversed(stack) if entry[0] == "sub"), None)
-                if sub is None or sub[1] != label:
-                    fail(block.line, f"{name} return outside subroutine {name}")
+                if sub is None:
+                    fail(block.line, f"{name} return outside a subroutine")
                 self.links[index] = {"sub": sub[2]}
             elif keyword == "if":
                 stack.append(["if", label, index, [index], block.line])
@@ -454,6 +455,7 @@ class _Interpreter:
         self.frames = [_Frame()]
         self.moves, self.events = [], []
         self.line = None
+        self.m61 = False
         self.evaluate = Evaluator(self.get_numbered, self.get_named, self.exists)
 
     # ---- errors and parameters ---------------------------------------------------------
@@ -677,6 +679,9 @@ class _Interpreter:
                     self.fail(f"unknown code {word.text}")
                 mcodes.append((code // 10, word.text))
                 continue
+            if letter == "K":
+                self.fail(f"{word.text}: arcs in the XZ and YZ planes (G18, G19) are not "
+                          f"supported, only XY (G17) with I and J")
             if letter in _AXES_NOT_HERE:
                 self.fail(f"{word.text}: this controller has the axes X and Y (and reads Z), "
                           f"not {letter}")
@@ -719,6 +724,9 @@ class _Interpreter:
                 self.fail(f"two {group} codes in one block ({mgroups[group]} and {text})")
             mgroups[group] = text
             ms.setdefault(group, []).append(code)
+        self.m61 = 61 in ms.get("tool change", ())
+        if self.m61 and "Q" not in values:
+            self.fail("M61 needs Q: the tool now in the spindle")
         self.check_letters(values, texts, gs)
         return self.execute(block, values, texts, gs, ms)
 
@@ -730,8 +738,8 @@ class _Interpreter:
                                   or motion in (20, 30)):
             self.fail(f"{texts['P']}: no code in this block takes P (G4 dwell, G10, G64, "
                       f"G2/G3 turns)")
-        if "Q" in values and gs.get("path control") != 640:
-            self.fail(f"{texts['Q']}: no code in this block takes Q (G64)")
+        if "Q" in values and gs.get("path control") != 640 and not self.m61:
+            self.fail(f"{texts['Q']}: no code in this block takes Q (G64, M61)")
         if "L" in values and nonmodal != 100:
             self.fail(f"{texts['L']}: no code in this block takes L (G10)")
         if "H" in values and gs.get("tool length") != 430:
@@ -763,7 +771,13 @@ class _Interpreter:
                 self.fail(f"{texts['T']}: a tool number is a whole number")
             self.selected = int(tool)
             self.event("tool", texts["T"], self.selected)
-        if "tool change" in ms:
+        if self.m61:
+            tool = values["Q"]
+            if tool < 0 or tool.denominator != 1:
+                self.fail(f"M61 {texts['Q']}: a tool number is a whole number")
+            self.tool = int(tool)
+            self.event("tool_change", f"M61 Q{self.tool}", self.tool)
+        elif "tool change" in ms:
             self.tool = self.selected
             self.event("tool_change", f"M6 T{self.selected}", self.selected)
         for code in ms.get("spindle", ()):
@@ -821,8 +835,8 @@ class _Interpreter:
             self.nonmodal(nonmodal, values, texts)
         elif axes or any(a in values for a in "IJR") and nonmodal != 40:
             self.move(values, texts, machine=nonmodal == 530)
-        elif nonmodal == 530:
-            pass
+        elif gs.get("motion") in (0, 10):
+            self.move(values, texts)          # LinuxCNC moves to where it is: a move of zero
         stop = ms.get("stopping", ())
         for code in stop:
             if code in (0, 1):
