@@ -29,6 +29,7 @@ refused, as LinuxCNC refuses it ("Cannot do g1 with zero feed rate").
 
 import decimal
 import math
+import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import NamedTuple
@@ -192,12 +193,19 @@ def sweep(start, end, centre, cw, *, full):
 
 
 def _message(comments):
-    """The text of a ``(MSG,...)`` comment (LinuxCNC's), or ``None``."""
+    """LinuxCNC's message of a line: ``("msg", text)`` for ``(MSG,text)``, ``("debug",
+    text)`` for ``(DEBUG,text)`` (its parameters shown with their values when it runs), or
+    ``None``."""
     for comment in comments:
         stripped = comment.lstrip()
         if stripped[:4].lower() == "msg,":
-            return stripped[4:]
+            return "msg", stripped[4:]
+        if stripped[:6].lower() == "debug,":
+            return "debug", stripped[6:]
     return None
+
+
+_DEBUG = re.compile(r"#<[^>]*>|#\d+")
 
 
 def parse(text, *, name=None):
@@ -468,7 +476,8 @@ class _Interpreter:
 
     def _virtual(self, n):
         """Where numbered parameter ``n`` lives in the state, if it is one of LinuxCNC's
-        (kept in millimetres, read in the program's units): ``(list, index)``."""
+        stored positions and offsets (in the machine's units, millimetres, as LinuxCNC keeps
+        them): ``(list, index)``."""
         if 5161 <= n <= 5163:
             return self.home[28], n - 5161
         if 5181 <= n <= 5183:
@@ -482,7 +491,7 @@ class _Interpreter:
     def get_numbered(self, n):
         place = self._virtual(n)
         if place is not None:
-            return place[0][place[1]] / self.scale
+            return place[0][place[1]]
         if n == 5210:
             return Fraction(int(self.g92_on))
         if n == 5220:
@@ -497,7 +506,7 @@ class _Interpreter:
     def set_numbered(self, n, value):
         place = self._virtual(n)
         if place is not None:
-            place[0][place[1]] = value * self.scale
+            place[0][place[1]] = value
         elif n == 5220:
             self.fail("#5220 (the coordinate system) is set by G54-G59.3, not by a setting")
         else:
@@ -596,7 +605,8 @@ class _Interpreter:
             if arguments:
                 self.globals["_value"] = self.value(arguments[0])
                 self.globals["_value_returned"] = Fraction(1)
-            else:
+            else:                             # LinuxCNC: no value, #<_value> is 0
+                self.globals["_value"] = Fraction(0)
                 self.globals["_value_returned"] = Fraction(0)
             self.frames.pop()
             for n, value in frame.saved.items():
@@ -711,7 +721,10 @@ class _Interpreter:
             if code in _SCALE and self.units is None:
                 self.fail(f"{text}: {_LATTICE}")
             if group in groups:
-                self.fail(f"two {group} codes in one block ({groups[group]} and {text})")
+                if group == "motion" and 800 in (code, gs[group]):
+                    code = code if gs[group] == 800 else gs[group]   # G80 with G0-G3: G0-G3
+                else:
+                    self.fail(f"two {group} codes in one block ({groups[group]} and {text})")
             groups[group] = text
             gs[group] = code
         mgroups = {}
@@ -755,11 +768,14 @@ class _Interpreter:
     def execute(self, block, values, texts, gs, ms):
         scale = self.scale
         if block.message is not None:
-            self.event("message", block.message)
-        if "F" in values:
+            kind, text = block.message
+            if kind == "debug":
+                text = _DEBUG.sub(lambda m: f"{float(self.debug_value(m.group())):f}", text)
+            self.event("message", text)
+        if "F" in values:                     # before G20/G21 of the block, as LinuxCNC
             if values["F"] <= 0:
                 self.fail(f"the feed must be positive, not {texts['F']}")
-            self.pending_feed = values["F"]
+            self.feed = values["F"] * scale
         if "S" in values:
             if values["S"] < 0:
                 self.fail(f"the spindle speed must not be negative, not {texts['S']}")
@@ -795,8 +811,6 @@ class _Interpreter:
                                    feed=self.feed, z=self.z(), seconds=seconds))
         if "units" in gs:
             self.scale = scale = _SCALE[gs["units"]]
-        if "F" in values:
-            self.feed = self.pending_feed * scale
         if "D" in values:
             self.offset = values["D"]
         if "compensation" in gs:
@@ -825,7 +839,7 @@ class _Interpreter:
             self.arc_absolute = gs["arc distance"] == 901
         if "motion" in gs:
             self.motion = None if gs["motion"] == 800 else gs["motion"]
-        axes = any(a in values for a in "XYZ")
+        axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
         if nonmodal in (100, 280, 300, 920):
             if "motion" in gs and gs["motion"] != 800 and axes:
                 self.fail(f"{groups_text(gs, 'non-modal')} and "
@@ -842,6 +856,15 @@ class _Interpreter:
             if code in (0, 1):
                 self.event("pause", f"M{code}" + (" (optional stop)" if code == 1 else ""))
         return any(code in (2, 30) for code in stop)
+
+    def debug_value(self, text):
+        """A parameter's value in a ``(DEBUG,...)`` text."""
+        try:
+            if text.startswith("#<"):
+                return self.get_named(text[2:-1].lower().replace(" ", ""))
+            return self.get_numbered(int(text[1:]))
+        except (ExpressionError, ValueError) as error:
+            self.fail(f"(DEBUG,...): {error}")
 
     def compensation(self, code, values, texts):
         if code == 400:

@@ -23,7 +23,8 @@ class ParseTestCase(unittest.TestCase):
             ("G1 X1\nG1 X (\n", r"^line 2: a comment opened with '\(' is not closed$"),
             ("G1 (a (b) c)\n", r"^line 1: comments do not nest$"),
             ("G1 X1 )\n", r"^line 1: '\)' closes no comment$"),
-            ("\nG1 X1 @5\n", r"^line 2: cannot read '@5': a word is a letter and a number$"),
+            ("\nG1 X1 %5\n", r"^line 2: cannot read '%5': a word is a letter and a number$"),
+            ("\nG1 X1 @5\n", r"^line 2: '@5': polar coordinates \(@ and \^\) are not supported$"),
             ("G1 X\n", r"^line 1: cannot read 'X': a word is a letter and a number$"),
         ]
         for text, message in cases:
@@ -69,7 +70,7 @@ class InterpretTestCase(unittest.TestCase):
 
     def test_refusals_name_the_line(self):
         cases = [
-            ("G1 X1\nQ3\n", r"^line 2: Q3: no code in this block takes Q \(G64\)$"),
+            ("G1 X1\nQ3\n", r"^line 2: Q3: no code in this block takes Q \(G64, M61\)$"),
             ("G1 X1\nE3\n", r"^line 2: unknown word E3$"),
             ("G2 X20 R5\n", r"^line 1: the radius 5 is less than half the distance to the end "
                             r"\(10\)$"),
@@ -99,11 +100,16 @@ class InterpretTestCase(unittest.TestCase):
 
     def test_units(self):
         # Lattice units refuse G20/G21 (above); millimetres take them, inches scale by 25.4.
-        moves = interpret(parse("G1 X1 F10\nG20 G1 X1 Y2 F10\nG21 G91 G1 X1\n"), units="mm")
+        # F is read before the block's G20/G21 (LinuxCNC's order of execution, as rs274
+        # prints it: SET_FEED_RATE before USE_LENGTH_UNITS): "G20 F10" is 10 mm/min, a
+        # later F10 in inches 254 mm/min, kept in mm across G21.
+        moves = interpret(parse("G1 X1 F10\nG20 G1 X1 Y2 F10\nG1 X2 F10\nG21 G91 G1 X1\n"),
+                          units="mm")
         self.assertEqual([m.end for m in moves],
                          [(1, 0), (Fraction(254, 10), Fraction(508, 10)),
-                          (Fraction(264, 10), Fraction(508, 10))])
-        self.assertEqual([m.feed for m in moves], [10, 254, 254])
+                          (Fraction(508, 10), Fraction(508, 10)),
+                          (Fraction(518, 10), Fraction(508, 10))])
+        self.assertEqual([m.feed for m in moves], [10, 10, 254, 254])
         moves = interpret(parse("G20 G0 X1\nG3 X0 Y1 I-1 F10\n"), units="mm")
         self.assertEqual(moves[1].centre, (0, 0))
         with self.assertRaisesRegex(GCodeError, r"^line 1: two units codes in one block "
