@@ -284,11 +284,6 @@ def program_segments(moves, machine, board):
                                                f"{after[1]} left the cutter, on the "
                                                f"equidistant: put a line first)") from None
         else:
-            dwell = next((move for move in run if move.kind == "dwell"), None)
-            if dwell is not None:
-                raise ProgramError(dwell.line, "a dwell (G4) inside a compensated contour: the "
-                                               "equidistant engine takes the contour whole; "
-                                               "dwell before G41/G42 or after G40")
             radius_mm, source = contour_radius(run[0], machine)
             radius = math.floor(Fraction(radius_mm) * spm + Fraction(1, 2))
             prepared, origin = _prepare(run, machine, radius, item.profile[1])

@@ -229,6 +229,11 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     moves = list(program.moves)
     if not any(move.kind != "dwell" for move in moves):
         raise ProgramError(None, "the program has no moves")
+    dwell = next((move for move in moves if move.kind == "dwell" and move.side), None)
+    if dwell is not None:
+        raise ProgramError(dwell.line, "a dwell (G4) inside a compensated contour: the "
+                                       "equidistant engine takes the contour whole; dwell "
+                                       "before G41/G42 or after G40")
     estimate_steps(moves, machine, max_steps=max_steps)
     contours = []
     if any(move.side is not None for move in moves):
@@ -460,6 +465,7 @@ def deviation(job, steps):
     sliver was programmed is far from it); a compensated contour's, from its exact equidistant
     (the approach to it from its own line)."""
     moves = {move.line: move for move in job.moves if move.kind != "dwell"}
+    ids = {id(move) for move in job.moves}
     special = references(job)
     spm = job.machine.steps_per_mm
     worst = 0.0
@@ -476,7 +482,9 @@ def deviation(job, steps):
                 worst = max(worst, measure((x, y)))
             index += len(segment.steps)
             continue
-        move = segment.source if segment.source is not None else moves[segment.line]
+        # The move the segment comes from (several moves may share a line: G28, loops), as
+        # long as it is one of the job's moves.
+        move = segment.source if id(segment.source) in ids else moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
         for dx, dy in steps[index:index + len(segment.steps)]:

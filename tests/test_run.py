@@ -76,7 +76,13 @@ class PrepareTestCase(unittest.TestCase):
     def test_refusals_name_the_line(self):
         cases = [
             ("G1 X1 F100\nG2 X20 R2\n", r"^line 2: the radius 2 is less than half"),
-            ("G1 X1 F100\nM3\n", r"^line 2: unknown code M3$"),
+            ("G1 X1 F100\nM62\n", r"^line 2: unknown code M62$"),
+            ("G0 Z0\nG1 X1 F100\nG1 X2 Z-1\n", r"^line 3: Z moves need the third axis, which "
+                                               r"this controller does not have yet \(Z from 0 "
+                                               r"to -1 mm\)$"),
+            ("G0 Z5\nG1 X1 F100\nG0 Z6\n", r"^line 3: Z moves need the third axis"),
+            ("G1 X1 F100\nG41 G1 X5\nG4 P1\nG1 Y5\nG40\n",
+             r"^line 3: a dwell \(G4\) inside a compensated contour"),
             ("G1 X1 F100\nG2 X3.2 Y0 I1 J0\n", r"^line 2: the arc's radius is .* more than the "
                                                r"0.05 mm tolerance$"),
             ("(nothing)\n", r"no moves"),
