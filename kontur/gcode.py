@@ -1070,16 +1070,18 @@ def interpret(blocks, *, start=(0, 0), name=None, units=None, tools=None, parame
     return moves
 
 
-def planar(moves, *, name=None):
-    """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`) at the first move that
-    changes Z from where the program first put it: kontur drives X and Y only."""
+def planar(moves, *, name=None, unit="mm"):
+    """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`, the Z values in ``unit``)
+    at the first move that changes Z from where the program first put it: kontur drives X
+    and Y only; Z is read, and where the program first gives it is where the operator has
+    set the tool."""
     z = None
     for move in moves:
         if move.z is None:
             continue
         if z is not None and move.z != z:
             raise GCodeError(move.line, f"{Z_REFUSAL} (Z from {float(z):g} to "
-                                        f"{float(move.z):g} mm)", name=name)
+                                        f"{float(move.z):g} {unit})", name=name)
         z = move.z
 
 
