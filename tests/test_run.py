@@ -167,6 +167,19 @@ class RTLTestCase(unittest.TestCase):
                                            accel=5000), name="tiny.ngc")
         self.check(job, "amaranth")
 
+    def test_dwell_on_amaranth(self):
+        # G4 between two lines: a DWELL frame, which the controller waits out between the
+        # moves' steps (its clocks at the run's time compression stand for 0.02 s).
+        job = prepare("G21 G90\nG1 X1 F600\nG4 P0.02\nG1 Y1\n",
+                      machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000,
+                                      accel=5000), name="dwell.ngc")
+        result = execute(job, "amaranth")
+        self.assertEqual(result.steps, job.steps)
+        split = len(job.segments[0].steps)
+        self.assertGreaterEqual(result.times[split] - result.times[split - 1], 0.02)
+        # and little more: the last step before it and the first after it at the rest rate.
+        self.assertLess(result.times[split] - result.times[split - 1], 0.02 + 0.015)
+
     def test_low_feed_on_amaranth(self):
         # A millimetre at 10 mm/min: 6 s at the feed, and a little longer as the feed generator
         # makes it (10 steps/mm at 6 MHz: a rate of 1 in Q0.24 is 2.146 mm/min, so F10 runs at 4
