@@ -125,10 +125,10 @@ UNHONOURED = {
 
 def unhonoured(job):
     """``(line, reason)`` of the first event of ``job`` the board cannot honour (M3, M4, M7,
-    M8, M6, M61, M0, M1; :data:`UNHONOURED`), or ``None``. M5, M9, S, T, G43/G49 and messages
+    M8, M6, M0, M1; :data:`UNHONOURED`), or ``None``. M5, M9, M61, S, T, G43/G49 and messages
     ask nothing of the board."""
     for event in job.events:
-        if event.kind in ("spindle", "coolant") and event.text.split()[0] in ("M5", "M9"):
+        if event.text.split()[0] in ("M5", "M9", "M61"):     # off, or a tool number set
             continue
         if event.kind in UNHONOURED:
             return event.line, (f"{event.text.split(' (')[0]} {UNHONOURED[event.kind]}: "

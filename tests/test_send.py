@@ -379,7 +379,7 @@ class SendTestCase(unittest.TestCase):
                                  rf"{re.escape(word)} .*: kontur send cannot honour it "
                                  rf"\(kontur run simulates it\)$")
             path = Path(folder) / "fine.ngc"
-            path.write_text("T1 S100 M5 M9\nG1 X1 F100\nG43 H1\nG49\n")
+            path.write_text("T1 S100 M5 M9\nG1 X1 F100\nG43 H1\nG49\nM61 Q2\n")
             job = prepare(path.read_text(), machine=Machine(clock_hz=CLOCK))
             from kontur.send import unhonoured
             self.assertIsNone(unhonoured(job))
