@@ -1,24 +1,28 @@
-"""A G-code reader: the text of a program in, its blocks and its moves out.
+"""A G-code reader: the text of a program in, its blocks, moves and events out, every word
+with LinuxCNC's meaning (docs/gcode.md has the table; tests/test_gcode_rs274.py holds the
+reader against LinuxCNC's own interpreter, ``rs274``).
 
 The reader has two layers, so that a machine controller can take over either one:
 
 * :func:`parse` reads the text into :class:`Block` objects: the words of each line (a letter
-  and an exact number), its comment, its line number. Comments are ``( ... )`` and ``;`` to the
-  end of the line; ``%`` lines and blank lines are skipped; ``N`` words are sequence numbers.
-  It knows nothing of what the words mean beyond their syntax.
-* :func:`interpret` runs the modal state machine over the blocks and returns the
-  :class:`Move` objects: rapid moves (G0), lines (G1) and arcs (G2 clockwise, G3
-  counter-clockwise, the centre given by ``I`` and ``J`` relative to the start), each with its
-  start and end in absolute coordinates and the cutter-radius compensation in effect (G41 left,
-  G42 right, G40 off).
+  and an exact number, or an expression to evaluate when the line runs), its parameter
+  settings, its O-word, its comment and ``(MSG,...)``/``(DEBUG,...)``, its line number, as
+  LinuxCNC reads a line (:mod:`kontur.gcode_expr`: spaces removed, letters case-blind, a
+  leading ``/`` a block delete). Comment-only, blank and ``%`` lines are skipped.
+* :func:`interpret` runs LinuxCNC's interpreter over the blocks: the modal state (motion,
+  plane, units, distance and arc distance modes, compensation, tool length, work coordinate
+  systems G54-G59.3 with G10 L2/L20 and G92, path control, feed and retract modes), the
+  parameters (numbered, named, global), the O-word control flow (subroutines, if, loops), each
+  block's words in LinuxCNC's order of execution. It returns the :class:`Move` objects (rapid
+  moves, lines, arcs, dwells) in machine coordinates, with the cutter-radius compensation in
+  effect and its radius where the program gives it, and gathers the :class:`Event` objects
+  (tools, spindle, coolant, pauses, messages).
 
 Numbers are exact (:class:`fractions.Fraction`): the reader never rounds, except where an arc
-given by its radius needs a square root (its centre is then exact to 40 digits). It accepts
-exactly what it can interpret: G0 G1 G2 G3 (arcs by centre, ``I`` and ``J`` relative to the
-start, or by radius ``R``, negative for more than a half turn; a full circle by ``I J`` with
-the end exactly on the start, and only then), G17, G40 G41 G42, G90 G91, the words X Y I J R, F
-(feed, recorded), D (offset number, recorded), N, and M2 M30 (program end). Anything else is
-refused with a :exc:`GCodeError` naming the line, as is every malformed line.
+given by its radius needs a square root (its centre is then exact to 40 digits) and in the
+expressions' functions (LinuxCNC's doubles). Anything it cannot interpret is refused with a
+:exc:`GCodeError` naming the line and the word, as is every malformed line. Z is read: the
+moves carry it, and :func:`planar` refuses a move that changes it.
 
 Units: with ``units=None`` (``kontur trace profile``) a program is in lattice units (steps) and
 G20/G21 are refused; with ``units="mm"`` (the machine controller, ``kontur run``) G21
