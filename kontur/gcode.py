@@ -34,7 +34,7 @@ refused, as LinuxCNC refuses it ("Cannot do g1 with zero feed rate").
 import decimal
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import NamedTuple
 
@@ -846,8 +846,8 @@ class _Interpreter:
         axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
         if nonmodal in (100, 280, 300, 920):
             if "motion" in gs and gs["motion"] != 800 and axes:
-                self.fail(f"{groups_text(gs, 'non-modal')} and "
-                          f"{groups_text(gs, 'motion')} both use the axis words")
+                self.fail(f"{_code_text(gs, 'non-modal')} and "
+                          f"{_code_text(gs, 'motion')} both use the axis words")
             self.nonmodal(nonmodal, values, texts)
         elif nonmodal in (281, 301, 921, 922, 923):
             self.nonmodal(nonmodal, values, texts)
@@ -1030,13 +1030,13 @@ class _Interpreter:
 
 
 def _with_feed(move, feed):
-    from dataclasses import replace
+    """A rapid move carries the feed in force (as the reader always gave it)."""
     return replace(move, feed=feed)
 
 
-def groups_text(gs, group):
-    code = gs[group]
-    return f"G{code / 10:g}"
+def _code_text(gs, group):
+    """The G code of ``group`` in a block's codes ``gs`` (ten times its number), as written."""
+    return f"G{gs[group] / 10:g}"
 
 
 def interpret(blocks, *, start=(0, 0), name=None, units=None, tools=None, parameters=None,

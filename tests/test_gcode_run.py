@@ -3,7 +3,6 @@ dwells timed as DWELL frames, tool events, pauses and messages in summary.json, 
 radius for each contour (tests/test_gcode_rs274.py holds the reader against rs274)."""
 
 import json
-from fractions import Fraction
 from pathlib import Path
 
 import pytest
