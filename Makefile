@@ -26,7 +26,12 @@ icarus:
 	@command -v iverilog >/dev/null || { $(SUDO) apt-get update -qq && \
 	    $(SUDO) apt-get install -y -qq iverilog; }
 
-setup: $(STAMP) icarus
+.PHONY: rs274
+rs274:                   # LinuxCNC's interpreter, the judge of tests/test_gcode_rs274.py
+	@command -v rs274 >/dev/null || { $(SUDO) apt-get update -qq && \
+	    $(SUDO) apt-get install -y -qq linuxcnc-uspace; }
+
+setup: $(STAMP) icarus rs274
 
 demo: setup
 	$(BIN)/kontur demo

@@ -220,6 +220,11 @@ def _machine_options(parser):
                         help="the cutter radius for G41/G42, mm (overrides the machine file's "
                              "cutter_radius); compensation runs on a board whose controller "
                              "has the equidistant engine")
+    parser.add_argument("--tool-table", metavar="FILE", default=None,
+                        help="LinuxCNC's tool table (T1 P1 D6.0 ;comment), diameters in mm: "
+                             "G41/G42 take the radius of their D word's tool, or of the tool "
+                             "loaded by M6, before --radius (G41.1/G42.1 D, a diameter in the "
+                             "program, before both)")
 
 
 def _add_machining(commands):
@@ -302,9 +307,16 @@ def _job(args):
             machine = Machine(clock_hz=board.clock_hz, **overrides)
     except MachineError as error:
         raise UsageError(str(error)) from None
+    tools = None
+    if args.tool_table:
+        from kontur.gcode import ToolTableError, read_tool_table
+        try:
+            tools = read_tool_table(_read_program(args.tool_table), name=args.tool_table)
+        except ToolTableError as error:
+            raise UsageError(f"--tool-table: {error}") from None
     from pathlib import Path
     return prepare(text, machine=machine, board=args.board, name=Path(args.file).name,
-                   max_steps=getattr(args, "max_steps", None))
+                   max_steps=getattr(args, "max_steps", None), tools=tools)
 
 
 def _progress(total, what):
@@ -380,6 +392,11 @@ def _send(args, out):
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
     job = _job(args)
+    from kontur.send import unhonoured
+    from kontur.planner import ProgramError
+    refusal = unhonoured(job)
+    if refusal is not None:
+        raise ProgramError(*refusal)
     frames, _ = job.frames()
     try:
         port = open_port(args.port, job.machine.baud, write_timeout=args.timeout)

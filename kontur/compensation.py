@@ -48,7 +48,8 @@ from kontur import registry
 from kontur.sim.models import equidistant
 from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
-__all__ = ["Contour", "runs", "program_segments", "references", "needs_engine"]
+__all__ = ["Contour", "runs", "program_segments", "references", "needs_engine",
+           "contour_radius"]
 
 #: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
 _LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
@@ -62,7 +63,9 @@ class Contour:
     in the engine's coordinates), ``origin`` (steps: the machine's point that is the engine's
     ``(0, 0)``), the program ``lines`` it spans (first, last), the indices of its segments in
     the job (``first`` is its ``START``'s, ``count`` of them), ``approach`` (the index of the
-    approach line, ``None`` without one) and ``radius`` (steps)."""
+    approach line, ``None`` without one) and ``radius`` (steps), and the radius as given
+    (``radius_mm``) and where it came from (``radius_from``: the program's G41.1/G42.1 D, the
+    tool table, ``--radius`` or the machine file)."""
     prepared: object
     origin: tuple
     lines: tuple
@@ -70,6 +73,8 @@ class Contour:
     count: int
     approach: int = None
     radius: int = 0
+    radius_mm: object = None
+    radius_from: str = None
 
     def on_machine(self, point):
         """An engine point in machine steps."""
@@ -262,13 +267,7 @@ def program_segments(moves, machine, board):
     """
     needs_engine(moves, board)
     item = registry.board(board)
-    first = next(move for move in moves if move.side is not None)
-    if machine.cutter_radius is None:
-        raise ProgramError(first.line, "cutter-radius compensation (G41/G42) needs a cutter "
-                                       "radius: give --radius MM (or cutter_radius in the "
-                                       "machine file)")
     spm = Fraction(machine.steps_per_mm)
-    radius = math.floor(Fraction(machine.cutter_radius) * spm + Fraction(1, 2))
     widths = {"variants": (item.line[0], item.arc[0]), "widths": (item.line[1], item.arc[1])}
     segments, contours = [], []
     position = on_lattice(moves[0].start, machine)
@@ -285,9 +284,12 @@ def program_segments(moves, machine, board):
                                                f"{after[1]} left the cutter, on the "
                                                f"equidistant: put a line first)") from None
         else:
+            radius_mm, source = contour_radius(run[0], machine)
+            radius = math.floor(Fraction(radius_mm) * spm + Fraction(1, 2))
             prepared, origin = _prepare(run, machine, radius, item.profile[1])
             part, approach = _contour_segments(prepared, origin, run, machine, position, board,
-                                               radius_frame=not contours)
+                                               radius_frame=not contours
+                                               or contours[-1].radius != radius)
             if not contours:                 # RADIUS: at the head of the program
                 segments.insert(0, part.pop(0))
                 if approach is not None:
@@ -295,7 +297,7 @@ def program_segments(moves, machine, board):
             index = len(segments)
             contours.append(Contour(prepared, origin, (run[0].line, run[-1].line), index,
                                     len(part), None if approach is None else index + approach,
-                                    radius))
+                                    radius, radius_mm, source))
             segments += part
             after = (run[0].line, run[-1].line)
         if segments:
@@ -303,6 +305,24 @@ def program_segments(moves, machine, board):
     segments[0].start = segments[0].end = on_lattice(moves[0].start, machine)   # RADIUS
     _settle_tangents(segments)
     return segments, contours
+
+
+def contour_radius(move, machine):
+    """The cutter radius (mm) of the contour ``move`` begins, and where it comes from: the
+    program's (G41.1/G42.1 D, or D and the loaded tool in the tool table: ``move.radius``),
+    else the machine's (``--radius``, else the machine file's ``cutter_radius``).
+
+    Raises
+    ------
+    ProgramError
+        When there is none."""
+    if move.radius is not None:
+        return move.radius, move.radius_source
+    if machine.cutter_radius is None:
+        raise ProgramError(move.line, "cutter-radius compensation (G41/G42) needs a cutter "
+                                      "radius: give --radius MM (or cutter_radius in the "
+                                      "machine file, or a tool table with --tool-table)")
+    return machine.cutter_radius, "--radius or the machine file's cutter_radius"
 
 
 def references(job):

@@ -1,24 +1,28 @@
-"""A G-code reader: the text of a program in, its blocks and its moves out.
+"""A G-code reader: the text of a program in, its blocks, moves and events out, every word
+with LinuxCNC's meaning (docs/gcode.md has the table; tests/test_gcode_rs274.py holds the
+reader against LinuxCNC's own interpreter, ``rs274``).
 
 The reader has two layers, so that a machine controller can take over either one:
 
 * :func:`parse` reads the text into :class:`Block` objects: the words of each line (a letter
-  and an exact number), its comment, its line number. Comments are ``( ... )`` and ``;`` to the
-  end of the line; ``%`` lines and blank lines are skipped; ``N`` words are sequence numbers.
-  It knows nothing of what the words mean beyond their syntax.
-* :func:`interpret` runs the modal state machine over the blocks and returns the
-  :class:`Move` objects: rapid moves (G0), lines (G1) and arcs (G2 clockwise, G3
-  counter-clockwise, the centre given by ``I`` and ``J`` relative to the start), each with its
-  start and end in absolute coordinates and the cutter-radius compensation in effect (G41 left,
-  G42 right, G40 off).
+  and an exact number, or an expression to evaluate when the line runs), its parameter
+  settings, its O-word, its comment and ``(MSG,...)``/``(DEBUG,...)``, its line number, as
+  LinuxCNC reads a line (:mod:`kontur.gcode_expr`: spaces removed, letters case-blind, a
+  leading ``/`` a block delete). Comment-only, blank and ``%`` lines are skipped.
+* :func:`interpret` runs LinuxCNC's interpreter over the blocks: the modal state (motion,
+  plane, units, distance and arc distance modes, compensation, tool length, work coordinate
+  systems G54-G59.3 with G10 L2/L20 and G92, path control, feed and retract modes), the
+  parameters (numbered, named, global), the O-word control flow (subroutines, if, loops), each
+  block's words in LinuxCNC's order of execution. It returns the :class:`Move` objects (rapid
+  moves, lines, arcs, dwells) in machine coordinates, with the cutter-radius compensation in
+  effect and its radius where the program gives it, and gathers the :class:`Event` objects
+  (tools, spindle, coolant, pauses, messages).
 
 Numbers are exact (:class:`fractions.Fraction`): the reader never rounds, except where an arc
-given by its radius needs a square root (its centre is then exact to 40 digits). It accepts
-exactly what it can interpret: G0 G1 G2 G3 (arcs by centre, ``I`` and ``J`` relative to the
-start, or by radius ``R``, negative for more than a half turn; a full circle by ``I J`` with
-the end exactly on the start, and only then), G17, G40 G41 G42, G90 G91, the words X Y I J R, F
-(feed, recorded), D (offset number, recorded), N, and M2 M30 (program end). Anything else is
-refused with a :exc:`GCodeError` naming the line, as is every malformed line.
+given by its radius needs a square root (its centre is then exact to 40 digits) and in the
+expressions' functions (LinuxCNC's doubles). Anything it cannot interpret is refused with a
+:exc:`GCodeError` naming the line and the word, as is every malformed line. Z is read: the
+moves carry it, and :func:`planar` refuses a move that changes it.
 
 Units: with ``units=None`` (``kontur trace profile``) a program is in lattice units (steps) and
 G20/G21 are refused; with ``units="mm"`` (the machine controller, ``kontur run``) G21
@@ -30,12 +34,14 @@ refused, as LinuxCNC refuses it ("Cannot do g1 with zero feed rate").
 import decimal
 import math
 import re
-import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from fractions import Fraction
+from typing import NamedTuple
 
-__all__ = ["GCodeError", "Word", "Block", "Move", "Program", "parse", "interpret", "read",
-           "sweep"]
+from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
+
+__all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
+           "read", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL"]
 
 
 class GCodeError(ValueError):
@@ -57,25 +63,35 @@ class GCodeError(ValueError):
         super().__init__(f"{where}: {reason}")
 
 
-@dataclass(frozen=True)
-class Word:
-    """One word: a letter (upper case) and its number, with the text as written."""
+class Word(NamedTuple):
+    """One word: a letter (upper case) and its number (or an expression tree, evaluated when
+    its line runs), with the text as written."""
     letter: str
     value: Fraction
     text: str
 
     @property
     def code(self):
-        """The value as an integer code (``G1``, ``M30``) or ``None`` when it is not one."""
+        """The value as an integer code (``G1``, ``M30``) or ``None`` when it is not one (or
+        not a number but an expression)."""
+        if not isinstance(self.value, Fraction):
+            return None
         return int(self.value) if self.value.denominator == 1 else None
 
 
 @dataclass(frozen=True)
 class Block:
-    """One line of the program: its number (from 1), its words in order, its comment."""
+    """One line of the program: its number (from 1), its words in order (a word's value is a
+    Fraction, or an expression tree evaluated when the line runs), its comment; ``delete``
+    for a line starting with ``/``, its O-word (``(label, keyword, arguments)``) or ``None``,
+    its parameter settings (``(reference, value)``), its ``(MSG,...)`` text or ``None``."""
     line: int
     words: tuple
     comment: str = ""
+    delete: bool = False
+    oword: tuple = None
+    settings: tuple = ()
+    message: str = None
 
     def codes(self, letter):
         """The words with ``letter`` (``"G"``, ``"M"``)."""
@@ -93,12 +109,17 @@ class Block:
 class Move:
     """One move in absolute coordinates.
 
-    ``kind`` is ``"rapid"``, ``"line"`` or ``"arc"``; ``start`` and ``end`` are ``(x, y)``;
+    ``kind`` is ``"rapid"``, ``"line"``, ``"arc"`` or ``"dwell"`` (G4: ``seconds``, ``start``
+    and ``end`` where the machine waits); ``start`` and ``end`` are ``(x, y)`` in machine
+    coordinates (the work offsets applied); ``z`` is the Z where the move ends (machine
+    coordinates; ``None`` before the program's first Z word);
     for an arc ``centre`` is ``(x, y)`` and ``cw`` says clockwise; ``side`` is the cutter-radius
     compensation in effect (``"left"``, ``"right"`` or ``None``); ``line`` is the program line.
     An arc is a full circle exactly when its programmed end is its start (``full``), as
     LinuxCNC decides: an arc whose end is a hair from its start is that hair of a turn, never a
-    whole one, however the ends round.
+    whole one, however the ends round. ``radius`` (mm) is the cutter radius the program
+    itself gives a compensated move (G41.1/G42.1 D, or a D word or the loaded tool looked up in
+    the tool table), with ``radius_source`` saying which; ``None``: the machine's.
     """
     line: int
     kind: str
@@ -108,6 +129,10 @@ class Move:
     cw: bool = False
     side: str = None
     feed: Fraction = None
+    z: Fraction = None
+    radius: Fraction = None
+    radius_source: str = None
+    seconds: Fraction = None
 
     @property
     def full(self):
@@ -122,11 +147,31 @@ class Move:
 
 
 @dataclass(frozen=True)
+class Event:
+    """Something a program does besides moving: ``kind`` is ``"tool"`` (T: a tool selected),
+    ``"tool_change"`` (M6), ``"spindle"`` (M3, M4, M5), ``"speed"`` (S), ``"coolant"`` (M7,
+    M8, M9), ``"tool_length"`` (G43, G43.1, G49), ``"pause"`` (M0, M1) or ``"message"``
+    (``(MSG,...)``); ``text`` says it (``"M3 S1000"``), ``value`` its number (the tool, the
+    speed) or ``None``; ``move`` is how many moves came before it."""
+    line: int
+    kind: str
+    text: str
+    value: object = None
+    move: int = 0
+
+    def as_dict(self):
+        return {"line": self.line, "kind": self.kind, "text": self.text,
+                "value": None if self.value is None else float(self.value),
+                "after_move": self.move}
+
+
+@dataclass(frozen=True)
 class Program:
-    """A program read: its blocks and its moves."""
+    """A program read: its blocks, its moves and its events (:class:`Event`)."""
     blocks: tuple
     moves: tuple
     name: str = None
+    events: tuple = ()
 
 
 def sweep(start, end, centre, cw, *, full):
@@ -151,39 +196,28 @@ def sweep(start, end, centre, cw, *, full):
     return min(angle + 2 * math.pi, math.nextafter(2 * math.pi, 0))
 
 
-_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)"
-_WORD = re.compile(rf"\s*([A-Za-z])\s*({_NUMBER})")
+def _message(comments):
+    """LinuxCNC's message of a line: ``("msg", text)`` for ``(MSG,text)``, ``("debug",
+    text)`` for ``(DEBUG,text)`` (its parameters shown with their values when it runs), or
+    ``None``."""
+    for comment in comments:
+        stripped = comment.lstrip()
+        if stripped[:4].lower() == "msg,":
+            return "msg", stripped[4:]
+        if stripped[:6].lower() == "debug,":
+            return "debug", stripped[6:]
+    return None
 
 
-def _strip_comments(text, number, name):
-    """The line without its comments, and the comments' text."""
-    code, comments = [], []
-    i = 0
-    while i < len(text):
-        ch = text[i]
-        if ch == "(":
-            end = text.find(")", i + 1)
-            if end < 0:
-                raise GCodeError(number, "a comment opened with '(' is not closed", name=name)
-            inner = text[i + 1:end]
-            if "(" in inner:
-                raise GCodeError(number, "comments do not nest", name=name)
-            comments.append(inner.strip())
-            code.append(" ")
-            i = end + 1
-        elif ch == ")":
-            raise GCodeError(number, "')' closes no comment", name=name)
-        elif ch == ";":
-            comments.append(text[i + 1:].strip())
-            break
-        else:
-            code.append(ch)
-            i += 1
-    return "".join(code), " ".join(c for c in comments if c)
+_DEBUG = re.compile(r"#<[^>]*>|#\d+")
 
 
 def parse(text, *, name=None):
     """Read the text of a program into its blocks (syntax only).
+
+    Every line is read as LinuxCNC reads it: a leading ``/`` marks a block delete, comments
+    go, spaces and tabs are removed, letters are case-blind. A ``%`` line opens the program
+    and a second one ends it (lines after it are not read).
 
     Parameters
     ----------
@@ -195,7 +229,8 @@ def parse(text, *, name=None):
     Returns
     -------
     list of :class:`Block`
-        One per line that holds a word (comment-only, blank and ``%`` lines are skipped).
+        One per line that holds a word, an O-word, a parameter setting or a ``(MSG,...)``
+        (comment-only, blank and ``%`` lines are skipped).
 
     Raises
     ------
@@ -205,44 +240,73 @@ def parse(text, *, name=None):
     if not isinstance(text, str):
         raise TypeError(f"Program text must be a string, not {text!r}")
     blocks = []
+    percent = False
     for number, raw in enumerate(text.splitlines(), start=1):
         if raw.strip() == "%":
+            if percent:
+                break
+            percent = True
             continue
-        code, comment = _strip_comments(raw, number, name)
-        words = []
-        position = 0
-        stripped = code.rstrip()
-        while position < len(stripped):
-            match = _WORD.match(stripped, position)
-            if match is None:
-                rest = stripped[position:].strip()
-                raise GCodeError(number, f"cannot read {rest.split()[0]!r}: a word is a "
-                                         f"letter and a number", name=name)
-            letter, digits = match.group(1).upper(), match.group(2)
-            try:
-                value = Fraction(digits)
-            except ValueError:                 # beyond Python's int string limit
-                raise GCodeError(number, f"the number of {letter} has {len(digits)} "
-                                         f"characters, more than the "
-                                         f"{sys.get_int_max_str_digits()} digits a number may "
-                                         f"have", name=name) from None
-            words.append(Word(letter, value, f"{letter}{digits}"))
-            position = match.end()
-        if words:
-            blocks.append(Block(number, tuple(words), comment))
+        try:
+            delete, code, comments = split_line(raw)
+            oword, words, settings = read_code(code) if code else (None, [], [])
+        except ExpressionError as error:
+            raise GCodeError(number, str(error), name=name) from None
+        message = _message(comments) if comments else None
+        if words or oword or settings or message is not None:
+            blocks.append(Block(number, tuple(Word(word[0].upper(), word[1], word[2]) for word in words),
+                                " ".join(c.strip() for c in comments if c.strip()),
+                                delete, oword, tuple(settings), message))
     return blocks
 
 
-_MOTION = {0: "rapid", 1: "line", 2: "arc", 3: "arc"}
-_GROUPS = {0: "motion", 1: "motion", 2: "motion", 3: "motion", 17: "plane", 20: "units",
-           21: "units", 40: "compensation", 41: "compensation", 42: "compensation",
-           90: "distance", 91: "distance"}
-_LETTERS = set("GMNXYIJRFD")
+#: Modal groups of the G codes kontur takes, by code times ten (G91.1 is 911), as LinuxCNC's.
+_G_GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion",
+             40: "non-modal", 100: "non-modal", 280: "non-modal", 281: "non-modal",
+             300: "non-modal", 301: "non-modal", 530: "non-modal", 920: "non-modal",
+             921: "non-modal", 922: "non-modal", 923: "non-modal",
+             170: "plane", 200: "units", 210: "units",
+             400: "compensation", 410: "compensation", 420: "compensation",
+             411: "compensation", 421: "compensation",
+             430: "tool length", 431: "tool length", 490: "tool length",
+             **{code: "coordinate system" for code in (540, 550, 560, 570, 580, 590, 591, 592,
+                                                       593)},
+             610: "path control", 611: "path control", 640: "path control",
+             900: "distance", 910: "distance", 901: "arc distance", 911: "arc distance",
+             940: "feed mode", 980: "retract mode", 990: "retract mode"}
+_MOTION = {0: "rapid", 10: "line", 20: "arc", 30: "arc"}
+_CANNED = "canned cycles drill along Z, which needs the third axis (this controller has X and Y)"
+#: G codes LinuxCNC knows that kontur refuses, and why.
+_G_REFUSED = {180: "only the XY plane (G17) is supported", 190: "only the XY plane (G17) is "
+              "supported", 171: "only the XY plane (G17) is supported",
+              930: "inverse-time feed (G93) is not supported: give feeds in units a minute "
+                   "(G94)",
+              950: "feed per revolution (G95) is not supported: give feeds in units a minute "
+                   "(G94)",
+              50: "splines (G5) are not supported", 51: "splines (G5.1) are not supported",
+              52: "NURBS (G5.2) are not supported", 70: "lathe diameter mode (G7) is not "
+              "supported", 330: "spindle-synchronised motion (G33) is not supported",
+              331: "rigid tapping (G33.1) is not supported", 760: "threading (G76) is not "
+              "supported", 432: "G43.2 (added tool length) is not supported",
+              **{code: "probing (G38.x) is not supported" for code in (382, 383, 384, 385)},
+              **{code: _CANNED for code in (730, 740, 810, 820, 830, 840, 850, 860, 870, 880,
+                                            890)}}
+_M_GROUPS = {0: "stopping", 1: "stopping", 2: "stopping", 30: "stopping", 6: "tool change",
+             61: "tool change",
+             3: "spindle", 4: "spindle", 5: "spindle", 7: "coolant", 8: "coolant",
+             9: "coolant"}
+_LETTERS = set("DFGHIJLMNPQRSTXYZ")
+_AXES_NOT_HERE = set("ABCUVW")
 _LATTICE = "this program is read in lattice units (steps), without G20/G21"
-_ADVICE = {18: "only the XY plane (G17) is supported", 19: "only the XY plane (G17) is supported"}
 #: Millimetres per unit of each units code.
-_SCALE = {20: Fraction(254, 10), 21: Fraction(1)}
+_SCALE = {200: Fraction(254, 10), 210: Fraction(1)}
 UNITS = (None, "mm")
+#: Why a move that changes Z is refused (:func:`planar`).
+Z_REFUSAL = "Z moves need the third axis, which this controller does not have yet"
+#: Blocks a program may run at most (loops and subroutines): about a minute of reading.
+MAX_BLOCKS = 5_000_000
+#: Subroutine calls nested at most.
+MAX_CALLS = 100
 
 
 def _sqrt(value):
@@ -274,135 +338,806 @@ def _radius_centre(start, end, radius, cw, fail):
     return (x0 + dx / 2 + side * h_over_d * dy, y0 + dy / 2 - side * h_over_d * dx)
 
 
-@dataclass
-class _State:
-    position: tuple = (Fraction(0), Fraction(0))
-    motion: int = None
-    absolute: bool = True
-    side: str = None
-    feed: Fraction = None
-    ended: bool = False
-    offset: Fraction = None
-    scale: Fraction = Fraction(1)
-    extra: dict = field(default_factory=dict)
+class _Frame:
+    """A subroutine call in progress (the main program is the first)."""
+
+    def __init__(self, back=None, label=None, saved=None):
+        self.back, self.label, self.saved = back, label, saved
+        self.named = {}
+        self.repeats = {}
 
 
-def interpret(blocks, *, start=(0, 0), name=None, units=None):
-    """Run the blocks through the modal state; return the moves.
+class _Structure:
+    """The O-words of a program matched: subroutines by label, and for each O-word line its
+    partners (an ``if``'s next branch and end, a loop's end and head)."""
+
+    def __init__(self, blocks, fail):
+        self.subs, self.links = {}, {}
+        stack = []
+        for index, block in enumerate(blocks):
+            if block.oword is None:
+                continue
+            label, keyword, _ = block.oword
+            name = f"o{label}"
+            top = stack[-1] if stack else None
+
+            def close(kinds, opener):
+                if top is None or top[0] not in kinds or top[1] != label:
+                    fail(block.line, f"{name} {keyword} closes no {name} {opener}")
+                stack.pop()
+                return top
+            if keyword == "sub":
+                if stack:
+                    fail(block.line, f"{name} sub inside {'o' + str(top[1])} {top[0]}: define "
+                                     f"subroutines at the program's top level")
+                if label in self.subs:
+                    fail(block.line, f"subroutine {name} defined twice")
+                self.subs[label] = index
+                stack.append(["sub", label, index, None, block.line])
+            elif keyword == "endsub":
+                opened = close(("sub",), "sub")
+                self.links[opened[2]] = {"end": index}
+                self.links[index] = {"sub": opened[2]}
+            elif keyword == "return":
+                sub = next((entry for entry in reversed(stack) if entry[0] == "sub"), None)
+                if sub is None:
+                    fail(block.line, f"{name} return outside a subroutine")
+                self.links[index] = {"sub": sub[2]}
+            elif keyword == "if":
+                stack.append(["if", label, index, [index], block.line])
+            elif keyword in ("elseif", "else"):
+                if top is None or top[0] != "if" or top[1] != label:
+                    fail(block.line, f"{name} {keyword} without {name} if")
+                top[3].append(index)
+            elif keyword == "endif":
+                branches = close(("if",), "if")[3] + [index]
+                for here, following in zip(branches, branches[1:]):
+                    self.links[here] = {"next": following, "end": index}
+            elif keyword == "do":
+                stack.append(["do", label, index, None, block.line])
+            elif keyword == "while":
+                if top is not None and top[0] == "do" and top[1] == label:
+                    stack.pop()
+                    self.links[top[2]] = {"end": index, "kind": "do"}
+                    self.links[index] = {"do": top[2]}
+                else:
+                    stack.append(["while", label, index, None, block.line])
+            elif keyword == "endwhile":
+                opened = close(("while",), "while")
+                self.links[opened[2]] = {"end": index, "kind": "while"}
+                self.links[index] = {"head": opened[2]}
+            elif keyword == "repeat":
+                stack.append(["repeat", label, index, None, block.line])
+            elif keyword == "endrepeat":
+                opened = close(("repeat",), "repeat")
+                self.links[opened[2]] = {"end": index, "kind": "repeat"}
+                self.links[index] = {"head": opened[2]}
+            elif keyword in ("break", "continue"):
+                loop = next((entry for entry in reversed(stack)
+                             if entry[0] in ("while", "do", "repeat") and entry[1] == label),
+                            None)
+                if loop is None:
+                    fail(block.line, f"{name} {keyword} outside loop {name}")
+                self.links[index] = {"loop": loop[2]}
+        if stack:
+            kind, label, _, _, line = stack[-1]
+            ends = {"sub": "endsub", "if": "endif", "while": "endwhile", "do": "while",
+                    "repeat": "endrepeat"}
+            fail(line, f"o{label} {kind} is not closed (no o{label} {ends[kind]})")
+
+
+_PREDEFINED = ("_x", "_y", "_z", "_metric", "_imperial", "_absolute", "_incremental",
+               "_current_tool", "_selected_tool", "_feed", "_rpm", "_coord_system",
+               "_value", "_value_returned", "_line", "_motion_mode", "_plane")
+
+
+class _Interpreter:
+    """The modal state of LinuxCNC's interpreter, its parameters and O-word control flow,
+    over a program's blocks: :meth:`run` gives the moves and events."""
+
+    def __init__(self, blocks, *, start, name, units, tools, parameters, block_delete):
+        self.blocks = list(blocks)
+        self.name, self.units, self.tools = name, units, tools
+        self.block_delete = block_delete
+        zero = Fraction(0)
+        self.pos = [Fraction(start[0]), Fraction(start[1]), zero]
+        self.z_given = False
+        self.motion = None
+        self.absolute = True
+        self.arc_absolute = False
+        self.side = None
+        self.radius = None
+        self.radius_source = None
+        self.feed = None
+        self.offset = None
+        self.scale = Fraction(1)
+        self.cs = 1
+        self.g5x = {k: [zero, zero, zero] for k in range(1, 10)}
+        self.g92 = [zero, zero, zero]
+        self.g92_saved = [zero, zero, zero]
+        self.g92_on = False
+        self.home = {28: [zero, zero, zero], 30: [zero, zero, zero]}
+        self.selected = 0
+        self.tool = 0
+        self.speed = zero
+        self.numbered = {}
+        self.globals = {"_value": zero, "_value_returned": zero}
+        for number, value in (parameters or {}).items():
+            self.set_numbered(number, Fraction(value))
+        self.frames = [_Frame()]
+        self.moves, self.events = [], []
+        self.line = None
+        self.m61 = False
+        self.evaluate = Evaluator(self.get_numbered, self.get_named, self.exists)
+
+    # ---- errors and parameters ---------------------------------------------------------
+
+    def fail(self, reason, line=None):
+        raise GCodeError(self.line if line is None else line, reason, name=self.name)
+
+    def offset_of(self, axis):
+        return self.g5x[self.cs][axis] + self.g92[axis]
+
+    def _virtual(self, n):
+        """Where numbered parameter ``n`` lives in the state, if it is one of LinuxCNC's
+        stored positions and offsets (in the machine's units, millimetres, as LinuxCNC keeps
+        them): ``(list, index)``."""
+        if 5161 <= n <= 5163:
+            return self.home[28], n - 5161
+        if 5181 <= n <= 5183:
+            return self.home[30], n - 5181
+        if 5211 <= n <= 5213:
+            return self.g92_saved, n - 5211
+        if 5221 <= n <= 5400 and (n - 5221) % 20 < 3:
+            return self.g5x[(n - 5221) // 20 + 1], (n - 5221) % 20
+        return None
+
+    def get_numbered(self, n):
+        place = self._virtual(n)
+        if place is not None:
+            return place[0][place[1]]
+        if n == 5210:
+            return Fraction(int(self.g92_on))
+        if n == 5220:
+            return Fraction(self.cs)
+        if n == 5400:
+            return Fraction(self.tool)
+        if 5420 <= n <= 5422:
+            axis = n - 5420
+            return (self.pos[axis] - self.offset_of(axis)) / self.scale
+        return self.numbered.get(n, Fraction(0))
+
+    def set_numbered(self, n, value):
+        place = self._virtual(n)
+        if place is not None:
+            place[0][place[1]] = value
+        elif n == 5220:
+            self.fail("#5220 (the coordinate system) is set by G54-G59.3, not by a setting")
+        else:
+            self.numbered[n] = value
+
+    def get_named(self, name):
+        if name.startswith("_"):
+            if name in self.globals:
+                return self.globals[name]
+            if name in _PREDEFINED:
+                return self.predefined(name)
+            raise ExpressionError(f"named parameter #<{name}> is not defined")
+        value = self.frames[-1].named.get(name)
+        if value is None:
+            raise ExpressionError(f"named parameter #<{name}> is not defined")
+        return value
+
+    def exists(self, name):
+        if name.startswith("_"):
+            return name in self.globals or name in _PREDEFINED
+        return name in self.frames[-1].named
+
+    def predefined(self, name):
+        metric = self.scale == 1
+        values = {"_x": lambda: self.get_numbered(5420), "_y": lambda: self.get_numbered(5421),
+                  "_z": lambda: self.get_numbered(5422), "_metric": lambda: int(metric),
+                  "_imperial": lambda: int(not metric),
+                  "_absolute": lambda: int(self.absolute),
+                  "_incremental": lambda: int(not self.absolute),
+                  "_current_tool": lambda: self.tool, "_selected_tool": lambda: self.selected,
+                  "_feed": lambda: (self.feed or 0) / self.scale, "_rpm": lambda: self.speed,
+                  "_coord_system": lambda: 530 + 10 * self.cs if self.cs <= 6 else
+                  [591, 592, 593][self.cs - 7],
+                  "_line": lambda: self.line or 0,
+                  "_motion_mode": lambda: -10 if self.motion is None else self.motion,
+                  "_plane": lambda: 170}
+        return Fraction(values[name]())
+
+    def set_named(self, name, value):
+        if name.startswith("_"):
+            if name in _PREDEFINED and name not in self.globals:
+                self.fail(f"#<{name}> is read-only")
+            self.globals[name] = value
+        else:
+            self.frames[-1].named[name] = value
+
+    def value(self, tree):
+        try:
+            return self.evaluate(tree)
+        except ExpressionError as error:
+            self.fail(str(error))
+
+    # ---- the program ---------------------------------------------------------------------
+
+    def run(self):
+        blocks = self.blocks
+        structure = _Structure(blocks, lambda line, reason: self.fail(reason, line))
+        self.structure = structure
+        budget = MAX_BLOCKS
+        pc = 0
+        count = len(blocks)
+        while pc < count:
+            block = blocks[pc]
+            budget -= 1
+            if budget < 0:
+                self.fail(f"the program runs more than {MAX_BLOCKS:,} blocks (an endless "
+                          f"loop?)", block.line)
+            if block.delete and self.block_delete:
+                pc += 1
+                continue
+            self.line = block.line
+            if block.oword is not None:
+                pc = self.control(pc, block)
+                continue
+            if self.block(block):
+                break
+            pc += 1
+        return self.moves
+
+    def condition(self, block):
+        label, keyword, arguments = block.oword
+        if len(arguments) != 1:
+            self.fail(f"o{label} {keyword} needs one condition in [ ]")
+        return self.value(arguments[0]) != 0
+
+    def control(self, pc, block):
+        """Run an O-word; return the next block's index."""
+        label, keyword, arguments = block.oword
+        links = self.structure.links
+        frame = self.frames[-1]
+        if keyword == "sub":
+            return links[pc]["end"] + 1
+        if keyword in ("endsub", "return"):
+            if len(self.frames) == 1:
+                self.fail(f"o{label} {keyword} with no call")
+            if arguments:
+                self.globals["_value"] = self.value(arguments[0])
+                self.globals["_value_returned"] = Fraction(1)
+            else:                             # LinuxCNC: no value, #<_value> is 0
+                self.globals["_value"] = Fraction(0)
+                self.globals["_value_returned"] = Fraction(0)
+            self.frames.pop()
+            for n, value in frame.saved.items():
+                self.numbered[n] = value
+            return frame.back
+        if keyword == "call":
+            if label not in self.structure.subs:
+                self.fail(f"o{label} call: no subroutine o{label} in this program (kontur reads "
+                          f"one file; LinuxCNC would search its subroutine path)")
+            if len(self.frames) > MAX_CALLS:
+                self.fail(f"o{label} call: more than {MAX_CALLS} calls nested")
+            if len(arguments) > 30:
+                self.fail(f"o{label} call: more than 30 arguments")
+            values = [self.value(argument) for argument in arguments]
+            saved = {n: self.numbered.get(n, Fraction(0)) for n in range(1, 31)}
+            for n in range(1, 31):
+                self.numbered[n] = values[n - 1] if n <= len(values) else Fraction(0)
+            self.frames.append(_Frame(pc + 1, label, saved))
+            return self.structure.subs[label] + 1
+        if keyword == "if":
+            index = pc
+            while True:
+                here = self.blocks[index].oword[1]
+                if here in ("if", "elseif"):
+                    self.line = self.blocks[index].line
+                    if self.condition(self.blocks[index]):
+                        return index + 1
+                    index = links[index]["next"]
+                else:
+                    return index + 1
+        if keyword in ("elseif", "else"):
+            return links[pc]["end"] + 1
+        if keyword == "endif" or keyword == "do":
+            return pc + 1
+        if keyword == "while":
+            if "do" in links.get(pc, {}):
+                return links[pc]["do"] + 1 if self.condition(block) else pc + 1
+            return pc + 1 if self.condition(block) else links[pc]["end"] + 1
+        if keyword in ("endwhile", "endrepeat"):
+            return links[pc]["head"]
+        if keyword == "repeat":
+            if pc not in frame.repeats:
+                if len(arguments) != 1:
+                    self.fail(f"o{label} repeat needs a count in [ ]")
+                frame.repeats[pc] = math.floor(self.value(arguments[0]))
+            if frame.repeats[pc] <= 0:
+                del frame.repeats[pc]
+                return links[pc]["end"] + 1
+            frame.repeats[pc] -= 1
+            return pc + 1
+        loop = links[pc]["loop"]
+        kind = links[loop]["kind"]
+        if keyword == "break":
+            frame.repeats.pop(loop, None)
+            return links[loop]["end"] + 1
+        return links[loop]["end"] if kind == "do" else loop       # continue
+
+    # ---- one block -----------------------------------------------------------------------
+
+    def code(self, word, value):
+        """A G or M code as ten times its number (G91.1 is 911)."""
+        tenfold = value * 10
+        code = round(tenfold)
+        if abs(tenfold - code) > Fraction(1, 10 ** 4):
+            self.fail(f"unknown code {word.text}")
+        return code
+
+    def block(self, block):
+        """Run one block; return True at the program's end."""
+        values, texts, gcodes, mcodes = {}, {}, [], []
+        for word in block.words:
+            letter = word.letter
+            value = word.value if isinstance(word.value, Fraction) else self.value(word.value)
+            if letter == "G":
+                gcodes.append((self.code(word, value), word.text))
+                continue
+            if letter == "M":
+                code = self.code(word, value)
+                if code % 10:
+                    self.fail(f"unknown code {word.text}")
+                mcodes.append((code // 10, word.text))
+                continue
+            if letter == "K":
+                self.fail(f"{word.text}: arcs in the XZ and YZ planes (G18, G19) are not "
+                          f"supported, only XY (G17) with I and J")
+            if letter in _AXES_NOT_HERE:
+                self.fail(f"{word.text}: this controller has the axes X and Y (and reads Z), "
+                          f"not {letter}")
+            if letter not in _LETTERS:
+                self.fail(f"unknown word {word.text}")
+            if letter in values:
+                self.fail(f"{letter} given twice ({texts[letter]} and {word.text})")
+            values[letter] = value
+            texts[letter] = word.text
+        if block.settings:
+            settings = [(reference, self.value(tree)) for reference, tree in block.settings]
+            for reference, value in settings:
+                if reference[0] == "name":
+                    self.set_named(reference[1], value)
+                else:
+                    try:
+                        self.set_numbered(self.evaluate.index(reference[1]), value)
+                    except ExpressionError as error:
+                        self.fail(str(error))
+        groups, gs, ms = {}, {}, {}
+        for code, text in gcodes:
+            if code in _G_REFUSED:
+                self.fail(f"{text}: {_G_REFUSED[code]}")
+            group = _G_GROUPS.get(code)
+            if group is None:
+                self.fail(f"unknown code {text}")
+            if code in _SCALE and self.units is None:
+                self.fail(f"{text}: {_LATTICE}")
+            if group in groups:
+                if group == "motion" and 800 in (code, gs[group]):
+                    code = code if gs[group] == 800 else gs[group]   # G80 with G0-G3: G0-G3
+                else:
+                    self.fail(f"two {group} codes in one block ({groups[group]} and {text})")
+            groups[group] = text
+            gs[group] = code
+        mgroups = {}
+        for code, text in mcodes:
+            group = _M_GROUPS.get(code)
+            if group is None:
+                self.fail(f"unknown code {text}" if code not in (60,) else
+                          f"{text}: a pallet change is not supported")
+            if group in mgroups and group != "coolant":
+                self.fail(f"two {group} codes in one block ({mgroups[group]} and {text})")
+            mgroups[group] = text
+            ms.setdefault(group, []).append(code)
+        self.m61 = 61 in ms.get("tool change", ())
+        if self.m61 and "Q" not in values:
+            self.fail("M61 needs Q: the tool now in the spindle")
+        self.check_letters(values, texts, gs)
+        return self.execute(block, values, texts, gs, ms)
+
+    def check_letters(self, values, texts, gs):
+        """Refuse a word no code of the block takes, naming it and the codes that take it."""
+        nonmodal = gs.get("non-modal")
+        motion = gs.get("motion", self.motion)
+        if "P" in values and not (nonmodal in (40, 100) or gs.get("path control") == 640
+                                  or motion in (20, 30)):
+            self.fail(f"{texts['P']}: no code in this block takes P (G4 dwell, G10, G64, "
+                      f"G2/G3 turns)")
+        if "Q" in values and gs.get("path control") != 640 and not self.m61:
+            self.fail(f"{texts['Q']}: no code in this block takes Q (G64, M61)")
+        if "L" in values and nonmodal != 100:
+            self.fail(f"{texts['L']}: no code in this block takes L (G10)")
+        if "H" in values and gs.get("tool length") != 430:
+            self.fail(f"{texts['H']}: no code in this block takes H (G43)")
+        if nonmodal == 100 and "L" not in values:
+            self.fail("G10 needs L (L2 or L20: a work offset)")
+        if nonmodal == 40 and "P" not in values:
+            self.fail("G4 needs P: the dwell in seconds")
+
+    def event(self, kind, text, value=None):
+        self.events.append(Event(self.line, kind, text, value, len(self.moves)))
+
+    def execute(self, block, values, texts, gs, ms):
+        scale = self.scale
+        if block.message is not None:
+            kind, text = block.message
+            if kind == "debug":
+                text = _DEBUG.sub(lambda m: f"{float(self.debug_value(m.group())):f}", text)
+            self.event("message", text)
+        if "F" in values:                     # before G20/G21 of the block, as LinuxCNC
+            if values["F"] <= 0:
+                self.fail(f"the feed must be positive, not {texts['F']}")
+            self.feed = values["F"] * scale
+        if "S" in values:
+            if values["S"] < 0:
+                self.fail(f"the spindle speed must not be negative, not {texts['S']}")
+            self.speed = values["S"]
+            self.event("speed", texts["S"], values["S"])
+        if "T" in values:
+            tool = values["T"]
+            if tool < 0 or tool.denominator != 1:
+                self.fail(f"{texts['T']}: a tool number is a whole number")
+            self.selected = int(tool)
+            self.event("tool", texts["T"], self.selected)
+        if self.m61:
+            tool = values["Q"]
+            if tool < 0 or tool.denominator != 1:
+                self.fail(f"M61 {texts['Q']}: a tool number is a whole number")
+            self.tool = int(tool)
+            self.event("tool_change", f"M61 Q{self.tool}", self.tool)
+        elif "tool change" in ms:
+            self.tool = self.selected
+            self.event("tool_change", f"M6 T{self.selected}", self.selected)
+        for code in ms.get("spindle", ()):
+            text = f"M{code}" + (f" S{float(self.speed):g}" if code != 5 else "")
+            self.event("spindle", text, self.speed if code != 5 else 0)
+        for code in ms.get("coolant", ()):
+            self.event("coolant", f"M{code}")
+        nonmodal = gs.get("non-modal")
+        if nonmodal == 40:
+            seconds = values["P"]
+            if seconds < 0:
+                self.fail(f"a dwell must not be negative, not {texts['P']}")
+            here = (self.pos[0], self.pos[1])
+            self.moves.append(Move(self.line, "dwell", here, here, side=self.side,
+                                   feed=self.feed, z=self.z(), seconds=seconds))
+        if "units" in gs:
+            self.scale = scale = _SCALE[gs["units"]]
+        if "D" in values:
+            self.offset = values["D"]
+        if "compensation" in gs:
+            self.compensation(gs["compensation"], values, texts)
+        if "tool length" in gs:
+            code = gs["tool length"]
+            if code == 430:
+                tool = values.get("H", self.tool)
+                self.event("tool_length", f"G43 H{float(tool):g}", tool)
+            elif code == 431:
+                self.event("tool_length", "G43.1" + "".join(
+                    f" {texts[a]}" for a in "XYZ" if a in values), values.get("Z"))
+            else:
+                self.event("tool_length", "G49")
+        if "coordinate system" in gs:
+            code = gs["coordinate system"]
+            self.cs = {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8,
+                       593: 9}[code]
+        if "path control" in gs and gs["path control"] == 640:
+            for letter in "PQ":
+                if letter in values and values[letter] < 0:
+                    self.fail(f"G64 {texts[letter]}: a tolerance must not be negative")
+        if "distance" in gs:
+            self.absolute = gs["distance"] == 900
+        if "arc distance" in gs:
+            self.arc_absolute = gs["arc distance"] == 901
+        if "motion" in gs:
+            self.motion = None if gs["motion"] == 800 else gs["motion"]
+        axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
+        if nonmodal in (100, 280, 300, 920):
+            if "motion" in gs and gs["motion"] != 800 and axes:
+                self.fail(f"{_code_text(gs, 'non-modal')} and "
+                          f"{_code_text(gs, 'motion')} both use the axis words")
+            self.nonmodal(nonmodal, values, texts)
+        elif nonmodal in (281, 301, 921, 922, 923):
+            self.nonmodal(nonmodal, values, texts)
+        elif axes or any(a in values for a in "IJR") and nonmodal != 40:
+            self.move(values, texts, machine=nonmodal == 530)
+        elif gs.get("motion") in (0, 10):
+            self.move(values, texts)          # LinuxCNC moves to where it is: a move of zero
+        stop = ms.get("stopping", ())
+        for code in stop:
+            if code in (0, 1):
+                self.event("pause", f"M{code}" + (" (optional stop)" if code == 1 else ""))
+        return any(code in (2, 30) for code in stop)
+
+    def debug_value(self, text):
+        """A parameter's value in a ``(DEBUG,...)`` text."""
+        try:
+            if text.startswith("#<"):
+                return self.get_named(text[2:-1].lower().replace(" ", ""))
+            return self.get_numbered(int(text[1:]))
+        except (ExpressionError, ValueError) as error:
+            self.fail(f"(DEBUG,...): {error}")
+
+    def compensation(self, code, values, texts):
+        if code == 400:
+            self.side = None
+            self.radius = self.radius_source = None
+            return
+        self.side = "left" if code in (410, 411) else "right"
+        self.radius = self.radius_source = None
+        if code in (411, 421):
+            if "D" not in values:
+                self.fail(f"G{code / 10:g} needs D: the cutter's diameter")
+            if values["D"] < 0:
+                self.fail(f"G{code / 10:g} {texts['D']}: a diameter must not be negative")
+            self.radius = values["D"] * self.scale / 2
+            self.radius_source = f"G{code / 10:g} {texts['D']} (diameter, line {self.line})"
+            return
+        if self.tools is None:
+            return
+        if "D" in values:
+            number = values["D"]
+            if number < 0 or number.denominator != 1:
+                self.fail(f"{texts['D']}: a tool number is a whole number")
+            number = int(number)
+            if number not in self.tools:
+                self.fail(f"{texts['D']}: tool {number} is not in the tool table")
+            where = f"D{number}"
+        else:
+            number = self.tool
+            if number not in self.tools:
+                return
+            where = f"the loaded tool T{number}"
+        self.radius = Fraction(self.tools[number]) / 2
+        self.radius_source = f"tool table: {where}, diameter {float(self.tools[number]):g} mm"
+
+    def z(self):
+        return self.pos[2] if self.z_given else None
+
+    def target(self, values, machine=False, absolute=None):
+        """Where the axis words go, in machine coordinates."""
+        absolute = self.absolute if absolute is None else absolute
+        out = list(self.pos)
+        scale = self.scale
+        for axis, letter in enumerate("XYZ"):
+            if letter in values:
+                v = values[letter]
+                if scale != 1:
+                    v = v * scale
+                if machine:
+                    out[axis] = v
+                elif absolute:
+                    offset = self.g5x[self.cs][axis]
+                    if offset:
+                        v = v + offset
+                    offset = self.g92[axis]
+                    out[axis] = v + offset if offset else v
+                else:
+                    out[axis] = self.pos[axis] + v
+        return out
+
+    def go(self, kind, end, feed=None, centre=None, cw=False, z_word=False):
+        start = (self.pos[0], self.pos[1])
+        if z_word:
+            self.z_given = True
+        self.pos = list(end)
+        self.moves.append(Move(self.line, kind, start, (end[0], end[1]), centre=centre, cw=cw,
+                               side=self.side, feed=feed, z=self.z(), radius=self.radius,
+                               radius_source=self.radius_source))
+
+    def nonmodal(self, code, values, texts):
+        scale = self.scale
+        if code in (280, 300):
+            home = self.home[code // 10]
+            given = [letter in values for letter in "XYZ"]
+            if any(given):
+                self.go("rapid", self.target(values), z_word="Z" in values)
+                end = [home[a] if given[a] else self.pos[a] for a in range(3)]
+            else:
+                self.go("rapid", list(self.pos))
+                end = list(home)
+            self.go("rapid", end, z_word=given[2] or not any(given))
+        elif code in (281, 301):
+            self.home[code // 10][:] = self.pos
+        elif code == 100:
+            level = values["L"]
+            if level not in (2, 20):
+                self.fail(f"G10 {texts['L']}: only L2 and L20 (work offsets) are supported"
+                          + (": give the tool table with --tool-table" if level in (1, 10, 11)
+                             else ""))
+            number = values.get("P")
+            if number is None or number.denominator != 1 or not 0 <= number <= 9:
+                self.fail("G10 needs P: the coordinate system, 0 (the current one) to 9")
+            system = self.g5x[int(number) or self.cs]
+            if values.get("R", 0) != 0:
+                self.fail(f"G10 {texts['R']}: rotated coordinate systems are not supported")
+            for axis, letter in enumerate("XYZ"):
+                if letter in values:
+                    v = values[letter] * scale
+                    system[axis] = v if level == 2 else self.pos[axis] - self.g92[axis] - v
+        elif code == 920:
+            if not any(letter in values for letter in "XYZ"):
+                self.fail("G92 needs an axis word")
+            for axis, letter in enumerate("XYZ"):
+                if letter in values:
+                    self.g92[axis] = (self.pos[axis] - self.g5x[self.cs][axis]
+                                      - values[letter] * scale)
+            self.g92_saved[:] = self.g92
+            self.g92_on = True
+        elif code == 921:
+            self.g92[:] = self.g92_saved[:] = [Fraction(0)] * 3
+            self.g92_on = False
+        elif code == 922:
+            self.g92[:] = [Fraction(0)] * 3
+            self.g92_on = False
+        elif code == 923:
+            self.g92[:] = self.g92_saved
+            self.g92_on = True
+
+    def move(self, values, texts, machine=False):
+        motion = self.motion
+        if motion is None:
+            self.fail("coordinates without a motion code (G0, G1, G2 or G3)")
+        kind = _MOTION[motion]
+        if machine:
+            if kind == "arc":
+                self.fail("G53 (machine coordinates) takes G0 or G1, not an arc")
+            if self.side is not None:
+                self.fail("G53 (machine coordinates) with cutter-radius compensation on")
+        end = self.target(values, machine=machine, absolute=True if machine else None)
+        if kind != "rapid" and self.feed is None and self.units is not None:
+            self.fail(f"G{motion // 10} with no feed rate: give an F before the first feed "
+                      f"move (G1, G2, G3)")
+        i, j, r = (values.get(letter) for letter in "IJR")
+        if kind != "arc":
+            if i is not None or j is not None or r is not None:
+                self.fail(f"I, J and R belong to arcs (G2, G3), not to G{motion // 10}")
+            self.go(kind, end, feed=None if kind == "rapid" else self.feed,
+                    z_word="Z" in values)
+            if kind == "rapid":
+                self.moves[-1] = _with_feed(self.moves[-1], self.feed)
+            return
+        if "P" in values and values["P"] != 1:
+            self.fail(f"{texts['P']}: an arc of more than one turn is not supported")
+        x0, y0 = self.pos[0], self.pos[1]
+        scale = self.scale
+        cw = motion == 20
+        if r is not None:
+            if i is not None or j is not None:
+                self.fail("an arc by its centre (I, J) or by its radius (R), not both")
+            centre = _radius_centre((x0, y0), (end[0], end[1]), r * scale, cw, self.fail)
+        elif i is None and j is None:
+            self.fail(f"G{motion // 10} needs the centre: I and J (relative to the start) or R")
+        elif self.arc_absolute:
+            centre = ((i or 0) * scale + self.offset_of(0), (j or 0) * scale + self.offset_of(1))
+        elif scale == 1:
+            centre = (x0 + i if i else x0, y0 + j if j else y0)
+        else:
+            centre = (x0 + (i or 0) * scale, y0 + (j or 0) * scale)
+        self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values)
+
+
+def _with_feed(move, feed):
+    """A rapid move carries the feed in force (as the reader always gave it)."""
+    return replace(move, feed=feed)
+
+
+def _code_text(gs, group):
+    """The G code of ``group`` in a block's codes ``gs`` (ten times its number), as written."""
+    return f"G{gs[group] / 10:g}"
+
+
+def interpret(blocks, *, start=(0, 0), name=None, units=None, tools=None, parameters=None,
+              block_delete=False, events=None):
+    """Run the blocks through LinuxCNC's modal state, parameters and O-word control flow;
+    return the moves (:class:`Move`; with ``events``, a list, the :class:`Event` objects are
+    appended to it).
 
     The position starts at ``start`` (the origin by default, in the moves' units); motion,
-    distance (G90 absolute, the default, or G91 incremental), units and compensation are
-    modal. ``units`` is ``None`` (lattice units, no G20/G21) or ``"mm"`` (G21 by default, G20
-    inches; the moves in millimetres).
+    distance (G90 absolute, the default, or G91 incremental), arc distance (G91.1, the
+    default, or G90.1), units, compensation, the work offsets (G54-G59.3, G10 L2/L20, G92)
+    are modal. ``units`` is ``None`` (lattice units, no G20/G21) or ``"mm"`` (G21 by default,
+    G20 inches; the moves in millimetres). ``tools`` is the tool table, ``{tool: diameter
+    (mm)}`` (:func:`read_tool_table`), ``parameters`` numbered parameters to start with (in
+    millimetres: 5161-5163 the G28 position, 5181-5183 G30's). With ``block_delete`` the
+    lines starting with ``/`` are skipped (LinuxCNC's block delete switch, off by default).
 
     Raises
     ------
     :exc:`GCodeError`
-        For a word the reader does not interpret, two codes of one modal group in a block,
-        a feed move (G1, G2, G3) with no F in force (with ``units``, as LinuxCNC refuses it),
-        a word given twice, coordinates without a motion mode, an arc without its centre
-        (``I``/``J`` or ``R``, not both), an arc by radius that cannot reach its end, a block
-        after the program's end, or a code without an integer value.
+        For a word or code the reader does not interpret, two codes of one modal group in a
+        block, a word no code of its block takes, a feed move (G1, G2, G3) with no F in force
+        (with ``units``, as LinuxCNC refuses it), a word given twice, coordinates without a
+        motion mode, an arc without its centre (``I``/``J`` or ``R``, not both), an arc by
+        radius that cannot reach its end, an expression that cannot be evaluated, O-words that
+        do not match, a call of a subroutine the program does not define.
     """
     if units not in UNITS:
         raise ValueError(f"Units must be one of {', '.join(map(repr, UNITS))}, not {units!r}")
-    state = _State(position=(Fraction(start[0]), Fraction(start[1])))
-    moves = []
-    for block in blocks:
-        line = block.line
-
-        def fail(reason):
-            raise GCodeError(line, reason, name=name)
-
-        if state.ended:
-            fail("a block after the end of the program (M2/M30)")
-        seen = {}
-        groups = {}
-        for word in block.words:
-            if word.letter not in _LETTERS:
-                fail(f"unknown word {word.text}")
-            if word.letter in "GM":
-                if word.code is None:
-                    fail(f"{word.text}: a code must be an integer")
-                continue
-            if word.letter in seen:
-                fail(f"{word.letter} given twice ({seen[word.letter]} and {word.text})")
-            seen[word.letter] = word.text
-        for word in block.codes("G"):
-            code = word.code
-            if code not in _GROUPS:
-                fail(_ADVICE.get(code, f"unknown code {word.text}"))
-            if code in _SCALE and units is None:
-                fail(f"{word.text}: {_LATTICE}")
-            group = _GROUPS[code]
-            if group in groups:
-                fail(f"two {group} codes in one block ({groups[group]} and {word.text})")
-            groups[group] = word.text
-        for word in block.codes("M"):
-            if word.code not in (2, 30):
-                fail(f"unknown code {word.text}")
-            state.ended = True
-
-        for word in block.codes("G"):
-            code = word.code
-            if code in _MOTION:
-                state.motion = code
-            elif code == 90:
-                state.absolute = True
-            elif code == 91:
-                state.absolute = False
-            elif code == 40:
-                state.side = None
-            elif code == 41:
-                state.side = "left"
-            elif code == 42:
-                state.side = "right"
-            elif code in _SCALE:
-                state.scale = _SCALE[code]
-        scale = state.scale
-        if block.value("F") is not None:
-            if block.value("F") <= 0:
-                fail(f"the feed must be positive, not {seen['F']}")
-            state.feed = block.value("F") * scale
-        if block.value("D") is not None:
-            state.offset = block.value("D")
-
-        x, y, i, j, r = (None if block.value(letter) is None else block.value(letter) * scale
-                         for letter in "XYIJR")
-        if x is None and y is None and i is None and j is None and r is None:
-            continue
-        if state.motion is None:
-            fail("coordinates without a motion code (G0, G1, G2 or G3)")
-        x0, y0 = state.position
-        if state.absolute:
-            end = (x0 if x is None else x, y0 if y is None else y)
-        else:
-            end = (x0 + (x or 0), y0 + (y or 0))
-        kind = _MOTION[state.motion]
-        if kind != "rapid" and state.feed is None and units is not None:
-            fail(f"G{state.motion} with no feed rate: give an F before the first feed move "
-                 f"(G1, G2, G3)")
-        if kind != "arc":
-            if i is not None or j is not None or r is not None:
-                fail(f"I, J and R belong to arcs (G2, G3), not to G{state.motion}")
-            moves.append(Move(line, kind, (x0, y0), end, side=state.side, feed=state.feed))
-        else:
-            if r is not None:
-                if i is not None or j is not None:
-                    fail("an arc by its centre (I, J) or by its radius (R), not both")
-                centre = _radius_centre((x0, y0), end, r, state.motion == 2, fail)
-            elif i is None and j is None:
-                fail(f"G{state.motion} needs the centre: I and J (relative to the start) or R")
-            else:
-                centre = (x0 + (i or 0), y0 + (j or 0))
-            moves.append(Move(line, "arc", (x0, y0), end, centre=centre,
-                              cw=state.motion == 2, side=state.side, feed=state.feed))
-        state.position = end
+    interpreter = _Interpreter(blocks, start=start, name=name, units=units, tools=tools,
+                               parameters=parameters, block_delete=block_delete)
+    moves = interpreter.run()
+    if events is not None:
+        events.extend(interpreter.events)
     return moves
 
 
-def read(text, *, name=None, start=(0, 0), units=None):
+def planar(moves, *, name=None, unit="mm"):
+    """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`, the Z values in ``unit``)
+    at the first move that changes Z from where the program first put it: kontur drives X
+    and Y only; Z is read, and where the program first gives it is where the operator has
+    set the tool."""
+    z = None
+    for move in moves:
+        if move.z is None:
+            continue
+        if z is not None and move.z != z:
+            raise GCodeError(move.line, f"{Z_REFUSAL} (Z from {float(z):g} to "
+                                        f"{float(move.z):g} {unit})", name=name)
+        z = move.z
+
+
+def read(text, *, name=None, start=(0, 0), units=None, tools=None, parameters=None,
+         block_delete=False):
     """:func:`parse` and :func:`interpret` a program; return the :class:`Program`."""
     blocks = parse(text, name=name)
-    return Program(tuple(blocks), tuple(interpret(blocks, start=start, name=name, units=units)),
-                   name)
+    events = []
+    moves = interpret(blocks, start=start, name=name, units=units, tools=tools,
+                      parameters=parameters, block_delete=block_delete, events=events)
+    return Program(tuple(blocks), tuple(moves), name, tuple(events))
+
+
+class ToolTableError(ValueError):
+    """A tool table that cannot be read: the message names the line."""
+
+
+def read_tool_table(text, *, name=None, units="mm"):
+    """LinuxCNC's tool table (``T1 P1 D6.0 Z0 ;comment``, one tool a line): ``{tool:
+    diameter in mm}``. The diameters are in ``units`` (``"mm"``, the machine's units, as
+    LinuxCNC reads a table on a metric machine; or ``"inch"``); the other words (P, X-W, I, J,
+    Q) are read and not used.
+
+    Raises
+    ------
+    ToolTableError
+        For a line that is not a tool: no T, a word that is not a number, a tool twice.
+    """
+    factor = {"mm": Fraction(1), "inch": Fraction(254, 10)}[units]
+    tools = {}
+    for number, raw in enumerate(text.splitlines(), start=1):
+        code = raw.split(";", 1)[0].strip()
+        if not code:
+            continue
+        where = f"{name}:{number}" if name else f"line {number}"
+        fields = {}
+        for item in code.split():
+            letter, digits = item[0].upper(), item[1:]
+            try:
+                fields[letter] = Fraction(digits)
+            except (ValueError, ZeroDivisionError):
+                raise ToolTableError(f"{where}: cannot read {item!r}: a word is a letter and "
+                                     f"a number") from None
+            if letter not in "TPDXYZABCUVWIJQ":
+                raise ToolTableError(f"{where}: unknown word {item!r}")
+        if "T" not in fields or fields["T"].denominator != 1 or fields["T"] < 0:
+            raise ToolTableError(f"{where}: a tool line starts with T and the tool number")
+        tool = int(fields["T"])
+        if tool in tools:
+            raise ToolTableError(f"{where}: tool {tool} given twice")
+        diameter = fields.get("D", Fraction(0))
+        if diameter < 0:
+            raise ToolTableError(f"{where}: tool {tool}'s diameter is negative")
+        tools[tool] = diameter * factor
+    return tools

@@ -19,6 +19,8 @@ limit_y = "nc"
 probe = "no"
 cycle_start = "no"
 feed_hold = "nc"
+g28_position = [0, 0]      # mm, machine coordinates: where G28 goes (X Y, or X Y Z)
+g30_position = [0, 0]      # mm: where G30 goes (LinuxCNC's parameters 5161-5163, 5181-5183)
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -80,12 +82,21 @@ class Machine:
     probe: str = "no"
     cycle_start: str = "no"
     feed_hold: str = "nc"
+    g28_position: tuple = (0.0, 0.0)  # mm, machine coordinates: G28's (X, Y) or (X, Y, Z)
+    g30_position: tuple = (0.0, 0.0)  # mm: G30's
 
     def __post_init__(self):
         for name in SWITCHES:
             if getattr(self, name) not in ("nc", "no"):
                 raise MachineError(f"{name} must be \"nc\" (normally closed) or \"no\" "
                                    f"(normally open), not {getattr(self, name)!r}")
+        for name in ("g28_position", "g30_position"):
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)) or len(value) not in (2, 3) or any(
+                    isinstance(c, bool) or not isinstance(c, (int, float))
+                    or not math.isfinite(c) for c in value):
+                raise MachineError(f"{name} must be [X, Y] or [X, Y, Z] in mm, not {value!r}")
+            object.__setattr__(self, name, tuple(float(c) for c in value))
         if self.cutter_radius is not None:
             value = self.cutter_radius
             if isinstance(value, bool) or not isinstance(value, (int, float)) \
@@ -93,7 +104,8 @@ class Machine:
                 raise MachineError(f"cutter_radius must be a number of at least 0 (mm), not "
                                    f"{value!r}")
         for item in fields(self):
-            if item.name == "cutter_radius" or item.name in SWITCHES:
+            if item.name in ("cutter_radius", "g28_position", "g30_position") \
+                    or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -139,6 +151,16 @@ class Machine:
                 raise MachineError(f"{path}: unknown key {key!r} (known: {', '.join(sorted(known))})")
         table.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**table, clock_hz=clock_hz)
+
+    @property
+    def parameters(self):
+        """The G-code parameters the machine gives a program (:func:`kontur.gcode.interpret`):
+        G28's position in 5161-5163, G30's in 5181-5183 (mm)."""
+        out = {}
+        for base, position in ((5161, self.g28_position), (5181, self.g30_position)):
+            for axis, value in enumerate(position):
+                out[base + axis] = value
+        return out
 
     # ---- in the gateware's units --------------------------------------------------------
 

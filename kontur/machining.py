@@ -37,7 +37,7 @@ from pathlib import Path
 
 from kontur import registry
 from kontur.compensation import program_segments, references
-from kontur.gcode import GCodeError, read, sweep
+from kontur.gcode import GCodeError, planar, read, sweep
 from kontur.machine import Machine, MachineError
 from kontur.planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
 from kontur.sim.models.motion import safety_run
@@ -47,6 +47,10 @@ __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "m
            "MAX_STEPS", "BYTES_PER_STEP", "check_compress", "staging_dir"]
 
 ENGINES = ("model", "amaranth", "icarus", "verilator")
+
+#: The events of a program listed as ``tool_events`` in the summary (:class:`kontur.gcode.
+#: Event` kinds): T, M6/M61, M3/M4/M5, S, M7/M8/M9, G43/G43.1/G49.
+TOOL_EVENTS = ("tool", "tool_change", "spindle", "speed", "coolant", "tool_length")
 
 #: Clocks a run may take at most, per engine (about ten minutes of each, as measured on these
 #: machines: Amaranth ~10 k, Icarus ~8 k, Verilator's fast harness ~1.5 M clocks a second).
@@ -79,6 +83,7 @@ class Job:
     items: list                       # the feed plan, kontur.planner.PlanItem
     start: tuple = (0, 0)             # steps
     contours: list = field(default_factory=list)    # kontur.compensation.Contour
+    events: list = field(default_factory=list)      # kontur.gcode.Event: tools, pauses, ...
 
     @property
     def steps(self):
@@ -131,6 +136,8 @@ def _move_steps(move, spm):
     for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
     radius in steps, rounded up) by its programmed sweep (:attr:`kontur.gcode.Move.sweep`),
     and 16 more (the lattice's sweep is the programmed one within the rounding)."""
+    if move.kind == "dwell":
+        return 0
     coordinates = [*move.start, *move.end, *(move.centre or ())]
     if all(abs(c) < 10 ** 9 for c in coordinates):       # floats exact enough: +2 steps slack
         x0, y0, x1, y1, *centre = map(float, coordinates)
@@ -189,9 +196,14 @@ def estimate_steps(moves, machine, *, max_steps=None):
     return total
 
 
-def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None):
+def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None, tools=None):
     """Read, place on the lattice and plan a program for ``board``'s controller (a board's
     name, or a :class:`kontur.registry.Board`); return the :class:`Job`.
+
+    ``tools`` is the tool table (``{tool: diameter, mm}``, :func:`kontur.gcode.
+    read_tool_table`) for the program's D words and loaded tools; the machine's G28 and G30
+    positions are the program's parameters 5161-5163 and 5181-5183. A move that changes Z is
+    refused (:func:`kontur.gcode.planar`): the controller has X and Y.
 
     Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
     and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
@@ -213,12 +225,19 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     except MachineError as error:
         raise UsageError(str(error)) from None
     try:
-        program = read(text, name=name, units="mm")
+        program = read(text, name=name, units="mm", tools=tools,
+                       parameters=machine.parameters)
+        planar(program.moves)
     except GCodeError as error:
         raise ProgramError(error.line, error.reason) from None
     moves = list(program.moves)
-    if not moves:
+    if not any(move.kind != "dwell" for move in moves):
         raise ProgramError(None, "the program has no moves")
+    dwell = next((move for move in moves if move.kind == "dwell" and move.side), None)
+    if dwell is not None:
+        raise ProgramError(dwell.line, "a dwell (G4) inside a compensated contour: the "
+                                       "equidistant engine takes the contour whole; dwell "
+                                       "before G41/G42 or after G40")
     estimate_steps(moves, machine, max_steps=max_steps)
     contours = []
     if any(move.side is not None for move in moves):
@@ -228,7 +247,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                            widths=(item.line[1], item.arc[1]))
     start = segments[0].start if segments else (0, 0)
     return Job(name or "program", board, machine, moves, segments, plan(segments, machine),
-               start, contours)
+               start, contours, list(program.events))
 
 
 def max_compress(job):
@@ -298,6 +317,9 @@ def _plan_times(job):
     a, spm = job.machine.accel, job.machine.steps_per_mm
     times, now = [], 0.0
     for segment, item in zip(job.segments, job.items):
+        if segment.kind == "dwell":
+            now += item.seconds
+            continue
         total = segment.length / spm
         covered = 0.0
         for dx, dy in segment.steps:
@@ -533,13 +555,16 @@ def deviation(job, steps):
     circle within its programmed sweep, its nearer end outside it, so a turn traced where a
     sliver was programmed is far from it); a compensated contour's, from its exact equidistant
     (the approach to it from its own line)."""
-    moves = {move.line: move for move in job.moves}
+    moves = {move.line: move for move in job.moves if move.kind != "dwell"}
+    ids = {id(move) for move in job.moves}
     special = references(job)
     spm = job.machine.steps_per_mm
     worst = 0.0
     index = 0
     for number, segment in enumerate(job.segments):
         x, y = segment.start
+        if segment.kind == "dwell":
+            continue
         if number in special:
             measure = special[number] or (lambda p, a=segment.start, b=segment.end:
                                           _distance_to_segment(p, a, b) / spm)
@@ -548,7 +573,9 @@ def deviation(job, steps):
                 worst = max(worst, measure((x, y)))
             index += len(segment.steps)
             continue
-        move = moves[segment.line]
+        # The move the segment comes from (several moves may share a line: G28, loops), as
+        # long as it is one of the job's moves.
+        move = segment.source if id(segment.source) in ids else moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
         for dx, dy in steps[index:index + len(segment.steps)]:
@@ -582,7 +609,8 @@ def summary(job, result):
     spm = job.machine.steps_per_mm
     steps = result.steps
     end = result.end
-    moves = job.moves
+    moves = [move for move in job.moves if move.kind != "dwell"]
+    dwells = [move for move in job.moves if move.kind == "dwell"]
     data = {
         "program": job.name,
         "board": registry.board(job.board).name,
@@ -615,12 +643,20 @@ def summary(job, result):
         "final_state": result.final_state,
         "alarm": list(result.alarm),
         "events": [dict(event) for event in result.events],
+        "dwells": len(dwells),
+        "dwell_seconds": float(sum(move.seconds for move in dwells)),
+        "tool_events": [event.as_dict() for event in job.events if event.kind in TOOL_EVENTS],
+        "pauses": [event.as_dict() for event in job.events if event.kind == "pause"],
+        "messages": [event.as_dict() for event in job.events if event.kind == "message"],
     }
     if job.contours:
-        data["cutter_radius_mm"] = job.machine.cutter_radius
+        data["cutter_radius_mm"] = float(job.contours[0].radius_mm)
         data["cutter_radius_steps"] = job.contours[0].radius
         data["contours"] = [{
             "lines": list(contour.lines),
+            "radius_mm": float(contour.radius_mm),
+            "radius_steps": contour.radius,
+            "radius_from": contour.radius_from,
             "side": contour.prepared.profile.side,
             "closed": contour.prepared.closed,
             "profile_frames": len(contour.prepared.frames) - (1 if number else 0),
@@ -663,8 +699,21 @@ def summary_text(data, out_dir=None):
                      f"({'G41' if contour['side'] == 'left' else 'G42'}, "
                      f"{'closed' if contour['closed'] else 'open'}): "
                      f"{contour['profile_frames']} PROFILE frames through the equidistant "
-                     f"engine, cutter radius {data['cutter_radius_mm']:g} mm "
-                     f"({data['cutter_radius_steps']} steps), {contour['steps']} steps")
+                     f"engine, cutter radius {contour['radius_mm']:g} mm "
+                     f"({contour['radius_steps']} steps, {contour['radius_from']}), "
+                     f"{contour['steps']} steps")
+    if data.get("dwells"):
+        lines.append(f"dwells     {data['dwells']} (G4), {data['dwell_seconds']:g} s, as DWELL "
+                     f"frames")
+    if data.get("tool_events"):
+        lines.append(f"tools      {len(data['tool_events'])} tool events (not driven: the "
+                     f"controller has no tool outputs): "
+                     + ", ".join(f"{e['text']} (line {e['line']})"
+                                 for e in data["tool_events"][:6])
+                     + (", ..." if len(data["tool_events"]) > 6 else ""))
+    for pause in data.get("pauses", ()):
+        lines.append(f"pause      line {pause['line']}: {pause['text']}, resumed at once (a "
+                     f"simulated operator)")
     lines += [
         f"deviation  {data['max_deviation_mm']:.4f} mm at most from the programmed contour"
         + (" (a compensated one's: from its equidistant)" if data.get("contours") else ""),

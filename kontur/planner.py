@@ -31,7 +31,8 @@ from kontur.sim.models.errors import InputError
 from kontur.hdl.motion import protocol
 from kontur.gcode import sweep
 
-__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "ProgramError", "on_lattice",
+__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "dwell_clocks", "ProgramError",
+           "on_lattice",
            "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
            "planned_feed"]
 
@@ -63,6 +64,7 @@ class Segment:
     steps: list
     tangents: tuple
     radius: float = None                  # steps, for an arc
+    source: object = None                 # the program's move it comes from (lattice's)
 
     @property
     def length(self):
@@ -232,6 +234,8 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     segments = []
     position = None if start is None else tuple(start)
 
+    source = None
+
     def add(line, kind, payload, start, end, feed, tangents=None, radius=None):
         variant, width = (variants[0], widths[0]) if kind == "line" else (variants[1], widths[1])
         try:
@@ -244,14 +248,19 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             direction = _unit(end[0] - start[0], end[1] - start[1])
             tangents = (direction, direction)
         segments.append(Segment(line, kind, payload, start, end, feed, steps, tangents,
-                                radius))
+                                radius, source))
 
     for move in moves:
+        source = move
+        if position is None:
+            position = on_lattice(move.start, machine)
+        if move.kind == "dwell":          # G4: the machine waits where it is
+            segments.append(Segment(move.line, "dwell", {"seconds": move.seconds}, position,
+                                    position, 0.0, [], None, None, move))
+            continue
         speed = machine.max_feed if move.kind == "rapid" or move.feed is None else \
             min(float(move.feed), machine.max_feed)
         feed = speed / 60
-        if position is None:
-            position = on_lattice(move.start, machine)
         end = on_lattice(move.end, machine)
         if move.kind in ("rapid", "line"):
             add(move.line, "line", {"x": end[0] - position[0], "y": end[1] - position[1]},
@@ -343,6 +352,10 @@ def planned_feed(feed, machine):
 def plan(segments, machine):
     """The feed plan of ``segments``: a :class:`PlanItem` each.
 
+    A dwell (a segment of kind ``"dwell"``, G4) stops the machine: the moves before it end at
+    rest and those after it start from rest (each stretch between dwells is planned alone), and
+    its item is its time.
+
     1. Every speed of the plan (a move's cruise, its exit, the next move's entry) is one the
        feed generator makes: its rate rounded down to a whole Q0.24 rate (:func:`min_feed`),
        so a move is never faster than its feed and its planned time is the generator's.
@@ -358,6 +371,21 @@ def plan(segments, machine):
     ProgramError
         For a feed below :func:`min_feed`, naming the line and the minimum.
     """
+    if not any(s.kind == "dwell" for s in segments):
+        return _plan(segments, machine)
+    items, stretch = [], []
+    for segment in segments:
+        if segment.kind == "dwell":
+            items += _plan(stretch, machine)
+            stretch = []
+            items.append(PlanItem(0.0, 0.0, 0.0, 0, float(segment.payload["seconds"])))
+        else:
+            stretch.append(segment)
+    return items + _plan(stretch, machine)
+
+
+def _plan(segments, machine):
+    """:func:`plan` of segments without a dwell."""
     spm = machine.steps_per_mm
     a = machine.accel
     unit = min_feed(machine)
@@ -419,9 +447,17 @@ def _move_frame(segment):
     return protocol.profile(p["frame"], width=p["width"])
 
 
+def dwell_clocks(seconds, machine, compress=1):
+    """The DWELL frames' clocks for a dwell of ``seconds`` (its time divided by the time
+    compression): one frame for each 2**32 - 1 clocks, none for a dwell of no clock."""
+    clocks = round(Fraction(seconds) * Fraction(machine.clock_hz) / compress)
+    limit = (1 << 32) - 1
+    return [limit] * (clocks // limit) + ([clocks % limit] if clocks % limit else [])
+
+
 def frames(segments, items, machine, *, compress=1):
-    """The frames of the program: the configuration, a FEED and a move for each segment, the
-    STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
+    """The frames of the program: the configuration, a FEED and a move for each segment (a
+    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
     frame comes from (``None`` for CONFIG and STOP).
 
     With ``compress`` (a simulation's time compression) every rate is ``compress`` times the
@@ -443,6 +479,11 @@ def frames(segments, items, machine, *, compress=1):
                                  f"{accel} a clock (Q0.40), beyond CONFIG's 32-bit field")
     out, lines = [protocol.config(accel)], [None]
     for segment, item in zip(segments, items):
+        if segment.kind == "dwell":       # DWELL frames: the controller waits their clocks
+            for clocks in dwell_clocks(segment.payload["seconds"], machine, compress):
+                out.append(protocol.dwell(clocks))
+                lines.append(segment.line)
+            continue
         if item.decelerate >= 1 << 24:
             raise ProgramError(segment.line, f"the move has {len(segment.steps)} steps: its "
                                              f"ramp-down starts at step {item.decelerate}, "

@@ -35,7 +35,8 @@ from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATES, STATUS
 from kontur.hdl.motion import protocol
 from kontur.sim import processes
 
-__all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT"]
+__all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT",
+           "unhonoured", "UNHONOURED"]
 
 OUTCOMES = ("done", "refused", "aborted")
 DONE, REFUSED, ABORTED = range(3)
@@ -112,14 +113,46 @@ def _where(lines, index):
     return f"line {line}" if line is not None else "the program's set-up (no program line)"
 
 
+#: What the board cannot do, by event kind (:class:`kontur.gcode.Event`): the reason a program
+#: asking for it is refused by ``kontur send`` (``kontur run`` simulates it).
+UNHONOURED = {
+    "spindle": "switches the spindle (or laser, torch) on, but the board has no tool outputs",
+    "coolant": "switches coolant on, but the board has no coolant outputs",
+    "tool_change": "changes the tool, which needs a pause for the operator, and the board "
+                   "cannot pause a program",
+    "pause": "pauses the program until cycle start, and the board cannot pause a program",
+}
+
+
+def unhonoured(job):
+    """``(line, reason)`` of the first event of ``job`` the board cannot honour (M3, M4, M7,
+    M8, M6, M0, M1; :data:`UNHONOURED`), or ``None``. M5, M9, M61, S, T, G43/G49 and messages
+    ask nothing of the board."""
+    for event in job.events:
+        if event.text.split()[0] in ("M5", "M9", "M61"):     # off, or a tool number set
+            continue
+        if event.kind in UNHONOURED:
+            return event.line, (f"{event.text.split(' (')[0]} {UNHONOURED[event.kind]}: "
+                                f"kontur send cannot honour it (kontur run simulates it)")
+    return None
+
+
 def _durations(job, count):
     """The planned time (s) of each of the job's ``count`` frames: the move frames' their
-    plan's, the others' none (CONFIG, FEED and a move each, STOP; for any other layout every
-    frame gets the whole program's time)."""
-    items = job.items
-    if count != 2 * len(items) + 2:
+    plan's, a dwell's its share of the dwell, the others' none (CONFIG, FEED and a move each,
+    DWELL frames, STOP; for any other layout every frame gets the whole program's time)."""
+    from kontur.planner import dwell_clocks
+    out = [0.0]
+    for segment, item in zip(job.segments, job.items):
+        if segment.kind == "dwell":
+            parts = len(dwell_clocks(segment.payload["seconds"], job.machine))
+            out += [item.seconds / parts] * parts
+        else:
+            out += [0.0, item.seconds]
+    out.append(0.0)
+    if count != len(out):
         return [job.seconds] * count
-    return [0.0] + [t for item in items for t in (0.0, item.seconds)] + [0.0]
+    return out
 
 
 def _mm(point, spm):

@@ -273,7 +273,7 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     """
     from kontur.sim.models.equidistant import (DETECTIONS, TREATMENTS, Formats, prepare,
                                       profile_from_moves)
-    from kontur.gcode import GCodeError, read
+    from kontur.gcode import GCodeError, planar, read
     params = dict(params or {})
     if engine not in ENGINES:
         raise UsageError(f"engine must be one of {', '.join(ENGINES)}, not {engine!r}")
@@ -298,9 +298,11 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
         raise UsageError(f"--max-clocks must be a positive integer, not {limit!r}")
     try:
         program = read(text, name=name)
+        planar(program.moves, name=name, unit="steps")
     except GCodeError as error:
         raise UsageError(str(error)) from None
-    profile = profile_from_moves(program.moves)
+    # A dwell is no part of the contour's geometry (the trace has no time).
+    profile = profile_from_moves([move for move in program.moves if move.kind != "dwell"])
     prepared = prepare(profile, radius, treatment=treatment, detection=detection,
                        formats=Formats(width))
     clocks, steps = _profile_clocks(prepared, _clocks_per_step(item, params))

@@ -3,7 +3,8 @@
 import unittest
 from fractions import Fraction
 
-from kontur.gcode import GCodeError, Move, interpret, parse, read
+from kontur.gcode import (GCodeError, Move, ToolTableError, interpret, parse, planar, read,
+                          read_tool_table)
 
 
 class ParseTestCase(unittest.TestCase):
@@ -23,7 +24,8 @@ class ParseTestCase(unittest.TestCase):
             ("G1 X1\nG1 X (\n", r"^line 2: a comment opened with '\(' is not closed$"),
             ("G1 (a (b) c)\n", r"^line 1: comments do not nest$"),
             ("G1 X1 )\n", r"^line 1: '\)' closes no comment$"),
-            ("\nG1 X1 @5\n", r"^line 2: cannot read '@5': a word is a letter and a number$"),
+            ("\nG1 X1 %5\n", r"^line 2: cannot read '%5': a word is a letter and a number$"),
+            ("\nG1 X1 @5\n", r"^line 2: '@5': polar coordinates \(@ and \^\) are not supported$"),
             ("G1 X\n", r"^line 1: cannot read 'X': a word is a letter and a number$"),
         ]
         for text, message in cases:
@@ -69,7 +71,8 @@ class InterpretTestCase(unittest.TestCase):
 
     def test_refusals_name_the_line(self):
         cases = [
-            ("G1 X1\nQ3\n", r"^line 2: unknown word Q3$"),
+            ("G1 X1\nQ3\n", r"^line 2: Q3: no code in this block takes Q \(G64, M61\)$"),
+            ("G1 X1\nE3\n", r"^line 2: unknown word E3$"),
             ("G2 X20 R5\n", r"^line 1: the radius 5 is less than half the distance to the end "
                             r"\(10\)$"),
             ("G2 X1 R0\n", r"^line 1: an arc of radius zero \(R0\)$"),
@@ -77,20 +80,19 @@ class InterpretTestCase(unittest.TestCase):
             ("G2 X2 I1 R1\n", r"^line 1: an arc by its centre \(I, J\) or by its radius \(R\), "
                               r"not both$"),
             ("G1 X1 R2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
-            ("G1.5 X1\n", r"^line 1: G1\.5: a code must be an integer$"),
+            ("G1.5 X1\n", r"^line 1: unknown code G1\.5$"),
             ("G1 X1 X2\n", r"^line 1: X given twice \(X1 and X2\)$"),
-            ("G5 X1\n", r"^line 1: unknown code G5$"),
+            ("G6 X1\n", r"^line 1: unknown code G6$"),
             ("G21\n", r"^line 1: G21: this program is read in lattice units \(steps\), "
                       r"without G20/G21$"),
-            ("G18\n", r"^line 1: only the XY plane \(G17\) is supported$"),
+            ("G18\n", r"^line 1: G18: only the XY plane \(G17\) is supported$"),
             ("G1 G2 X1\n", r"^line 1: two motion codes in one block \(G1 and G2\)$"),
-            ("M5\n", r"^line 1: unknown code M5$"),
+            ("M5.5\n", r"^line 1: unknown code M5\.5$"),
+            ("M62\n", r"^line 1: unknown code M62$"),
             ("X1\n", r"^line 1: coordinates without a motion code \(G0, G1, G2 or G3\)$"),
             ("G1 X1 I2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
             ("G3 X1 Y1\n", r"^line 1: G3 needs the centre: I and J \(relative to the start\) "
                            r"or R$"),
-            ("G1 X1\nM2\nG1 X2\n", r"^line 3: a block after the end of the program "
-                                   r"\(M2/M30\)$"),
             ("G1 X1 F0\n", r"^line 1: the feed must be positive, not F0$"),
         ]
         for text, message in cases:
@@ -99,11 +101,16 @@ class InterpretTestCase(unittest.TestCase):
 
     def test_units(self):
         # Lattice units refuse G20/G21 (above); millimetres take them, inches scale by 25.4.
-        moves = interpret(parse("G1 X1 F10\nG20 G1 X1 Y2 F10\nG21 G91 G1 X1\n"), units="mm")
+        # F is read before the block's G20/G21 (LinuxCNC's order of execution, as rs274
+        # prints it: SET_FEED_RATE before USE_LENGTH_UNITS): "G20 F10" is 10 mm/min, a
+        # later F10 in inches 254 mm/min, kept in mm across G21.
+        moves = interpret(parse("G1 X1 F10\nG20 G1 X1 Y2 F10\nG1 X2 F10\nG21 G91 G1 X1\n"),
+                          units="mm")
         self.assertEqual([m.end for m in moves],
                          [(1, 0), (Fraction(254, 10), Fraction(508, 10)),
-                          (Fraction(264, 10), Fraction(508, 10))])
-        self.assertEqual([m.feed for m in moves], [10, 254, 254])
+                          (Fraction(508, 10), Fraction(508, 10)),
+                          (Fraction(518, 10), Fraction(508, 10))])
+        self.assertEqual([m.feed for m in moves], [10, 10, 254, 254])
         moves = interpret(parse("G20 G0 X1\nG3 X0 Y1 I-1 F10\n"), units="mm")
         self.assertEqual(moves[1].centre, (0, 0))
         with self.assertRaisesRegex(GCodeError, r"^line 1: two units codes in one block "
@@ -151,3 +158,160 @@ class InterpretTestCase(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class LinuxCNCWordsTestCase(unittest.TestCase):
+    """The words real programs carry, each with LinuxCNC's meaning (the values expected here
+    are worked out by hand from LinuxCNC's documentation; tests/test_gcode_rs274.py holds the
+    reader against rs274 itself)."""
+
+    def read(self, text, **options):
+        return read(text, units="mm", **options)
+
+    def ends(self, text, **options):
+        return [tuple(float(c) for c in m.end) for m in self.read(text, **options).moves
+                if m.kind != "dwell"]
+
+    def test_messages_name_the_right_word(self):
+        cases = [
+            ("G1 X1 F10\nG1 X2 P0.05\n", r"^line 2: P0\.05: no code in this block takes P"),
+            ("G1 X1 F10 H1\n", r"^line 1: H1: no code in this block takes H \(G43\)$"),
+            ("G1 X1 F10 L2\n", r"^line 1: L2: no code in this block takes L \(G10\)$"),
+            ("G4\n", r"^line 1: G4 needs P: the dwell in seconds$"),
+            ("G10 P1 X1\n", r"^line 1: G10 needs L"),
+            ("G10 L1 P1 R1\n", r"^line 1: G10 L1: only L2 and L20 \(work offsets\) are "
+                               r"supported: give the tool table with --tool-table$"),
+            ("G92\n", r"^line 1: G92 needs an axis word$"),
+            ("G93 G1 X1 F1\n", r"^line 1: G93: inverse-time feed"),
+            ("G1 X1 F10\nG2 X2 Y1 I1 Z1 K2\n", r"^line 2: K2: arcs in the XZ and YZ planes"),
+            ("G53 G2 X1 Y1 R1 F10\n", r"^line 1: G53 \(machine coordinates\) takes G0 or G1"),
+            ("G41.1 G1 X1 F10\n", r"^line 1: G41\.1 needs D: the cutter's diameter$"),
+            ("M6 M61 Q1\n", r"^line 1: two tool change codes in one block \(M6 and M61\)$"),
+            ("G1 X1 F10 B2\n", r"^line 1: B2: this controller has the axes X and Y"),
+            ("#<x> = 1\nG1 X#<y> F10\n", r"^line 2: named parameter #<y> is not defined$"),
+            ("G1 X[1/0] F10\n", r"^line 1: division by zero in an expression$"),
+            ("G1 X[SQRT[-1]] F10\n", r"^line 1: SQRT of a negative number"),
+            ("G1 X[1 + ] F10\n", r"^line 1: cannot read '\] ?f10'|^line 1: cannot read"),
+            ("#1 = [1 + 2\n", r"^line 1: an expression's '\[' is not closed by '\]'$"),
+            ("o100 if [1]\nG1 X1 F10\n", r"^line 1: o100 if is not closed \(no o100 endif\)$"),
+            ("o100 endif\n", r"^line 1: o100 endif closes no o100 if$"),
+            ("o100 while [1]\no101 break\no100 endwhile\n",
+             r"^line 2: o101 break outside loop o101$"),
+            ("o<a> sub\no<a> endsub\no<a> sub\no<a> endsub\n",
+             r"^line 3: subroutine o<a> defined twice$"),
+            ("o<a> call\n", r"^line 1: o<a> call: no subroutine o<a> in this program"),
+            ("o100 foo\n", r"^line 1: o100: unknown O-word command 'foo'"),
+            ("#5220 = 2\n", r"^line 1: #5220 \(the coordinate system\) is set by G54-G59\.3"),
+        ]
+        for text, message in cases:
+            with self.subTest(text=text), self.assertRaisesRegex(GCodeError, message):
+                self.read(text)
+
+    def test_words_real_programs_carry_are_accepted(self):
+        program = self.read("%\nG17 G21 G40 G49 G54 G64 P0.05 Q0.01 G80 G90 G91.1 G94 G98\n"
+                            "G43 H1\nG61.1\nG90.1\nG99\nG64\nT1 M6\nS1000 M3\nM7 M8\nM9\nM5\n"
+                            "G1 X - 1 Y + 2 F100\nM2\nG1 X99 Y99\n")
+        self.assertEqual([tuple(m.end) for m in program.moves], [(-1, 2)])
+        self.assertEqual([(e.line, e.kind, e.text) for e in program.events], [
+            (2, "tool_length", "G49"), (3, "tool_length", "G43 H1"), (8, "tool", "T1"), (8, "tool_change", "M6 T1"),
+            (9, "speed", "S1000"), (9, "spindle", "M3 S1000"), (10, "coolant", "M7"),
+            (10, "coolant", "M8"), (11, "coolant", "M9"), (12, "spindle", "M5")])
+
+    def test_expressions(self):
+        # Each value worked out by hand with LinuxCNC's precedences (all left-associative;
+        # unary minus binds tightest), degrees for angles, MOD's result made non-negative.
+        cases = [("[1 + 2 * 3]", 7), ("[2 ** 3 ** 2]", 64), ("[-2 ** 2]", 4),
+                 ("[7 MOD 3]", 1), ("[-7 MOD 3]", 2), ("[10 - 4 - 3]", 3), ("[12 / 2 / 3]", 2),
+                 ("[1 EQ 1.0000001]", 1), ("[1 NE 1.1]", 1), ("[2 GT 1 AND 0]", 0),
+                 ("[0 OR 2]", 1), ("[1 XOR 1]", 0), ("[3 LE 3]", 1), ("[3 LT 3]", 0),
+                 ("[ROUND[2.5]]", 3), ("[ROUND[-2.5]]", -3), ("[FIX[-2.5]]", -3),
+                 ("[FUP[-2.5]]", -2), ("[ABS[-4]]", 4), ("[SQRT[16]]", 4),
+                 ("[ATAN[1]/[-1]]", 135), ("[SIN[90]]", 1), ("[COS[180]]", -1),
+                 ("[ASIN[1]]", 90), ("[ACOS[0]]", 90), ("[TAN[45]]", 1), ("[LN[EXP[2]]]", 2),
+                 ("[1 + 2 EQ 3]", 1)]
+        for expression, value in cases:
+            with self.subTest(expression=expression):
+                (end,) = self.ends(f"G1 X{expression} F1\n")
+                self.assertAlmostEqual(end[0], value, places=9)
+
+    def test_parameters(self):
+        # Settings take effect after the line: X#1 reads the #1 before it.
+        ends = self.ends("#1 = 3\n#2 = 4 G1 X#1 Y#2 F10\n#5 = 1\nG1 X#2 Y##5\n#<_g> = 5\n"
+                         "#<l> = #<_g>\nG1 X#<l> Y#<_g>\nG1 X[#1 + #<l>]\n")
+        self.assertEqual(ends, [(3, 0), (4, 3), (5, 5), (8, 5)])
+
+    def test_subroutines_locals_and_return(self):
+        program = ("o<f> sub\n#<a> = [#1 * 2]\nG1 X#<a> F10\no<f> endsub [#<a> + 1]\n"
+                   "#<a> = 100\n#1 = 7\no<f> call [3]\nG1 Y#<_value>\nG1 X#<a> Y#1\n"
+                   "o<g> sub\no<g> call [#1 - 1]\no<g> endsub\n")
+        # #<a> and #1 are the caller's again after the call; the sub's value is 3 * 2 + 1.
+        self.assertEqual(self.ends(program), [(6, 0), (6, 7), (100, 7)])
+        with self.assertRaisesRegex(GCodeError, r"^line 2: o<g> call: more than 100 calls"):
+            self.read("o<g> sub\no<g> call\no<g> endsub\no<g> call\n")
+
+    def test_endless_loop_is_refused(self):
+        import kontur.gcode as gcode
+        saved = gcode.MAX_BLOCKS
+        gcode.MAX_BLOCKS = 1000
+        try:
+            with self.assertRaisesRegex(GCodeError, r"^line \d: the program runs more than "
+                                                    r"1,000 blocks \(an endless loop\?\)$"):
+                self.read("o1 while [1]\nG1 X1 F1\no1 endwhile\n")
+        finally:
+            gcode.MAX_BLOCKS = saved
+
+    def test_offsets(self):
+        # G54 at (10, 5): X1 is machine 11; G92 makes here (11, 5) the point (0, 0); G53 is
+        # the machine's own coordinates whatever the offsets.
+        ends = self.ends("G10 L2 P1 X10 Y5\nG0 X1 Y0\nG92 X0 Y0\nG1 X1 F10\nG53 G0 X2 Y3\n"
+                         "G92.1\nG1 X0 Y0\nG55 G1 X0 Y0\nG10 L20 P2 X1 Y1\nG1 X0 Y0\n")
+        self.assertEqual(ends, [(11, 5), (12, 5), (2, 3), (10, 5), (0, 0), (-1, -1)])
+
+    def test_home_positions_from_the_parameters(self):
+        program = self.read("G0 X5 Y5\nG28\nG28 X20\nG30 Y1\n",
+                            parameters={5161: 1, 5162: 2, 5181: 7, 5182: 8})
+        self.assertEqual([tuple(m.end) for m in program.moves],
+                         [(5, 5), (5, 5), (1, 2), (20, 2), (1, 2), (1, 1), (1, 8)])
+
+    def test_arc_centre_modes(self):
+        moves = self.read("G0 X10 Y5\nG90.1 G2 X0 Y5 I5 J5 F10\nG91.1 G3 X10 Y5 I5 J0\n").moves
+        self.assertEqual([m.centre for m in moves[1:]], [(5, 5), (5, 5)])
+
+    def test_dwells_and_z(self):
+        program = self.read("G0 X1 Z2\nG4 P0.25\nG1 X2 F10\nG1 Z3\n")
+        self.assertEqual([(m.kind, m.z, m.seconds) for m in program.moves],
+                         [("rapid", 2, None), ("dwell", 2, Fraction(1, 4)), ("line", 2, None),
+                          ("line", 3, None)])
+        with self.assertRaisesRegex(GCodeError, r"^line 4: Z moves need the third axis, which "
+                                                r"this controller does not have yet \(Z from 2 "
+                                                r"to 3 mm\)$"):
+            planar(program.moves)
+        planar(self.read("G1 X1 F10\nG0 Z-1\nG1 X2 Z-1\nG54 G1 X3\n").moves)
+
+    def test_block_delete_and_percent(self):
+        text = "%\nG1 X1 F10\n/G1 X2\n%\nG1 X3\n"
+        self.assertEqual(self.ends(text), [(1, 0), (2, 0)])
+        self.assertEqual(self.ends(text, block_delete=True), [(1, 0)])
+
+    def test_messages_and_pauses(self):
+        program = self.read("(MSG, hello)\n#1 = 2\n(DEBUG, one #1 two #<_value>)\nM0\nM1\n")
+        self.assertEqual([(e.kind, e.text) for e in program.events],
+                         [("message", " hello"), ("message", " one 2.000000 two 0.000000"),
+                          ("pause", "M0"), ("pause", "M1 (optional stop)")])
+
+    def test_compensation_radius_from_the_tools(self):
+        tools = read_tool_table("T1 P1 D6 ;six\nT2 P2 D4 Z1\n\n; comment line\n")
+        self.assertEqual(tools, {1: 6, 2: 4})
+        moves = self.read("G0 X0\nG41 D1 G1 X1 F10\nG40 G1 X2\nT2 M6\nG42 G1 X3\n"
+                          "G41.1 D3 G1 X4\nG40 G1 X5\n", tools=tools).moves
+        self.assertEqual([m.radius for m in moves], [None, 3, None, 2, Fraction(3, 2), None])
+        self.assertEqual(moves[1].radius_source, "tool table: D1, diameter 6 mm")
+        with self.assertRaisesRegex(GCodeError, r"^line 1: D9: tool 9 is not in the tool "
+                                                r"table$"):
+            self.read("G41 D9 G1 X1 F10\n", tools=tools)
+        for text, message in (("T1 D6\nT1 D3\n", r"^line 2: tool 1 given twice$"),
+                              ("P1 D3\n", r"^line 1: a tool line starts with T"),
+                              ("T1 Dx\n", r"^line 1: cannot read 'Dx'")):
+            with self.subTest(text=text), self.assertRaisesRegex(ToolTableError, message):
+                read_tool_table(text)
+        self.assertEqual(read_tool_table("T1 D0.25\n", units="inch"), {1: Fraction(635, 100)})

@@ -76,7 +76,13 @@ class PrepareTestCase(unittest.TestCase):
     def test_refusals_name_the_line(self):
         cases = [
             ("G1 X1 F100\nG2 X20 R2\n", r"^line 2: the radius 2 is less than half"),
-            ("G1 X1 F100\nM3\n", r"^line 2: unknown code M3$"),
+            ("G1 X1 F100\nM62\n", r"^line 2: unknown code M62$"),
+            ("G0 Z0\nG1 X1 F100\nG1 X2 Z-1\n", r"^line 3: Z moves need the third axis, which "
+                                               r"this controller does not have yet \(Z from 0 "
+                                               r"to -1 mm\)$"),
+            ("G0 Z5\nG1 X1 F100\nG0 Z6\n", r"^line 3: Z moves need the third axis"),
+            ("G1 X1 F100\nG41 G1 X5\nG4 P1\nG1 Y5\nG40\n",
+             r"^line 3: a dwell \(G4\) inside a compensated contour"),
             ("G1 X1 F100\nG2 X3.2 Y0 I1 J0\n", r"^line 2: the arc's radius is .* more than the "
                                                r"0.05 mm tolerance$"),
             ("(nothing)\n", r"no moves"),
@@ -160,6 +166,19 @@ class RTLTestCase(unittest.TestCase):
         job = prepare(TINY, machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000,
                                            accel=5000), name="tiny.ngc")
         self.check(job, "amaranth")
+
+    def test_dwell_on_amaranth(self):
+        # G4 between two lines: a DWELL frame, which the controller waits out between the
+        # moves' steps (its clocks at the run's time compression stand for 0.02 s).
+        job = prepare("G21 G90\nG1 X1 F600\nG4 P0.02\nG1 Y1\n",
+                      machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000,
+                                      accel=5000), name="dwell.ngc")
+        result = execute(job, "amaranth")
+        self.assertEqual(result.steps, job.steps)
+        split = len(job.segments[0].steps)
+        self.assertGreaterEqual(result.times[split] - result.times[split - 1], 0.02)
+        # and little more: the last step before it and the first after it at the rest rate.
+        self.assertLess(result.times[split] - result.times[split - 1], 0.02 + 0.015)
 
     def test_low_feed_on_amaranth(self):
         # A millimetre at 10 mm/min: 6 s at the feed, and a little longer as the feed generator

@@ -255,6 +255,16 @@ def quick_job(**machine):
                    name="quick.ngc")
 
 
+def _capture_stderr(function):
+    """``(result, what it wrote to sys.stderr)``."""
+    import contextlib
+    import io
+    buffer = io.StringIO()
+    with contextlib.redirect_stderr(buffer):
+        result = function()
+    return result, buffer.getvalue()
+
+
 class SendTestCase(unittest.TestCase):
     def job(self, **machine):
         return prepare(PROGRAM, machine=Machine(clock_hz=CLOCK, queue_frames=4, **machine),
@@ -346,6 +356,42 @@ class SendTestCase(unittest.TestCase):
         # To a controller without the engine the PROFILE frames are unknown types.
         first = next(frame for frame in frames if frame[1] == PROFILE)
         self.assertEqual(protocol.CommandParser().feed(first), [("error", 2)])
+
+    def test_dwell_streams_as_dwell_frames(self):
+        # G4 P0.05 is one DWELL frame of 0.05 s of the board's clocks between the moves, each
+        # frame answered; the plan stops before it (the move's exit rate is its rest rate).
+        from kontur.hdl.motion.link import DWELL
+        job = prepare("G21 G90\nG1 X10 F600\nG4 P0.05\nG1 Y5\nM30\n",
+                      machine=Machine(clock_hz=CLOCK, queue_frames=4), name="d.ngc")
+        frames, lines = job.frames()
+        dwells = [(f, line) for f, line in zip(frames, lines) if f[1] == DWELL]
+        self.assertEqual(dwells, [(protocol.dwell(round(0.05 * CLOCK)), 3)])
+        port = FakeMachine(4)
+        self.assertEqual(send(job, port), tuple(job.end))
+        self.assertEqual(port.count, len(frames))
+        self.assertEqual(port.kinds.count(DWELL), 1)
+
+    def test_unhonoured_programs_are_refused(self):
+        # The board has no tool outputs and cannot pause: M3, M4, M7, M8, M6 and M0 are refused
+        # before anything is sent (2, naming the line); M5, M9, S and T ask nothing of it.
+        with tempfile.TemporaryDirectory() as folder:
+            for text, line, word in (("G1 X1 F100\nS1000 M3\n", 2, "M3 S1000"),
+                                     ("M8\nG1 X1 F100\n", 1, "M8"),
+                                     ("T2 M6\nG1 X1 F100\n", 1, "M6 T2"),
+                                     ("G1 X1 F100\nM0\nG1 X2\n", 2, "M0")):
+                path = Path(folder) / "t.ngc"
+                path.write_text(text)
+                err = _capture_stderr(lambda: main(["send", str(path), "--port", "loop://"]))
+                self.assertEqual(err[0], 2)
+                self.assertRegex(err[1].splitlines()[-1],
+                                 rf"^kontur: {re.escape(str(path))}: line {line}: "
+                                 rf"{re.escape(word)} .*: kontur send cannot honour it "
+                                 rf"\(kontur run simulates it\)$")
+            path = Path(folder) / "fine.ngc"
+            path.write_text("T1 S100 M5 M9\nG1 X1 F100\nG43 H1\nG49\nM61 Q2\n")
+            job = prepare(path.read_text(), machine=Machine(clock_hz=CLOCK))
+            from kontur.send import unhonoured
+            self.assertIsNone(unhonoured(job))
 
     def test_command_line(self):
         # The port is opened through pyserial: a port that does not exist is a failure (1), a

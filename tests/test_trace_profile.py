@@ -117,10 +117,10 @@ def test_refusals(args, reason):
 
 def test_bad_program_names_the_line(tmp_path):
     program = tmp_path / "bad.ngc"
-    program.write_text("G90\nG41 G1 X10\nG1 Q4\n")
+    program.write_text("G90\nG41 G1 X10\nG1 E4\n")
     run = kontur("trace", "profile", program, "--radius", 1)
     assert run.returncode == 2 and run.stdout == ""
-    assert run.stderr.splitlines()[-1] == f"kontur: {program}:3: unknown word Q4"
+    assert run.stderr.splitlines()[-1] == f"kontur: {program}:3: unknown word E4"
     program.write_text("G90\nG1 X10\n")
     run = kontur("trace", "profile", program, "--radius", 1)
     assert run.returncode == 2

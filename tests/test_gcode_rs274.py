@@ -1,0 +1,274 @@
+"""kontur's G-code reader against LinuxCNC's own interpreter, ``rs274 -g`` (linuxcnc-uspace).
+
+For every program of the corpus (``tests/programs/SOURCES.md``: kontur's contour programs, the
+programs written for the reader in ``tests/programs/rs274/``, and LinuxCNC's examples as the
+package installs them), rs274 prints its canonical machine commands; the reader's moves must be
+rs274's, one for one: the kind (STRAIGHT_TRAVERSE a rapid, STRAIGHT_FEED a line, ARC_FEED an
+arc, DWELL a dwell), the end point, an arc's centre and direction, the feed, Z where the
+program gives it, a dwell's seconds, all in machine coordinates (rs274's program coordinates
+plus the offsets it reports), within rs274's printing (four decimals of the program's unit).
+The tool events (tool changes, spindle starts, coolant, pauses, messages) must be rs274's too.
+A program kontur refuses must be refused with the documented reason (docs/gcode.md) this test
+names, while rs274 accepts it.
+
+The test fails, never skips, when rs274 is missing: ``make setup`` installs it.
+
+Cutter-radius compensation: rs274 prints the compensated path, the reader the programmed
+outline (the gateware compensates). For the outline, rs274 reads a copy whose G41/G42
+(G41.1/G42.1) are G40 (their D words dropped); the radius the reader gives each contour is
+checked against rs274's compensated path of ``comp_table.ngc`` (test_tool_table_radius).
+"""
+
+import re
+import shutil
+import subprocess
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+
+from kontur.gcode import GCodeError, Z_REFUSAL, planar, read, read_tool_table
+
+HERE = Path(__file__).resolve().parent
+PROGRAMS = HERE / "programs"
+WRITTEN = PROGRAMS / "rs274"
+LINUXCNC = Path("/usr/share/linuxcnc/ncfiles")
+TABLE = WRITTEN / "tools.tbl"
+RS274 = "/usr/bin/rs274"
+
+_CALL = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
+Z = re.escape(Z_REFUSAL)
+
+#: The programs and what kontur does with each: ``None`` (runs), or the regular expression of
+#: its documented refusal (the reader's, or :func:`kontur.gcode.planar`'s for Z).
+CORPUS = {
+    **{PROGRAMS / f"{name}.ngc": None for name in
+       ("bite", "circle", "lens", "pie", "polygon", "rounded", "square", "triangle", "zigzag")},
+    **{WRITTEN / f"{name}.ngc": None for name in
+       ("params", "owords", "offsets", "home", "arcs", "tools", "modes", "inch", "laser",
+        "plasma", "zconst", "comp_table")},
+    WRITTEN / "zplunge.ngc": rf"^line 5: {Z} \(Z from 5 to -2 mm\)$",
+    WRITTEN / "helix.ngc": rf"^line 4: {Z} \(Z from 0 to -1 mm\)$",
+    WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
+    WRITTEN / "drill.ngc": r"^line 4: G81: canned cycles drill along Z, which needs the third "
+                           r"axis",
+    WRITTEN / "plane.ngc": r"^line 2: G18: only the XY plane \(G17\) is supported$",
+    WRITTEN / "rotary.ngc": r"^line 3: A90: this controller has the axes X and Y \(and reads "
+                            r"Z\), not A$",
+    WRITTEN / "nosub.ngc": r"^line 3: o<elsewhere> call: no subroutine o<elsewhere> in this "
+                           r"program",
+    LINUXCNC / "plasmatest.ngc": None,
+    LINUXCNC / "factorial.ngc": None,
+    LINUXCNC / "retval.ngc": None,
+    LINUXCNC / "flowsnake.ngc": rf"^line 34: {Z}",
+    LINUXCNC / "arcspiral.ngc": rf"^line 6: {Z}",
+    LINUXCNC / "cds.ngc": rf"^line 17: {Z}",
+    LINUXCNC / "skeleton.ngc": rf"^line 13: {Z}",
+    LINUXCNC / "useful-subroutines.ngc": rf"^line 27: {Z}",
+    LINUXCNC / "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": rf"^line 31: {Z}",
+    LINUXCNC / "comp-g1.ngc": rf"^line 13: {Z}",
+    LINUXCNC / "comp311.ngc": rf"^line 10: {Z}",
+    LINUXCNC / "b-index.ngc": r"^line 4: B0: this controller has the axes X and Y",
+    LINUXCNC / "comp.ngc": r"^line 30: G18: only the XY plane \(G17\) is supported$",
+    LINUXCNC / "mmount.ngc": r"^line 67: G81: canned cycles drill along Z",
+    LINUXCNC / "systems.ngc": r"^line 15: G5.1: splines \(G5.1\) are not supported$",
+    LINUXCNC / "polar.ngc": r"^line 10: .*polar coordinates \(@ and \^\) are not supported$",
+    LINUXCNC / "tort.ngc": r"^line 20: K10.000000: arcs in the XZ and YZ planes \(G18, G19\) "
+                           r"are not supported",
+    LINUXCNC / "gridprobe.ngc": r"^line 35: G38.2: probing \(G38.x\) is not supported$",
+}
+
+
+def _numbers(text):
+    return [float(x) for x in re.split(r"[,\s]+", text.strip()) if x]
+
+
+def _uncompensated(text):
+    """The program with cutter-radius compensation off: G41/G42 (and .1) become G40, their D
+    words go (in the code, not in comments)."""
+    out = []
+    for line in text.splitlines():
+        cut = min([i for i in (line.find("("), line.find(";")) if i >= 0], default=len(line))
+        code, rest = line[:cut], line[cut:]
+        if re.search(r"(?i)g\s*4\s*[12]", code):
+            code = re.sub(r"(?i)g\s*4\s*[12](\s*\.\s*1)?(?!\d)", "G40", code)
+            code = re.sub(r"(?i)d\s*[-+]?[\d.]+", "", code)
+        out.append(code + rest)
+    return "\n".join(out) + "\n"
+
+
+def _inch_table(tmp_path):
+    """The corpus's tool table for rs274, which reads diameters in inches (its default
+    machine units)."""
+    lines = []
+    for tool, diameter in read_tool_table(TABLE.read_text()).items():
+        lines.append(f"T{tool} P{tool} D{float(diameter / Fraction(254, 10)):.6f} Z0")
+    path = tmp_path / "tools-inch.tbl"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def canonical(text, tmp_path):
+    """rs274's canonical commands for ``text``: its moves (in mm, machine coordinates) and its
+    events, and its output."""
+    assert Path(RS274).exists() or shutil.which("rs274"), \
+        "rs274 (LinuxCNC's interpreter, package linuxcnc-uspace) is missing: run make setup"
+    path = tmp_path / "program.ngc"
+    path.write_text(text)
+    run = subprocess.run([shutil.which("rs274") or RS274, "-t", str(_inch_table(tmp_path)), "-g",
+                          str(path)], capture_output=True, text=True, timeout=60,
+                         stdin=subprocess.DEVNULL)
+    unit, g5x, g92, feed = 1.0, [0.0] * 3, [0.0] * 3, None
+    moves, events = [], []
+    for line in run.stdout.splitlines():
+        match = _CALL.match(line)
+        if not match:
+            continue
+        name, args = match.groups()
+        if name == "USE_LENGTH_UNITS":
+            unit = 25.4 if "INCHES" in args else 1.0
+        elif name == "SET_G5X_OFFSET":
+            g5x = [c * unit for c in _numbers(args)[1:4]]
+        elif name == "SET_G92_OFFSET":
+            g92 = [c * unit for c in _numbers(args)[0:3]]
+        elif name == "SET_FEED_RATE":
+            feed = _numbers(args)[0] * unit
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
+            v = _numbers(args)
+            off = [g5x[i] + g92[i] for i in range(3)]
+            move = {"end": (v[0] * unit + off[0], v[1] * unit + off[1]), "unit": unit}
+            if name == "ARC_FEED":
+                move.update(kind="arc", centre=(v[2] * unit + off[0], v[3] * unit + off[1]),
+                            cw=v[4] < 0, turns=abs(v[4]), z=v[5] * unit + off[2], feed=feed)
+            else:
+                move.update(kind="rapid" if name == "STRAIGHT_TRAVERSE" else "line",
+                            z=v[2] * unit + off[2], feed=feed)
+            moves.append(move)
+        elif name == "DWELL":
+            moves.append({"kind": "dwell", "seconds": _numbers(args)[0]})
+        elif name == "CHANGE_TOOL":
+            events.append(("tool_change", int(_numbers(args)[0])))
+        elif name in ("START_SPINDLE_CLOCKWISE", "START_SPINDLE_COUNTERCLOCKWISE"):
+            events.append(("spindle", 3 if "COUNTER" not in name else 4))
+        elif name in ("MIST_ON", "FLOOD_ON"):
+            events.append(("coolant", 7 if name == "MIST_ON" else 8))
+        elif name in ("PROGRAM_STOP", "OPTIONAL_PROGRAM_STOP"):
+            events.append(("pause", 0 if name == "PROGRAM_STOP" else 1))
+        elif name == "MESSAGE":
+            events.append(("message", args.strip()[1:-1]))
+    return moves, events, run
+
+
+def _events(program):
+    """The reader's events in rs274's terms (as :func:`canonical` lists them)."""
+    out = []
+    for event in program.events:
+        if event.kind == "tool_change":
+            out.append(("tool_change", event.value))
+        elif event.kind == "spindle" and event.text[:2] in ("M3", "M4"):
+            out.append(("spindle", int(event.text[1])))
+        elif event.kind == "coolant" and event.text in ("M7", "M8"):
+            out.append(("coolant", int(event.text[1])))
+        elif event.kind == "pause":
+            out.append(("pause", int(event.text[1])))
+        elif event.kind == "message":
+            out.append(("message", event.text))
+    return out
+
+
+def compare(mine, theirs):
+    """Assert the reader's moves are rs274's, one for one."""
+    assert len(mine) == len(theirs), (len(mine), len(theirs))
+    for number, (move, ref) in enumerate(zip(mine, theirs)):
+        where = f"move {number} (line {move.line}): {move} against rs274's {ref}"
+        assert move.kind == ref["kind"], where
+        if move.kind == "dwell":
+            assert abs(float(move.seconds) - ref["seconds"]) < 1e-4, where
+            continue
+        tolerance = 1.5e-4 * ref["unit"] + 1e-9 * max(1.0, *map(abs, ref["end"]))
+        assert max(abs(float(a) - b) for a, b in zip(move.end, ref["end"])) < tolerance, where
+        if move.kind == "arc":
+            assert max(abs(float(a) - b) for a, b in zip(move.centre, ref["centre"])) \
+                < tolerance, where
+            assert move.cw == ref["cw"] and ref["turns"] == 1, where
+        if move.kind != "rapid":
+            assert abs(float(move.feed) - ref["feed"]) < 1.5e-4 * ref["unit"], where
+        if move.z is not None:
+            assert abs(float(move.z) - ref["z"]) < tolerance, where
+
+
+def _read(path, text):
+    tools = read_tool_table(TABLE.read_text())
+    return read(text, name=path.name, units="mm", tools=tools)
+
+
+def _text(path):
+    text = path.read_text(encoding="utf-8", errors="replace")
+    if path.parent == PROGRAMS:           # kontur's contour programs: no units, feed or end
+        text = "G21 F100\n" + text + ("" if "M30" in text else "M2\n")
+    return text
+
+
+@pytest.mark.parametrize("path", list(CORPUS), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_reader_is_rs274(path, tmp_path):
+    text = _text(path)
+    theirs, events, run = canonical(_uncompensated(text), tmp_path)
+    refusal = CORPUS[path]
+    try:
+        program = _read(path, text)
+    except GCodeError as error:
+        assert refusal is not None, f"refused: {error}"
+        assert re.search(refusal, f"line {error.line}: {error.reason}"), str(error)
+        return
+    assert run.returncode == 0, f"rs274 refuses what kontur reads: {run.stderr[-300:]}"
+    compare(program.moves, theirs)
+    assert _events(program) == events
+    if refusal is None:
+        planar(program.moves)
+        return
+    with pytest.raises(GCodeError) as caught:
+        planar(program.moves)
+    assert re.search(refusal, f"line {caught.value.line}: {caught.value.reason}"), \
+        str(caught.value)
+
+
+def test_corpus_is_large_enough():
+    written = [p for p in CORPUS if p.parent == WRITTEN]
+    linuxcnc = [p for p in CORPUS if p.parent == LINUXCNC]
+    assert len(CORPUS) >= 30 and len(written) >= 15 and len(linuxcnc) >= 10
+    assert all(path.exists() for path in CORPUS), [p for p in CORPUS if not p.exists()]
+    sources = (PROGRAMS / "SOURCES.md").read_text()
+    for path in CORPUS:
+        assert path.name in sources, f"{path.name} is not in tests/programs/SOURCES.md"
+
+
+def test_tool_table_radius(tmp_path):
+    """The radius the reader gives each contour of comp_table.ngc is the one rs274
+    compensates with: G41 D1 (tool 1 of the table, 6 mm), G42 with the loaded tool T2
+    (3.175 mm), G41.1 D4 (a 4 mm diameter in the program). rs274 reads the table's diameters
+    in inches (the corpus's table is in mm, converted for it); kontur reads them in mm."""
+    path = WRITTEN / "comp_table.ngc"
+    program = _read(path, path.read_text())
+    theirs, _, _ = canonical(path.read_text(), tmp_path)
+    compensated = [m for m in program.moves if m.side is not None]
+    radii = {}
+    for move in compensated:
+        radii.setdefault(move.radius_source, move.radius)
+    assert list(radii.values()) == [3, Fraction(3175, 2000), 2]
+    # Each contour's first X-running edge (programmed at y = 0, 0, 70), offset by the radius
+    # to the side of the motion: rs274's compensated path runs along it.
+    feeds = [m["end"] for m in theirs if m["kind"] == "line"]
+    for (y0, sign), radius in zip(((0, 1), (0, -1), (70, 1)), radii.values()):
+        assert any(abs(y - (y0 + sign * float(radius))) < 1e-4 for _, y in feeds), \
+            (y0, radius, feeds)
+    # Without the table: D is recorded, the radius is the machine's (None here).
+    plain = read(path.read_text(), units="mm")
+    assert {m.radius for m in plain.moves if m.side == "right"} == {None}
+    assert {m.radius for m in plain.moves if m.side == "left" and m.radius_source
+            and m.radius_source.startswith("G41.1")} == {2}
+
+
+def test_inch_table(tmp_path):
+    """A table in inches (as rs274's) gives the same radius, converted."""
+    table = _inch_table(tmp_path)
+    assert read_tool_table(table.read_text(), units="inch")[1] == pytest.approx(6, abs=1e-4)
