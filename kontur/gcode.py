@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Program", "parse", "interpret", "read",
-           "sweep"]
+           "sweep", "modal_state"]
 
 
 class GCodeError(ValueError):
@@ -287,8 +287,18 @@ class _State:
     extra: dict = field(default_factory=dict)
 
 
-def interpret(blocks, *, start=(0, 0), name=None, units=None):
+def modal_state(start=(0, 0)):
+    """A fresh modal state at ``start`` (the reader's own, as :func:`interpret` begins with), to
+    be carried from one call of :func:`interpret` to the next by a reader that takes a program
+    line by line (``kontur serve``)."""
+    return _State(position=(Fraction(start[0]), Fraction(start[1])))
+
+
+def interpret(blocks, *, start=(0, 0), name=None, units=None, state=None):
     """Run the blocks through the modal state; return the moves.
+
+    ``state`` (from :func:`modal_state`) is the modal state to start from, updated in place
+    (``start`` is then its position): a program read line by line reads as it does whole.
 
     The position starts at ``start`` (the origin by default, in the moves' units); motion,
     distance (G90 absolute, the default, or G91 incremental), units and compensation are
@@ -306,7 +316,7 @@ def interpret(blocks, *, start=(0, 0), name=None, units=None):
     """
     if units not in UNITS:
         raise ValueError(f"Units must be one of {', '.join(map(repr, UNITS))}, not {units!r}")
-    state = _State(position=(Fraction(start[0]), Fraction(start[1])))
+    state = modal_state(start) if state is None else state
     moves = []
     for block in blocks:
         line = block.line
