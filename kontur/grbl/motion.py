@@ -59,21 +59,24 @@ class Motion:
         self._times = deque()               # virtual times of the steps left, in order
         self._last = 0.0                    # time of the last step made
         self._interval = None               # (length mm, seconds) of the last step
+        self._replan_from = None            # blocks added since the last plan: moving then?
         self.made, self.times, self.segments = [], [], []
 
     # ---- the queue ----------------------------------------------------------------------
 
     def add(self, block):
-        """Queue ``block`` and re-plan everything not yet made."""
+        """Queue ``block``; everything not yet made is re-planned at the next :meth:`tick`
+        (once for all the blocks added meanwhile)."""
         if not block.left:
             return
-        moving = bool(self._times)
+        if self._replan_from is None:
+            self._replan_from = bool(self._times)
         self.blocks.append(block)
         for segment in block.segments:
             self._queue.append((segment, block))
-        self._replan(moving)
 
     def _replan(self, moving):
+        self._replan_from = None
         window = [segment for segment, _ in self._queue]
         job = Job("served", self.board, self.machine, [], window, plan(window, self.machine))
         times = execute(job, "model").times
@@ -87,7 +90,7 @@ class Motion:
     @property
     def busy(self):
         """Steps are queued (the machine runs, or would but for a hold)."""
-        return bool(self._times)
+        return bool(self._times) or self._replan_from is not None
 
     @property
     def kind(self):
@@ -105,6 +108,8 @@ class Motion:
     def tick(self):
         """Move the virtual clock to the present (at the rate of the block being made: ticks
         come every few milliseconds) and make the steps whose time has come."""
+        if self._replan_from is not None:
+            self._replan(self._replan_from)
         real = self.clock()
         if not self.held:
             self.now += (real - self._real) * self._rate()
@@ -162,3 +167,4 @@ class Motion:
         self._queue.clear()
         self._times.clear()
         self._done = 0
+        self._replan_from = None

@@ -100,8 +100,13 @@ class Session:
     # ---- the main loop's turn -----------------------------------------------------------
 
     def poll(self):
-        """Move the clock, take every line the planner has room for, answer it."""
+        """Move the clock, take every line the planner has room for, answer it; the moves
+        taken are planned (together) and started."""
         self.motion.tick()
+        self._take()
+        self.motion.tick()
+
+    def _take(self):
         while True:
             if self._waiting is not None:
                 if self.motion.busy:
