@@ -347,3 +347,25 @@ def test_overrides(port):
     assert report["FS"] == "600,0", report
     port.serial.write(bytes([0x90, 0x95, 0x99]))
     assert fields()["Ov"] == "100,100,100"
+
+
+def test_tcp(tmp_path):
+    """``--tcp 0``: a free localhost port, named on the second line of standard output; a
+    connection gets the welcome and is answered like the pseudo-terminal."""
+    import socket
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--tcp", "0", "--speed", str(SPEED)]
+    with processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path) as process:
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "kontur serve printed nothing"
+        assert process.stdout.readline().decode().startswith("/dev/pts/")
+        host, port = re.match(r"^tcp (127\.0\.0\.1):(\d+)$",
+                              process.stdout.readline().decode().strip()).groups()
+        with socket.create_connection((host, int(port)), timeout=5) as connection:
+            reader = connection.makefile("rb")
+            assert WELCOME.match(reader.readline().decode().strip())
+            connection.sendall(b"G0 X3 Y4\n")
+            assert reader.readline() == b"ok\r\n"
+            time.sleep(0.2)
+            connection.sendall(b"?")
+            assert reader.readline().decode().startswith("<Idle|MPos:3.000,4.000,0.000|")
+        process.stdout.close()

@@ -17,6 +17,7 @@ import os
 import select
 import socket
 import sys
+import threading
 import tty
 from pathlib import Path
 
@@ -29,44 +30,67 @@ TICK = 0.005          # seconds: the longest the loop waits
 
 class Outputs:
     """The session's steps, written to ``out_dir`` as ``kontur run`` writes them whenever
-    the machine has made new ones and stopped."""
-
-    def __init__(self, session, out_dir):
-        self.session, self.out_dir = session, Path(out_dir)
-        self.written = None
-        self._moving = 0.0
+    the machine has made new ones and stood still :data:`SETTLE` seconds: in a thread of its
+    own (a long session's summary takes a while), one write at a time; :meth:`close` waits
+    for it and writes the last."""
 
     #: Seconds the machine must have stood still before its steps are written (a sender that
     #: falls behind the motion does not make a write at every pause).
     SETTLE = 0.25
 
-    def update(self, *, force=False):
+    def __init__(self, session, out_dir):
+        self.session, self.out_dir = session, Path(out_dir)
+        self.written = None
+        self._moving = 0.0
+        self._thread = None
+
+    def update(self):
         motion = self.session.motion
-        key = (len(motion.made), len(motion.segments))
         now = motion.clock()
         if motion.busy:
             self._moving = now
-        if not force and (motion.busy or now - self._moving < self.SETTLE):
             return
-        if key == self.written or not motion.made:
+        if now - self._moving < self.SETTLE or (self._thread and self._thread.is_alive()):
             return
-        from kontur.machining import Job, Result, write_outputs
+        snapshot = self._snapshot()
+        if snapshot is not None:
+            self._thread = threading.Thread(target=self._write, args=snapshot, daemon=True)
+            self._thread.start()
+
+    def close(self):
+        """Wait for a write under way, then write what is new (the steps as they stand)."""
+        if self._thread is not None:
+            self._thread.join()
+        snapshot = self._snapshot()
+        if snapshot is not None:
+            self._write(*snapshot)
+
+    def _snapshot(self):
+        from kontur.machining import Job, Result
         from kontur.planner import plan
-        segments = motion.segments
+        motion = self.session.motion
+        key = (len(motion.made), len(motion.segments))
+        if key == self.written or not motion.made:
+            return None
+        self.written = key
+        segments = list(motion.segments)
         lines = {segment.line for segment in segments}
         moves = [move for move in self.session.moves if move.line in lines]
         machine = self.session.machine
         job = Job("kontur serve", self.session.board, machine, moves, segments,
                   plan(segments, machine), segments[0].start)
-        first = motion.times[0]
-        result = Result("model", list(motion.made), [t - first for t in motion.times],
-                        motion.position)
+        result = Result("model", list(motion.made), list(motion.times), motion.position)
+        return job, result
+
+    def _write(self, job, result):
+        from kontur.machining import write_outputs
+        first = result.times[0]
+        result.times = [t - first for t in result.times]
         try:
             write_outputs(job, result, self.out_dir, plot=False)
         except OSError as error:
             sys.stderr.write(f"kontur: serve: cannot write {self.out_dir}: "
                              f"{error.strerror or error}\n")
-        self.written = key
 
 
 class _Endpoint:
@@ -138,7 +162,7 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, out=s
         _loop(session, pty, server, clients, connected, outputs)
     finally:
         if outputs is not None:
-            outputs.update(force=True)
+            outputs.close()
         for client in clients.values():
             client.sock.close()
         if server is not None:
