@@ -247,6 +247,7 @@ def test_status_during_a_run_and_hold_resume(port, server):
         state, position, took = port.status()
         seen.append((state, position))
         slowest = max(slowest, took)
+        time.sleep(0.01)
     assert seen[0][0] == "Run" and seen[-1][1] != seen[0][1]
     assert slowest < 0.25, f"a status report took {slowest:.3f} s"
     port.serial.write(b"!")
