@@ -370,3 +370,35 @@ def test_tcp(tmp_path):
             connection.sendall(b"?")
             assert reader.readline().decode().startswith("<Idle|MPos:3.000,4.000,0.000|")
         process.stdout.close()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_session_under_a_jumping_clock(seed):
+    """The session alone (no pseudo-terminal), its clock a stand-in that jumps: lines arrive
+    at random turns while the machine runs, the clock leaps up to 0.3 s between turns (a
+    loaded host), each burst re-plans what is not yet made; the steps are still kontur run's,
+    every line answered ok, the end the program's."""
+    import random
+
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    rng = random.Random(seed)
+    text = BRACKET.read_text()
+    now, said = [0.0], []
+    session = Session(Machine(clock_hz=board("icebreaker").clock_hz), "icebreaker",
+                      said.append, speed=SPEED, clock=lambda: now[0])
+    lines = text.encode().splitlines(keepends=True)
+    sent = 0
+    while sent < len(lines) or session.motion.busy or session.rx:
+        if sent < len(lines) and rng.random() < 0.5:
+            session.receive(lines[sent])
+            sent += 1
+        session.poll()
+        now[0] += rng.choice([0.005, 0.005, 0.1, 0.3])
+    session.poll()
+    assert session.motion.made == run_steps(text)
+    assert [line for line in said if line in ("ok",) or line.startswith("error")] == \
+        ["ok"] * len(lines)
+    spm = session.machine.steps_per_mm
+    assert tuple(c / spm for c in session.motion.position) == program_end(text)
