@@ -286,20 +286,51 @@ def test_soft_reset_in_motion(port):
 
 # ---- lines and $ commands -----------------------------------------------------------------
 
+def test_an_error_line(port):
+    """A refused line is answered with Grbl's code after a [MSG:] of kontur's reason, and the
+    stream goes on (the codes themselves: test_error_codes)."""
+    answer = port.command("G1 X1 Y1 Q5 F100")
+    assert answer[-1] == "error:20" and answer[0].startswith("[MSG:line ")
+    assert port.command("G0 X1") == ["ok"]
+
+
+def session(**options):
+    """A session alone (no pseudo-terminal) on the default machine, its clock standing still
+    unless ``clock`` is given; returns it and the list of what it says."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    said = []
+    options.setdefault("clock", lambda: 0.0)
+    return Session(Machine(clock_hz=board("icebreaker").clock_hz), "icebreaker", said.append,
+                   **options), said
+
+
 @pytest.mark.parametrize("line, code", [
-    ("G1 X1 Y1 Q5 F100", 20),       # an unsupported word
+    ("G1 X1 Y1 Q5 F100", 20),       # a word Grbl does not know
     ("G0 G1 X1", 21),               # two codes of one modal group
     ("G1 X1", 22),                  # no feed rate yet
+    ("G1.5 X1 F100", 23),           # a command value that is not an integer
     ("G1 X1 X2 F100", 25),          # a word repeated
     ("G2 X10 Y0 F100", 35),         # an arc with no offset in its plane
+    ("G2 X10 Y0 R2 F100", 34),      # a radius that cannot reach the end
     ("G0 X1 I2", 36),               # a word no command uses
+    ("G1 X1 F-5", 4),               # a negative value
+    ("G1 X F100", 2),               # a letter with no number
+    ("1.5", 1),                     # no letter
+    ("G1 X" + "1" * 90 + " F100", 11),   # beyond the line buffer
+    ("$Q", 3),                      # no such $ command
+    ("$100=abc", 2),                # a setting's value that is no number
+    ("$J=X10", 22),                 # a jog needs F
+    ("$J=G1 X10 F100", 16),         # a jog takes no motion code
 ])
-def test_errors_are_grbls(port, line, code):
-    """A refused line is answered with Grbl's code (error_codes_en_US.csv) after a [MSG:] of
-    kontur's reason, and the stream goes on."""
-    answer = port.command(line)
-    assert answer[-1] == f"error:{code}" and answer[0].startswith("[MSG:")
-    assert port.command("G0 X1") == ["ok"]
+def test_error_codes(line, code):
+    """Grbl's codes for each kind of refusal (interface.md's table), then the next line
+    taken as usual."""
+    grbl, said = session()
+    grbl.receive(line.encode() + b"\n" + b"G0 X1\n")
+    grbl.poll()
+    assert [s for s in said if s == "ok" or s.startswith("error")] == [f"error:{code}", "ok"]
 
 
 def test_settings_and_queries(port):
@@ -380,25 +411,21 @@ def test_session_under_a_jumping_clock(seed):
     every line answered ok, the end the program's."""
     import random
 
-    from kontur.grbl.session import Session
-    from kontur.machine import Machine
-    from kontur.registry import board
     rng = random.Random(seed)
     text = BRACKET.read_text()
-    now, said = [0.0], []
-    session = Session(Machine(clock_hz=board("icebreaker").clock_hz), "icebreaker",
-                      said.append, speed=SPEED, clock=lambda: now[0])
+    now = [0.0]
+    grbl, said = session(speed=SPEED, clock=lambda: now[0])
     lines = text.encode().splitlines(keepends=True)
     sent = 0
-    while sent < len(lines) or session.motion.busy or session.rx:
+    while sent < len(lines) or grbl.motion.busy or grbl.rx:
         if sent < len(lines) and rng.random() < 0.5:
-            session.receive(lines[sent])
+            grbl.receive(lines[sent])
             sent += 1
-        session.poll()
+        grbl.poll()
         now[0] += rng.choice([0.005, 0.005, 0.1, 0.3])
-    session.poll()
-    assert session.motion.made == run_steps(text)
+    grbl.poll()
+    assert grbl.motion.made == run_steps(text)
     assert [line for line in said if line in ("ok",) or line.startswith("error")] == \
         ["ok"] * len(lines)
-    spm = session.machine.steps_per_mm
-    assert tuple(c / spm for c in session.motion.position) == program_end(text)
+    spm = grbl.machine.steps_per_mm
+    assert tuple(c / spm for c in grbl.motion.position) == program_end(text)
