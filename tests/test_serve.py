@@ -1,0 +1,431 @@
+"""``kontur serve``: Grbl 1.1 on a pseudo-terminal, driven by senders someone else wrote.
+
+The expected values come from the Grbl documents (gnea/grbl doc/markdown/interface.md,
+commands.md; doc/csv/error_codes_en_US.csv) and from the G-code itself (a program's end is its
+last X and Y words); the steps are compared with ``kontur run``'s for the same program. Every
+server is a child process in a group of its own (:func:`kontur.sim.processes.child`), ended
+with its test; its clock runs 20 times real time (``--speed``), so that the bracket's 26 s of
+machining take about 1.3 s.
+"""
+
+import re
+import select
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import serial
+
+from kontur.machining import execute, prepare
+from kontur.sim import processes
+
+ROOT = Path(__file__).resolve().parent.parent
+BRACKET = ROOT / "kontur" / "programs" / "bracket.ngc"
+SPEED = 20
+WELCOME = re.compile(r"^Grbl 1\.1[a-z] \['\$' for help\]$")       # interface.md
+STATUS = re.compile(r"^<(\w+(?::\d)?)\|MPos:(-?[\d.]+),(-?[\d.]+),(-?[\d.]+)\|")
+FIELDS = re.compile(r"\|(\w+):([^|>]*)")
+
+#: A short program that ends away from where it starts: a line, a quarter arc, a line.
+SHORT = """G21 G90
+G0 X5 Y2
+G1 X25 Y2 F1200
+G3 X35 Y12 I0 J10
+G1 X12.5 Y7.25
+M30
+"""
+#: A long move, to be caught half-way: 22 s of machining, 1.1 s at --speed 20.
+LONG = "G1 X100 Y50 F300\n"
+
+
+def program_end(text):
+    """The end of an absolute (G90) program: its last X and Y words, read from the text."""
+    x = y = 0.0
+    for line in text.splitlines():
+        line = re.sub(r"\(.*?\)|;.*", "", line).upper()
+        for letter, value in re.findall(r"([XY])\s*([-+]?[\d.]+)", line):
+            if letter == "X":
+                x = float(value)
+            else:
+                y = float(value)
+    return x, y
+
+
+def run_steps(text):
+    """``kontur run``'s steps of ``text`` on the model (the default machine and board)."""
+    job = prepare(text, board="icebreaker")
+    return execute(job, "model").steps
+
+
+def read_steps(out):
+    return [tuple(map(int, line.split())) for line in (out / "steps.txt").read_text()
+            .splitlines()]
+
+
+@pytest.fixture
+def server(tmp_path):
+    """A ``kontur serve`` child: ``(link, out, process)``."""
+    link, out = tmp_path / "grbl", tmp_path / "out"
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--link", str(link), "--out",
+            str(out), "--speed", str(SPEED)]
+    with processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path) as process:
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "kontur serve printed no pseudo-terminal"
+        name = process.stdout.readline().decode().strip()
+        assert name.startswith("/dev/pts/") and link.resolve() == Path(name)
+        yield link, out, process
+        process.stdout.close()
+    assert not link.exists(), "the link outlived the server"
+
+
+class Port:
+    """A plain Grbl client on pyserial: lines, commands, status polls."""
+
+    def __init__(self, path):
+        self.serial = serial.Serial(str(path), 115200, timeout=3)
+
+    def line(self):
+        text = self.serial.readline().decode()
+        assert text.endswith("\r\n"), f"no complete line in time: {text!r}"
+        return text.strip()
+
+    def command(self, text):
+        """Send a line; return what came back up to and including ``ok``/``error:N``."""
+        self.serial.write(text.encode() + b"\n")
+        lines = []
+        while not (lines and re.match(r"^(ok|error:\d+)$", lines[-1])):
+            lines.append(self.line())
+        return lines
+
+    def status(self):
+        sent = time.monotonic()
+        self.serial.write(b"?")
+        while True:
+            line = self.line()
+            match = STATUS.match(line)
+            if match:
+                state, *position = match.groups()
+                return state, tuple(float(c) for c in position), time.monotonic() - sent
+
+    def wait_idle(self, timeout=20):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            state, position, _ = self.status()
+            if state == "Idle":
+                return position
+            time.sleep(0.02)
+        raise AssertionError("the machine did not come back to Idle")
+
+    def close(self):
+        self.serial.close()
+
+
+@pytest.fixture
+def port(server):
+    link, _, _ = server
+    port = Port(link)
+    assert WELCOME.match(port.line())                  # sent when the port is opened
+    yield port
+    port.close()
+
+
+def wait_for_outputs(out, count, timeout=10):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if (out / "summary.json").exists() and len(read_steps(out)) == count:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{out}/steps.txt never held {count} steps")
+
+
+def stream(port, text):
+    """Grbl's character-counting protocol (interface.md, stream.py): lines sent while the
+    128-byte receive buffer has room; each ok or error frees its line. Returns the answers
+    and the states polled meanwhile."""
+    lines = [line.strip() + "\n" for line in text.splitlines()]
+    answers, states, pending = [], [], []
+    polled = time.monotonic()
+    for line in lines + [None]:
+        while pending and (line is None or sum(map(len, pending)) + len(line) > 128):
+            port.serial.timeout = 0.05
+            raw = port.serial.readline().decode()
+            port.serial.timeout = 3
+            if raw.endswith("\r\n"):
+                raw = raw.strip()
+                if raw == "ok" or raw.startswith("error:"):
+                    answers.append(raw)
+                    pending.pop(0)
+                elif raw.startswith("<"):
+                    states.append(STATUS.match(raw).group(1))
+            if time.monotonic() - polled > 0.05:
+                port.serial.write(b"?")
+                polled = time.monotonic()
+        if line is not None:
+            port.serial.write(line.encode())
+            pending.append(line)
+    return answers, states
+
+
+# ---- streams ------------------------------------------------------------------------------
+
+def test_grbl_streamer_runs_the_bracket(server):
+    """grbl-streamer (PyPI), character counting and status polling: the bracket ends Idle at
+    its end with kontur run's steps.
+
+    grbl-streamer's ``job_run`` fills the receive buffer from the calling thread while its
+    reader thread, on every ``ok``, fills it too (``_stream`` on two threads at once, no lock):
+    when the answers come fast, a line can be skipped. The job is therefore started from its
+    reader thread, in the callback of a ``$G`` report, as a GUI's event loop would."""
+    from grbl_streamer import GrblStreamer
+    link, out, _ = server
+    events, done, start = [], threading.Event(), threading.Event()
+
+    def callback(event, *data):
+        events.append((event, data))
+        if event == "on_job_completed":
+            done.set()
+        if event == "on_read" and data[0].startswith("[GC:") and start.is_set():
+            start.clear()
+            done.clear()
+            streamer.job_run()
+
+    streamer = GrblStreamer(callback)
+    streamer.poll_interval = 0.05
+    try:
+        streamer.cnect(str(link))
+        deadline = time.monotonic() + 10
+        while not (streamer.connected and streamer.cmode == "Idle"):
+            assert time.monotonic() < deadline, "grbl-streamer never saw Grbl idle"
+            if streamer.connected and streamer._thread_polling is None:
+                streamer.poll_start()
+            time.sleep(0.05)
+        time.sleep(0.3)                       # its boot-time $$, $# and $G answered
+        streamer.load_file(str(BRACKET))
+        start.set()
+        streamer.get_gcode_parser_state()
+        deadline = time.monotonic() + 30
+        while not (not start.is_set() and done.is_set()):
+            assert time.monotonic() < deadline, "the job never completed"
+            time.sleep(0.05)
+        deadline = time.monotonic() + 10
+        while streamer.cmode != "Idle" or streamer.cmpos[:2] != program_end(
+                BRACKET.read_text()):
+            assert time.monotonic() < deadline, f"ended {streamer.cmode} {streamer.cmpos}"
+            time.sleep(0.05)
+        states = [data[0] for event, data in events if event == "on_stateupdate"]
+        assert "Run" in states
+        assert not [data for event, data in events if event == "on_error"]
+    finally:
+        streamer.disconnect()
+    expected = run_steps(BRACKET.read_text())
+    wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
+def test_plain_character_counting_stream(port, server):
+    """A plain character-counting stream of a program that ends away from its start: every
+    line ok, Run then Idle, MPos the program's end, the steps kontur run's."""
+    _, out, _ = server
+    answers, states = stream(port, SHORT)
+    assert answers == ["ok"] * len(SHORT.splitlines())
+    assert port.wait_idle() == (*program_end(SHORT), 0.0)
+    assert "Run" in states
+    expected = run_steps(SHORT)
+    wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
+def test_status_during_a_run_and_hold_resume(port, server):
+    """``?`` answered at once while the machine runs; ``!`` stops it (Hold:0, MPos still),
+    ``~`` resumes; the steps are those of a run with no hold."""
+    _, out, _ = server
+    assert port.command(LONG.strip()) == ["ok"]
+    seen, slowest = [], 0.0
+    for _ in range(5):
+        state, position, took = port.status()
+        seen.append((state, position))
+        slowest = max(slowest, took)
+        time.sleep(0.01)
+    assert seen[0][0] == "Run" and seen[-1][1] != seen[0][1]
+    assert slowest < 0.25, f"a status report took {slowest:.3f} s"
+    port.serial.write(b"!")
+    time.sleep(0.05)
+    state, held, _ = port.status()
+    time.sleep(0.2)
+    assert state == "Hold:0" and port.status()[:2] == ("Hold:0", held)
+    assert held != program_end(LONG) + (0.0,)
+    port.serial.write(b"~")
+    assert port.wait_idle() == (*program_end(LONG), 0.0)
+    expected = run_steps(LONG)
+    wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
+def test_soft_reset_in_motion(port):
+    """ctrl-X while moving: motion stops where it is, ALARM:3, the welcome again, the alarm
+    lock (G-code error:9) until $X (interface.md)."""
+    assert port.command(LONG.strip()) == ["ok"]
+    time.sleep(0.05)
+    port.serial.write(b"\x18")
+    assert port.line() == "ALARM:3"
+    assert WELCOME.match(port.line())
+    assert port.line() == "[MSG:'$H'|'$X' to unlock]"
+    state, stopped, _ = port.status()
+    time.sleep(0.1)
+    assert state == "Alarm" and port.status()[1] == stopped
+    assert 0 < stopped[0] < 100
+    assert port.command("G1 X0 Y0 F1000") == ["error:9"]
+    assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+    assert port.status()[0] == "Idle"
+    port.serial.write(b"\x18")                       # at rest: no alarm
+    assert WELCOME.match(port.line())
+    assert port.status()[:2] == ("Idle", stopped)
+
+
+# ---- lines and $ commands -----------------------------------------------------------------
+
+def test_an_error_line(port):
+    """A refused line is answered with Grbl's code after a [MSG:] of kontur's reason, and the
+    stream goes on (the codes themselves: test_error_codes)."""
+    answer = port.command("G1 X1 Y1 Q5 F100")
+    assert answer[-1] == "error:20" and answer[0].startswith("[MSG:line ")
+    assert port.command("G0 X1") == ["ok"]
+
+
+def session(**options):
+    """A session alone (no pseudo-terminal) on the default machine, its clock standing still
+    unless ``clock`` is given; returns it and the list of what it says."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    said = []
+    options.setdefault("clock", lambda: 0.0)
+    return Session(Machine(clock_hz=board("icebreaker").clock_hz), "icebreaker", said.append,
+                   **options), said
+
+
+@pytest.mark.parametrize("line, code", [
+    ("G1 X1 Y1 Q5 F100", 20),       # a word Grbl does not know
+    ("G0 G1 X1", 21),               # two codes of one modal group
+    ("G1 X1", 22),                  # no feed rate yet
+    ("G1.5 X1 F100", 23),           # a command value that is not an integer
+    ("G1 X1 X2 F100", 25),          # a word repeated
+    ("G2 X10 Y0 F100", 35),         # an arc with no offset in its plane
+    ("G2 X10 Y0 R2 F100", 34),      # a radius that cannot reach the end
+    ("G0 X1 I2", 36),               # a word no command uses
+    ("G1 X1 F-5", 4),               # a negative value
+    ("G1 X F100", 2),               # a letter with no number
+    ("1.5", 1),                     # no letter
+    ("G1 X" + "1" * 90 + " F100", 11),   # beyond the line buffer
+    ("$Q", 3),                      # no such $ command
+    ("$100=abc", 2),                # a setting's value that is no number
+    ("$J=X10", 22),                 # a jog needs F
+    ("$J=G1 X10 F100", 16),         # a jog takes no motion code
+])
+def test_error_codes(line, code):
+    """Grbl's codes for each kind of refusal (interface.md's table), then the next line
+    taken as usual."""
+    grbl, said = session()
+    grbl.receive(line.encode() + b"\n" + b"G0 X1\n")
+    grbl.poll()
+    assert [s for s in said if s == "ok" or s.startswith("error")] == [f"error:{code}", "ok"]
+
+
+def test_settings_and_queries(port):
+    """$$ lists the machine file as Grbl's settings (defaults of docs/controller.md: 80
+    steps/mm, 3000 mm/min, 500 mm/s²); $100= writes steps/mm for X and Y; $G, $#, $I and the
+    check mode answer as interface.md shows."""
+    settings = port.command("$$")
+    assert settings[-1] == "ok"
+    table = dict(line.split("=") for line in settings[:-1])
+    assert (table["$100"], table["$101"], table["$110"], table["$120"]) == \
+        ("80.000", "80.000", "3000.000", "500.000")
+    assert port.command("$100=100") == ["ok"]
+    assert dict(line.split("=") for line in port.command("$$")[:-1])["$101"] == "100.000"
+    assert port.command("$20=1") == ["error:10"]       # soft limits need homing
+    assert re.match(r"^\[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0\]$", port.command("$G")[0])
+    assert port.command("$#")[0] == "[G54:0.000,0.000,0.000]"
+    assert port.command("$I")[0].startswith("[VER:1.1")
+    assert port.command("$C") == ["[MSG:Enabled]", "ok"]
+    assert port.command("G1 X10 F600") == ["ok"]
+    assert port.status()[:2] == ("Check", (0.0, 0.0, 0.0))
+    assert port.command("$C") == ["[MSG:Disabled]", "ok"]
+    assert WELCOME.match(port.line())
+    assert port.command("$J=G91 X2 Y-1 F600") == ["ok"]
+    assert port.wait_idle() == (2.0, -1.0, 0.0)
+    assert re.match(r"^\[GC:G0 .*G90 ", port.command("$G")[0])   # the jog left G90
+
+
+def test_overrides(port):
+    """The override bytes are taken at once (interface.md's Ov: feed, rapid, spindle, in
+    percent; feed within 10-200 %): a feed move at F300 runs at 200 % reports FS:600, the
+    steps unchanged (the hold test shows that timing never moves a step)."""
+    def fields():
+        port.serial.write(b"?")
+        while True:
+            line = port.line()
+            if line.startswith("<"):
+                return dict(FIELDS.findall(line))
+
+    port.serial.write(bytes([0x91, 0x91, 0x93, 0x96, 0x9B]))
+    assert fields()["Ov"] == "121,50,90"
+    port.serial.write(bytes([0x91] * 12 + [0x97]))
+    assert fields()["Ov"] == "200,25,90"
+    assert port.command(LONG.strip()) == ["ok"]
+    time.sleep(0.05)
+    report = fields()
+    assert report["FS"] == "600,0", report
+    port.serial.write(bytes([0x90, 0x95, 0x99]))
+    assert fields()["Ov"] == "100,100,100"
+
+
+def test_tcp(tmp_path):
+    """``--tcp 0``: a free localhost port, named on the second line of standard output; a
+    connection gets the welcome and is answered like the pseudo-terminal."""
+    import socket
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--tcp", "0", "--speed", str(SPEED)]
+    with processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path) as process:
+        ready, _, _ = select.select([process.stdout], [], [], 30)
+        assert ready, "kontur serve printed nothing"
+        assert process.stdout.readline().decode().startswith("/dev/pts/")
+        host, port = re.match(r"^tcp (127\.0\.0\.1):(\d+)$",
+                              process.stdout.readline().decode().strip()).groups()
+        with socket.create_connection((host, int(port)), timeout=5) as connection:
+            reader = connection.makefile("rb")
+            assert WELCOME.match(reader.readline().decode().strip())
+            connection.sendall(b"G0 X3 Y4\n")
+            assert reader.readline() == b"ok\r\n"
+            time.sleep(0.2)
+            connection.sendall(b"?")
+            assert reader.readline().decode().startswith("<Idle|MPos:3.000,4.000,0.000|")
+        process.stdout.close()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_session_under_a_jumping_clock(seed):
+    """The session alone (no pseudo-terminal), its clock a stand-in that jumps: lines arrive
+    at random turns while the machine runs, the clock leaps up to 0.3 s between turns (a
+    loaded host), each burst re-plans what is not yet made; the steps are still kontur run's,
+    every line answered ok, the end the program's."""
+    import random
+
+    rng = random.Random(seed)
+    text = BRACKET.read_text()
+    now = [0.0]
+    grbl, said = session(speed=SPEED, clock=lambda: now[0])
+    lines = text.encode().splitlines(keepends=True)
+    sent = 0
+    while sent < len(lines) or grbl.motion.busy or grbl.rx:
+        if sent < len(lines) and rng.random() < 0.5:
+            grbl.receive(lines[sent])
+            sent += 1
+        grbl.poll()
+        now[0] += rng.choice([0.005, 0.005, 0.1, 0.3])
+    grbl.poll()
+    assert grbl.motion.made == run_steps(text)
+    assert [line for line in said if line in ("ok",) or line.startswith("error")] == \
+        ["ok"] * len(lines)
+    spm = grbl.machine.steps_per_mm
+    assert tuple(c / spm for c in grbl.motion.position) == program_end(text)
