@@ -429,3 +429,81 @@ def test_session_under_a_jumping_clock(seed):
         ["ok"] * len(lines)
     spm = grbl.machine.steps_per_mm
     assert tuple(c / spm for c in grbl.motion.position) == program_end(text)
+
+
+def serve_lines(text, **options):
+    """``text`` through a session alone, one line a turn, its clock moving 0.1 s a turn, until
+    the machine rests; returns the session and what it said."""
+    now = [0.0]
+    grbl, said = session(speed=SPEED, clock=lambda: now[0], **options)
+    for line in text.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        grbl.poll()
+        now[0] += 0.1
+    while grbl.motion.busy or grbl.rx or grbl._waiting is not None:
+        grbl.poll()
+        now[0] += 0.1
+    return grbl, said
+
+
+#: Work offsets, G92 and parameters set on one line and used on the next (LinuxCNC's reader,
+#: gnea/grbl's $# and WCO). By hand: G54 is at (10, 5); X#1 Y[#1*2] is machine (13, 11); G92
+#: makes that work (0, 0), a G92 offset of (3, 6); X5 then is machine 10 + 3 + 5 = 18.
+OFFSETS = """G21 G90
+G10 L2 P1 X10 Y5
+#1=3
+G0 X#1 Y[#1*2]
+G92 X0 Y0
+G1 X5 F600
+"""
+
+
+def test_offsets_and_parameters_across_lines():
+    """The reader's state lives from line to line: G10 L2, a parameter, G92 given on earlier
+    lines move the later ones; MPos is machine coordinates, WPos and WCO the work offset,
+    ``$#`` lists G54 and G92; the steps are kontur run's of the same program."""
+    grbl, said = serve_lines(OFFSETS)
+    assert [s for s in said if s == "ok" or s.startswith("error")] == ["ok"] * 6
+    spm = grbl.machine.steps_per_mm
+    assert tuple(c / spm for c in grbl.motion.position) == (18.0, 11.0)
+    assert grbl.motion.made == run_steps(OFFSETS)
+    grbl.settings.write(10, 0)                        # $10=0: WPos, as interface.md has it
+    grbl._reports = 0                                 # the next report carries WCO
+    fields = dict(FIELDS.findall(grbl.status()))
+    assert fields["WPos"] == "5.000,0.000,0.000" and fields["WCO"] == "13.000,11.000,0.000"
+    said.clear()
+    grbl.receive(b"$#\n$G\n")
+    grbl.poll()
+    assert "[G54:10.000,5.000,0.000]" in said and "[G92:3.000,6.000,0.000]" in said
+    assert "[G55:0.000,0.000,0.000]" in said
+    assert re.match(r"^\[GC:G1 G54 G17 G21 G90 G94 M5 M9 T0 F600 S0\]$", said[-2])
+
+
+def test_refused_line_leaves_the_state():
+    """A line refused changes nothing: its G91 and its parameter are not kept (the next
+    absolute move goes where G90 says), and Z stays where the program first put it, as
+    kontur run refuses a Z move."""
+    grbl, said = serve_lines("G0 Z5\nG91 #2=7 G1 X1 Q5 F100\nG0 X#2\nG1 X2 Z1 F100\nG0 Y4\n")
+    assert [s for s in said if s == "ok" or s.startswith("error")] == \
+        ["ok", "error:20", "ok", "error:20", "ok"]
+    spm = grbl.machine.steps_per_mm
+    assert tuple(c / spm for c in grbl.motion.position) == (0.0, 4.0)   # #2 never set: X0
+    assert re.match(r"^<Idle\|MPos:0\.000,4\.000,5\.000\|", grbl.status())
+    said.clear()
+    grbl.receive(b"$G\n")
+    grbl.poll()
+    assert " G90 " in said[0] and said[0].startswith("[GC:G0 ")
+
+
+def test_program_end_and_messages():
+    """``(MSG,...)`` is said as ``[MSG:...]``; M30's ok waits for the motion's end, after
+    ``[MSG:Pgm End]``; the modes after it are Grbl's program end (G1 G54 G90), the spindle
+    off; M3 S1000 shows in ``$G`` before."""
+    grbl, said = serve_lines("G55 G91 M3 S1000\n(MSG, half way)\nG1 X2 F600\nM30\n")
+    assert "[MSG:half way]" in said
+    assert said[-2:] == ["[MSG:Pgm End]", "ok"]
+    assert grbl.motion.position == (2 * grbl.machine.steps_per_mm, 0)
+    said.clear()
+    grbl.receive(b"$G\n")
+    grbl.poll()
+    assert re.match(r"^\[GC:G1 G54 G17 G21 G90 G94 M5 M9 T0 F600 S1000\]$", said[0]), said

@@ -151,13 +151,15 @@ class Session:
         text = p.clean_line(raw)
         if len(text) >= p.LINE_BUFFER - 1:
             raise LineError(11)
-        if not text:
+        if not text and "(" not in raw:
             return None
-        if text[0] == "$":
+        if text[:1] == "$":
             return self._system(text)
         if self.alarm or self.motion.kind == "jog":
             raise LineError(9)
-        return self._gcode(text)
+        # The reader takes the line as sent (its comments: (MSG,...); its named parameters),
+        # control characters dropped as Grbl drops them.
+        return self._gcode("".join(ch for ch in raw if ch >= " " and ch != "\x7f"))
 
     # ---- state ---------------------------------------------------------------------------
 
@@ -302,7 +304,8 @@ class Session:
         except LineError:
             self.z = z
             raise
-        messages = [f"[MSG:{event.text}]" for event in events if event.kind == "message"]
+        messages = [f"[MSG:{event.text.strip()}]" for event in events
+                    if event.kind == "message"]
         if kind is None:
             for event in events:
                 if event.kind == "spindle":
