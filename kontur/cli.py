@@ -309,9 +309,12 @@ def _add_serve(commands):
     serve.add_argument("--tcp", type=int, default=None, metavar="PORT",
                        help="also listen on 127.0.0.1:PORT (0: any free port; its number is "
                             "the second line of standard output)")
-    serve.add_argument("--engine", choices=("model",), default="model",
-                       help="what runs the moves: the golden models in real time (the only "
-                            "one yet; a board and Verilator are issue 29's next slices)")
+    serve.add_argument("--engine", choices=("model", "verilator"), default="model",
+                       help="what runs the moves: the golden models in real time (default); "
+                            "verilator: the models in real time, and every run of motion "
+                            "run again, once the machine rests, on the controller's RTL under "
+                            "Verilator, its steps checked against the model's (summary.json's "
+                            "rtl_check). A board behind it (--port) is issue 29's next slice")
     serve.add_argument("--out", metavar="DIR", default=None,
                        help="write steps.txt and summary.json of the steps made since the "
                             "start to DIR after every run of motion and at the end")
@@ -340,7 +343,7 @@ def _serve(args, out):
     args.radius = None
     machine = _machine(args)
     serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
-          speed=args.speed, out=out)
+          speed=args.speed, engine=args.engine, out=out)
     return 0
 
 

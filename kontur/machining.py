@@ -790,10 +790,10 @@ def _move_into_place(staging, out_dir):
         return
 
 
-def write_outputs(job, result, out_dir, *, staging=None, plot=True):
+def write_outputs(job, result, out_dir, *, staging=None, plot=True, extra=None):
     """Write ``steps.txt``, ``toolpath.png`` (unless ``plot`` is false: ``kontur serve``
-    rewrites its outputs after every run of motion) and ``summary.json`` into ``out_dir``;
-    return the summary dict.
+    rewrites its outputs after every run of motion) and ``summary.json`` (with the keys of
+    ``extra`` added) into ``out_dir``; return the summary dict.
 
     The files are written into ``staging`` (default a fresh :func:`staging_dir`; the run's
     waveform may already be there), and that folder then replaces ``out_dir`` whole: its
@@ -804,6 +804,7 @@ def write_outputs(job, result, out_dir, *, staging=None, plot=True):
     with open(staging / "steps.txt", "w") as handle:
         handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)
+    data.update(extra or {})
     if plot:
         from kontur.plot import plot_toolpath
         plot_toolpath(job, result.steps, _speeds(result.steps, result.times,

@@ -8,6 +8,7 @@ with its test; its clock runs 20 times real time (``--speed``), so that the brac
 machining take about 1.3 s.
 """
 
+import json
 import re
 import select
 import sys
@@ -20,6 +21,8 @@ import serial
 
 from kontur.machining import execute, prepare
 from kontur.sim import processes
+
+from .conftest import selected_simulators
 
 ROOT = Path(__file__).resolve().parent.parent
 BRACKET = ROOT / "kontur" / "programs" / "bracket.ngc"
@@ -65,11 +68,12 @@ def read_steps(out):
 
 
 @pytest.fixture
-def server(tmp_path):
-    """A ``kontur serve`` child: ``(link, out, process)``."""
+def server(tmp_path, request):
+    """A ``kontur serve`` child: ``(link, out, process)`` (more options, after ``--speed``,
+    by indirect parametrisation)."""
     link, out = tmp_path / "grbl", tmp_path / "out"
     args = [sys.executable, "-m", "kontur.cli", "serve", "--link", str(link), "--out",
-            str(out), "--speed", str(SPEED)]
+            str(out), "--speed", str(SPEED), *getattr(request, "param", ())]
     with processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path) as process:
         ready, _, _ = select.select([process.stdout], [], [], 30)
         assert ready, "kontur serve printed no pseudo-terminal"
@@ -234,6 +238,31 @@ def test_plain_character_counting_stream(port, server):
     assert "Run" in states
     expected = run_steps(SHORT)
     wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
+@pytest.mark.parametrize("server", [("--engine", "verilator")], indirect=True)
+def test_verilator_checks_what_the_model_made(port, server):
+    """``--engine verilator``: a tiny program streamed, Idle at its end; once the machine
+    rests its run of motion is run on the controller's RTL (Verilator): summary.json's
+    rtl_check holds every step checked and no failure, and the steps are kontur run's."""
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    _, out, _ = server
+    program = "G21 G90\nG1 X2 Y1 F1200\nG2 X4 Y1 I1 J0\nG0 X0 Y0\n"
+    answers, _ = stream(port, program)
+    assert answers == ["ok"] * 4
+    assert port.wait_idle() == (0.0, 0.0, 0.0)
+    expected = run_steps(program)
+    deadline = time.monotonic() + 600            # a first Verilator build takes minutes
+    while time.monotonic() < deadline:
+        if (out / "summary.json").exists():
+            check = json.loads((out / "summary.json").read_text()).get("rtl_check", {})
+            if check.get("steps") == len(expected) or check.get("failures"):
+                break
+        time.sleep(0.2)
+    assert check == {**check, "engine": "verilator", "steps": len(expected), "failures": [],
+                     "segments_cut_short": 0}
     assert read_steps(out) == expected
 
 

@@ -42,8 +42,8 @@ class Motion:
     :meth:`add` queues a block, :meth:`tick` moves the clock to the present, :meth:`hold`,
     :meth:`resume`, :meth:`cancel` (a jog cancel, a reset) act at once. :attr:`position` is
     where the machine is (steps); :attr:`made` the steps made since the start, :attr:`times`
-    their times (s, virtual), :attr:`segments` the segments they belong to (the last one cut
-    short by a cancel)."""
+    their times (s, virtual), :attr:`segments` the segments they belong to (those cut short by
+    a cancel listed in :attr:`cut`)."""
 
     def __init__(self, machine, board, *, speed=1.0, position=(0, 0), clock=time.monotonic):
         self.machine, self.board, self.speed = machine, board, speed
@@ -61,6 +61,7 @@ class Motion:
         self._interval = None               # (length mm, seconds) of the last step
         self._replan_from = None            # blocks added since the last plan: moving then?
         self.made, self.times, self.segments = [], [], []
+        self.cut = set()                    # indexes in segments of those cut short
 
     # ---- the queue ----------------------------------------------------------------------
 
@@ -163,6 +164,7 @@ class Motion:
             self.segments[-1] = replace(self.segments[-1],
                                         steps=self.segments[-1].steps[:self._done],
                                         end=self.position)
+            self.cut.add(len(self.segments) - 1)
         self.blocks.clear()
         self._queue.clear()
         self._times.clear()

@@ -8,7 +8,9 @@ pseudo-terminal is raw (no echo, no line-end translation); opening it is a conne
 welcome line is sent to it then, as a Grbl board's reset on the serial port's DTR does (the
 machine itself is not reset). After every run of motion, and at the end, the steps made since
 the start are written to ``--out DIR`` as ``kontur run`` writes them (``steps.txt``,
-``summary.json``).
+``summary.json``). With ``--engine verilator`` every run of motion is also run, once the
+machine rests, on the controller's RTL under Verilator (:class:`RTLCheck`), whose steps must
+be the model's.
 """
 
 import contextlib
@@ -28,6 +30,68 @@ __all__ = ["serve", "Outputs"]
 TICK = 0.005          # seconds: the longest the loop waits
 
 
+class RTLCheck:
+    """The segments the model made, run again on the controller's RTL (``engine``, Verilator)
+    a run of motion at a time, from rest to rest: its steps must be the model's
+    (:func:`kontur.machining.execute` checks them, every frame DONE and the position read
+    back). A segment cut short by a soft reset or a jog cancel is not checked (the RTL would
+    make it whole); nor is one not yet finished. :attr:`record` is what ``summary.json``
+    says of it (``rtl_check``)."""
+
+    def __init__(self, session, engine):
+        self.session, self.engine = session, engine
+        self.checked = 0                    # segments looked at
+        self.record = {"engine": engine, "runs": 0, "segments": 0, "steps": 0,
+                       "segments_cut_short": 0, "wall_seconds": 0.0, "failures": []}
+
+    def check(self, segments, cut, made):
+        """Check the finished segments of ``segments`` from :attr:`checked` on (``cut``: the
+        indexes of those cut short; ``made``: the steps made so far)."""
+        finished, total = 0, 0
+        for segment in segments:
+            total += len(segment.steps)
+            if total > made:
+                break
+            finished += 1
+        batch = []
+        for index in range(self.checked, finished):
+            if index in cut:
+                self._run(batch)
+                batch = []
+                self.record["segments_cut_short"] += 1
+            else:
+                batch.append(segments[index])
+        self._run(batch)
+        self.checked = finished
+
+    def _run(self, batch):
+        from dataclasses import replace
+
+        from kontur.machining import Job, RunError, execute
+        from kontur.planner import plan
+        from kontur.trace import UsageError
+        batch = [segment for segment in batch if segment.steps]
+        if not batch:
+            return
+        x0, y0 = batch[0].start                 # the RTL starts at its origin
+        batch = [replace(s, start=(s.start[0] - x0, s.start[1] - y0),
+                         end=(s.end[0] - x0, s.end[1] - y0)) for s in batch]
+        machine = self.session.machine
+        job = Job("kontur serve", self.session.board, machine, [], batch,
+                  plan(batch, machine), (0, 0))
+        try:
+            result = execute(job, self.engine)
+        except (RunError, UsageError) as error:
+            lines = sorted({segment.line for segment in batch})
+            self.record["failures"].append(f"lines {lines[0]}-{lines[-1]}: {error}")
+            sys.stderr.write(f"kontur: serve: the RTL check failed: {error}\n")
+            return
+        self.record["runs"] += 1
+        self.record["segments"] += len(batch)
+        self.record["steps"] += len(result.steps)
+        self.record["wall_seconds"] += result.wall
+
+
 class Outputs:
     """The session's steps, written to ``out_dir`` as ``kontur run`` writes them whenever
     the machine has made new ones and stood still :data:`SETTLE` seconds: in a thread of its
@@ -38,8 +102,10 @@ class Outputs:
     #: falls behind the motion does not make a write at every pause).
     SETTLE = 0.25
 
-    def __init__(self, session, out_dir):
-        self.session, self.out_dir = session, Path(out_dir)
+    def __init__(self, session, out_dir, *, engine="model"):
+        self.session = session
+        self.out_dir = None if out_dir is None else Path(out_dir)
+        self.rtl = RTLCheck(session, engine) if engine != "model" else None
         self.written = None
         self._moving = 0.0
         self._thread = None
@@ -80,14 +146,20 @@ class Outputs:
         job = Job("kontur serve", self.session.board, machine, moves, segments,
                   plan(segments, machine), segments[0].start)
         result = Result("model", list(motion.made), list(motion.times), motion.position)
-        return job, result
+        return job, result, set(motion.cut)
 
-    def _write(self, job, result):
+    def _write(self, job, result, cut):
         from kontur.machining import write_outputs
         first = result.times[0]
         result.times = [t - first for t in result.times]
+        extra = None
+        if self.rtl is not None:
+            self.rtl.check(job.segments, cut, len(result.steps))
+            extra = {"rtl_check": dict(self.rtl.record)}
+        if self.out_dir is None:
+            return
         try:
-            write_outputs(job, result, self.out_dir, plot=False)
+            write_outputs(job, result, self.out_dir, plot=False, extra=extra)
         except OSError as error:
             sys.stderr.write(f"kontur: serve: cannot write {self.out_dir}: "
                              f"{error.strerror or error}\n")
@@ -136,9 +208,11 @@ def _listener(port):
     return server
 
 
-def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, out=sys.stdout):
+def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engine="model",
+          out=sys.stdout):
     """Serve until a signal ends the process (``KeyboardInterrupt``): the outputs are written
-    and the link removed on the way out."""
+    and the link removed on the way out. ``engine`` ``"verilator"`` checks every run of motion
+    on the RTL (:class:`RTLCheck`; with ``out_dir``, where its record is written)."""
     master, name = _pty(link)
     server = _listener(tcp) if tcp is not None else None
     pty = _Endpoint(master)
@@ -153,7 +227,8 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, out=s
             client.outbox += data
 
     session = Session(machine, board, send, speed=speed)
-    outputs = Outputs(session, out_dir) if out_dir is not None else None
+    outputs = Outputs(session, out_dir, engine=engine) \
+        if out_dir is not None or engine != "model" else None
     out.write(f"{name}\n")
     if server is not None:
         out.write(f"tcp 127.0.0.1:{server.getsockname()[1]}\n")
