@@ -536,3 +536,28 @@ def test_program_end_and_messages():
     grbl.receive(b"$G\n")
     grbl.poll()
     assert re.match(r"^\[GC:G1 G54 G17 G21 G90 G94 M5 M9 T0 F600 S1000\]$", said[0]), said
+
+
+def test_m0_pauses_until_resume():
+    """M0 (interface.md, commands.md: a program pause) waits for the motion before it, then
+    holds (Hold:0) with its ok kept back; ``~`` sends the ok and the stream goes on. The
+    accessory field and FS show the spindle and coolant a program switched on (M3 S1000,
+    M8: ``A:SF``, ``FS:..,1000``)."""
+    now = [0.0]
+    grbl, said = session(speed=SPEED, clock=lambda: now[0])
+    grbl.receive(b"M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n")
+    for _ in range(100):
+        grbl.poll()
+        now[0] += 0.1
+    spm = grbl.machine.steps_per_mm
+    assert grbl.state() == "Hold:0" and grbl.motion.position == (2 * spm, 0)
+    assert said.count("ok") == 2
+    fields = dict(FIELDS.findall(grbl.status()))
+    assert fields["A"] == "SF" and fields["FS"] == "0,1000"
+    grbl.receive(b"~")
+    for _ in range(100):
+        grbl.poll()
+        now[0] += 0.1
+    assert said.count("ok") == 4 and grbl.state() == "Idle"
+    assert grbl.motion.position == (4 * spm, 0)
+    assert grbl.motion.made == run_steps("M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n")

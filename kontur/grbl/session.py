@@ -50,6 +50,7 @@ class Session:
         self.startup = ["", ""]                # $N0, $N1
         self.info = "kontur virtual machine"   # $I
         self._waiting = None                   # a reply held until the motion ends (M2/M30)
+        self._pause = False                    # M0: a feed hold once the motion ends
         self._reset_after = False              # $C off, $RST=: a reset after the ok
         self._reports = 0
         self.z = None                          # the first Z a program gives (kontur has X, Y)
@@ -116,6 +117,11 @@ class Session:
         while True:
             if self._waiting is not None:
                 if self.motion.busy:
+                    return
+                if self._pause:                # M0: held at rest until ~, then the ok
+                    self._pause = False
+                    self.motion.hold()
+                if self.motion.held:
                     return
                 for line in self._waiting:
                     self.send(line)
@@ -192,8 +198,23 @@ class Session:
         offset = offset if self._reports % 10 == 0 else None
         self._reports += 1
         return p.status_report(self.state(), position, work=not mask & 1, buffer=buffer,
-                               feed=motion.feed(), overrides=tuple(motion.overrides),
+                               feed=motion.feed(), speed=self._speed(),
+                               overrides=tuple(motion.overrides),
+                               accessories=self._accessories(),
                                inches=bool(self.settings.value(13)), offset=offset)
+
+    def _speed(self):
+        """The spindle speed reported (``FS:``): the programmed S while M3/M4 is on, by the
+        spindle override (there is no spindle: what a sender shows)."""
+        if self.spindle == "M5":
+            return 0.0
+        return float(self.reader.modes()["speed"]) * self.motion.overrides[2] / 100
+
+    def _accessories(self):
+        """``A:``'s letters: S (M3) or C (M4), F (M8 flood), M (M7 mist)."""
+        letters = {"M3": "S", "M4": "C"}.get(self.spindle, "")
+        return letters + "".join(letter for code, letter in (("M8", "F"), ("M7", "M"))
+                                 if code in self.coolant)
 
     def _reset_reader(self):
         """The reader afresh (Grbl's power-up modes: G0 G17 G21 G90 G94 G54, no G92 offset) at
@@ -240,6 +261,7 @@ class Session:
         motion.overrides = [100, 100, 100]
         self.rx.clear()
         self._waiting = None
+        self._pause = False
         self.check = False
         self._reports = 0
         self._reset_reader()
@@ -311,8 +333,13 @@ class Session:
                 if event.kind == "spindle":
                     self.spindle = event.text.split()[0]
                 elif event.kind == "coolant":
-                    self.coolant = event.text
+                    code = event.text
+                    self.coolant = "M9" if code == "M9" else " ".join(
+                        sorted({*self.coolant.split(), code} - {"M9"}))
             ended = reader.ended
+            if any(event.kind == "pause" and event.text == "M0" for event in events) \
+                    and not self.check:            # M0 (Grbl ignores M1): a pause
+                self._pause = True
             if ended:                              # M2/M30: Grbl's program end
                 reader.program_end()
                 self.spindle, self.coolant = "M5", "M9"
@@ -330,7 +357,7 @@ class Session:
             self.moves.append(move)
             self.motion.add(Block(kind or ("rapid" if move.kind == "rapid" else "feed"),
                                   move.line, segments))
-        if ended:
+        if ended or self._pause:
             self._waiting = []                      # the ok waits for the motion's end
         return messages or None
 
