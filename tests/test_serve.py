@@ -228,6 +228,70 @@ def test_grbl_streamer_runs_the_bracket(server):
     assert read_steps(out) == expected
 
 
+#: bCNC's sender without its window: its ``Sender`` class (the serial thread, character
+#: counting, status polls; bCNC's ``Application`` is that class and a Tk window) with the GRBL1
+#: controller, opened on the port, the program loaded and compiled into its queue as bCNC's
+#: Run does, a WAIT at the end; printed as JSON: what it logged, lines done, state, MPos.
+BCNC = """
+import json, os, sys, time
+import bCNC
+for sub in ("", "lib", "plugins", "controllers"):
+    sys.path.append(os.path.join(os.path.dirname(bCNC.__file__), sub))
+import Helpers  # gettext.install, as bCNC's main does first
+import Utils
+Utils.loadConfiguration()
+from CNC import CNC, WAIT
+from Sender import Sender
+
+class Headless(Sender):
+    def disable(self):
+        pass
+
+sender = Headless()
+sender.open(sys.argv[1], 115200)
+sender.load(sys.argv[2])
+sender.initRun()
+sender._runLines, sender._gcount = sys.maxsize, 0
+paths = sender.gcode.compile(sender.queue, lambda: False)
+sender._runLines = len(paths) + 1
+sender.queue.put((WAIT,))
+log, deadline = [], time.time() + 30
+while sender._gcount < sender._runLines and time.time() < deadline:
+    time.sleep(0.05)
+time.sleep(0.5)                                    # a status poll after the WAIT
+while not sender.log.empty():
+    log.append(list(sender.log.get()))
+print(json.dumps({"log": log, "done": sender._gcount, "lines": sender._runLines,
+                  "state": CNC.vars["state"],
+                  "mpos": [CNC.vars["mx"], CNC.vars["my"], CNC.vars["mz"]]}), flush=True)
+sender.serial.close()
+os._exit(0)
+"""
+
+
+def test_bcnc_streams_a_program(server, tmp_path):
+    """bCNC's own sender code (PyPI ``bcnc``, no window) streams a program: every line
+    done, no error, Idle at the program's end as bCNC's status parser reads it, the steps
+    kontur run's. Its own warnings are its own (PYTHONWARNINGS off for it)."""
+    import json
+    import os
+    import subprocess
+    link, out, _ = server
+    program = tmp_path / "short.ngc"
+    program.write_text(SHORT)
+    env = {**os.environ, "HOME": str(tmp_path), "PYTHONWARNINGS": ""}
+    done = subprocess.run([sys.executable, "-c", BCNC, str(link), str(program)], env=env,
+                          capture_output=True, text=True, timeout=60, check=True)
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    errors = [text for kind, text in report["log"] if kind == 4]            # MSG_ERROR
+    assert not errors and [kind for kind, _ in report["log"]].count(3) >= 6   # MSG_OK
+    assert report["done"] == report["lines"] and report["state"] == "Idle"
+    assert tuple(report["mpos"]) == (*program_end(SHORT), 0.0)
+    expected = run_steps(SHORT)
+    wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
 def test_plain_character_counting_stream(port, server):
     """A plain character-counting stream of a program that ends away from its start: every
     line ok, Run then Idle, MPos the program's end, the steps kontur run's."""
