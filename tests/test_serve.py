@@ -416,6 +416,11 @@ def session(**options):
     ("$100=abc", 2),                # a setting's value that is no number
     ("$J=X10", 22),                 # a jog needs F
     ("$J=G1 X10 F100", 16),         # a jog takes no motion code
+    ("G1 G92 X0 F100", 24),         # two commands that both use the axis words
+    ("G4", 28),                     # a value word missing (G4 P)
+    ("G53 G2 X1 I1 F100", 30),      # G53 with another motion than G0/G1
+    ("G80 X5", 31),                 # axis words no command uses
+    ("S-5", 4),                     # a negative spindle speed
 ])
 def test_error_codes(line, code):
     """Grbl's codes for each kind of refusal (interface.md's table), then the next line
