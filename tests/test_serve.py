@@ -630,3 +630,24 @@ def test_m0_pauses_until_resume():
     assert said.count("ok") == 4 and grbl.state() == "Idle"
     assert grbl.motion.position == (4 * spm, 0)
     assert grbl.motion.made == run_steps("M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n")
+
+
+def test_feed_override_changes_time_not_steps():
+    """Feed override at 50 % (0x90 then five 0x92, interface.md): a feed-only program takes
+    twice the time on the session's clock, with the same steps (kontur run's)."""
+    program = "G1 X20 Y5 F1200\nG1 X0 Y10\n"
+
+    def served(override):
+        now = [0.0]
+        grbl, _ = session(speed=SPEED, clock=lambda: now[0])
+        grbl.receive(override + program.encode())
+        grbl.poll()
+        while grbl.motion.busy:
+            now[0] += 0.001
+            grbl.poll()
+        return grbl.motion.made, now[0]
+
+    steps, fast = served(b"")
+    slow_steps, slow = served(bytes([0x90] + [0x92] * 5))
+    assert steps == slow_steps == run_steps(program)
+    assert slow == pytest.approx(2 * fast, rel=0.02)
