@@ -651,3 +651,26 @@ def test_feed_override_changes_time_not_steps():
     slow_steps, slow = served(bytes([0x90] + [0x92] * 5))
     assert steps == slow_steps == run_steps(program)
     assert slow == pytest.approx(2 * fast, rel=0.02)
+
+
+def test_g4_dwell_is_waited_out():
+    """G4 P2 (commands.md: Grbl waits for the motion, dwells, then answers ok): its ok comes
+    two seconds of machine time after the move before it ends, and the next line only
+    then; the steps are kontur run's."""
+    program = "G1 X2 F600\nG4 P2\nG1 X4\n"
+
+    def served(text):
+        now = [0.0]
+        grbl, said = session(speed=SPEED, clock=lambda: now[0])
+        grbl.receive(text.encode())
+        grbl.poll()
+        while grbl.motion.busy or grbl._waiting is not None or grbl.rx:
+            now[0] += 0.001
+            grbl.poll()
+        return grbl.motion.made, now[0], said
+
+    steps, dwelling, said = served(program)
+    same, plain, _ = served(program.replace("G4 P2\n", ""))
+    assert steps == same == run_steps(program)
+    assert said.count("ok") == 3
+    assert dwelling - plain == pytest.approx(2 / SPEED, abs=0.01)

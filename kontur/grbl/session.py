@@ -51,6 +51,7 @@ class Session:
         self.info = "kontur virtual machine"   # $I
         self._waiting = None                   # a reply held until the motion ends (M2/M30)
         self._pause = False                    # M0: a feed hold once the motion ends
+        self._dwell = None                     # G4: (seconds, virtual end) once it ends
         self._reset_after = False              # $C off, $RST=: a reset after the ok
         self._reports = 0
         self.z = None                          # the first Z a program gives (kontur has X, Y)
@@ -118,6 +119,14 @@ class Session:
             if self._waiting is not None:
                 if self.motion.busy:
                     return
+                if self._dwell is not None:    # G4: the virtual clock waits it out
+                    seconds, end = self._dwell
+                    if end is None:
+                        self._dwell = seconds, self.motion.now + seconds
+                        return
+                    if self.motion.now < end:
+                        return
+                    self._dwell = None
                 if self._pause:                # M0: held at rest until ~, then the ok
                     self._pause = False
                     self.motion.hold()
@@ -262,6 +271,7 @@ class Session:
         self.rx.clear()
         self._waiting = None
         self._pause = False
+        self._dwell = None
         self.check = False
         self._reports = 0
         self._reset_reader()
@@ -340,6 +350,9 @@ class Session:
             if any(event.kind == "pause" and event.text == "M0" for event in events) \
                     and not self.check:            # M0 (Grbl ignores M1): a pause
                 self._pause = True
+            dwell = [move.seconds for move in moves if move.kind == "dwell"]
+            if dwell and not self.check:           # G4: Grbl waits for the motion, then
+                self._dwell = float(dwell[0]), None     # dwells, then says ok
             if ended:                              # M2/M30: Grbl's program end
                 reader.program_end()
                 self.spindle, self.coolant = "M5", "M9"
@@ -357,7 +370,7 @@ class Session:
             self.moves.append(move)
             self.motion.add(Block(kind or ("rapid" if move.kind == "rapid" else "feed"),
                                   move.line, segments))
-        if ended or self._pause:
+        if ended or self._pause or self._dwell is not None:
             self._waiting = []                      # the ok waits for the motion's end
         return messages or None
 
