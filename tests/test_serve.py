@@ -674,3 +674,48 @@ def test_g4_dwell_is_waited_out():
     assert steps == same == run_steps(program)
     assert said.count("ok") == 3
     assert dwelling - plain == pytest.approx(2 / SPEED, abs=0.01)
+
+
+def test_hold_ramps_down_and_resume_ramps_up():
+    """``!`` at F600 (10 mm/s) on the default machine (500 mm/s², docs/controller.md): Hold:1
+    while the machine slows (interface.md), then Hold:0 once stopped, v²/2a = 0.1 mm (8
+    steps at 80 steps/mm, give or take one) after the hold; ``~`` starts from rest, the
+    first 0.1 mm in sqrt(2 * 0.1 / 500) = 0.02 s of machine time (at cruise: 0.01 s); the
+    steps are kontur run's."""
+    now = [0.0]
+    grbl, _ = session(speed=1, clock=lambda: now[0])
+    grbl.receive(LONG.replace("F300", "F600").encode())
+    grbl.poll()
+    now[0] = 1.0                                    # cruising, far from either end
+    grbl.poll()
+    made = len(grbl.motion.made)
+    grbl.receive(b"!")
+    assert grbl.state() == "Hold:1"
+    for _ in range(100):
+        now[0] += 0.001
+        grbl.poll()
+    assert grbl.state() == "Hold:0"
+    spm = grbl.machine.steps_per_mm
+    stopped = grbl.motion.made[made:]
+    length = sum((2 ** 0.5 if dx and dy else 1) for dx, dy in stopped) / spm
+    assert length == pytest.approx(0.1, abs=1.5 / spm)
+    now[0] += 1.0
+    grbl.poll()
+    assert len(grbl.motion.made) == made + len(stopped)        # held: not a step more
+    grbl.receive(b"~")
+    resumed, start = len(grbl.motion.made), grbl.motion.now
+    for _ in range(40):
+        now[0] += 0.001
+        grbl.poll()
+    steps, times = grbl.motion.made[resumed:], grbl.motion.times[resumed:]
+    covered, at = 0.0, None
+    for (dx, dy), t in zip(steps, times):
+        covered += (2 ** 0.5 if dx and dy else 1) / spm
+        if covered >= 0.1:
+            at = t - start
+            break
+    assert at == pytest.approx(0.02, abs=0.003)
+    while grbl.motion.busy:
+        now[0] += 0.05
+        grbl.poll()
+    assert grbl.motion.made == run_steps(LONG.replace("F300", "F600"))

@@ -9,10 +9,16 @@ already sent changes as later lines arrive, as in Grbl.
 
 The clock is virtual: it runs ``speed`` times real time (``kontur serve --speed``) and the
 override of the move being made (a feed override on feed moves, a rapid override on rapids:
-timing changes, the steps do not); a feed hold stops it at once (host-side: the machine
-halts between two steps, with no deceleration; the gateware's ramped hold is issue 25's).
+timing changes, the steps do not), the feed override's factor quantised as the feed
+generator takes it (Q2.7: ``round(percent * 128 / 100) / 128``). A feed hold ramps the
+machine down at its acceleration, as the feed generator's model does under ``hold`` (its
+rate falls by the acceleration every clock): the steps ahead re-timed until the speed
+reaches zero (``Hold:1``), then the clock stops (``Hold:0``); a resume ramps it up again from
+rest at the acceleration until the plan's speed is reached (both in the virtual clock's
+seconds, where an override's factor ``f`` makes the acceleration ``accel / f**2``).
 """
 
+import math
 import time
 from collections import deque
 from dataclasses import dataclass, field, replace
@@ -61,6 +67,8 @@ class Motion:
         self._interval = None               # (length mm, seconds) of the last step
         self._replan_from = None            # blocks added since the last plan: moving then?
         self.made, self.times, self.segments = [], [], []
+        self._stopping = 0                  # steps left in a hold's ramp down
+        self._ramp = None                   # a resume's ramp up: (steps made then, mm since)
         self.cut = set()                    # indexes in segments of those cut short
 
     # ---- the queue ----------------------------------------------------------------------
@@ -87,6 +95,10 @@ class Motion:
         else:
             base = self._last if moving else self.now
         self._times = deque(base + t for t in times[k:])
+        if self._ramp is not None:
+            self._ramp_up(self._last if k or moving else self.now)
+        if self.held and self._stopping:    # a line taken while ramping down
+            self._ramp_down()
 
     @property
     def busy(self):
@@ -100,23 +112,100 @@ class Motion:
 
     # ---- time ---------------------------------------------------------------------------
 
-    def _rate(self):
+    def _factor(self):
+        """The override factor of the block being made: the feed override quantised to the
+        feed generator's Q2.7, the rapid override's exact 100/50/25 %."""
         kind = self.kind
-        scale = (self.overrides[0] if kind == "feed" else
-                 self.overrides[1] if kind == "rapid" else 100) / 100
-        return self.speed * scale
+        if kind == "feed":
+            return round(self.overrides[0] * 128 / 100) / 128
+        return self.overrides[1] / 100 if kind == "rapid" else 1.0
+
+    def _rate(self):
+        return self.speed * self._factor()
+
+    @property
+    def stopping(self):
+        """A hold ramping the machine down (Grbl's ``Hold:1``)."""
+        return self.held and self._stopping > 0
 
     def tick(self):
         """Move the virtual clock to the present (at the rate of the block being made: ticks
-        come every few milliseconds) and make the steps whose time has come."""
+        come every few milliseconds) and make the steps whose time has come (under a hold,
+        those of its ramp down only)."""
         if self._replan_from is not None:
             self._replan(self._replan_from)
         real = self.clock()
-        if not self.held:
+        if not self.held or self._stopping:
             self.now += (real - self._real) * self._rate()
-            while self._times and self._times[0] <= self.now:
+            while self._times and self._times[0] <= self.now and \
+                    (not self.held or self._stopping):
                 self._step()
+                if self.held:
+                    self._stopping -= 1
+            if self.held and not self._stopping and self._times:
+                self.now = min(self.now, self._times[0])
         self._real = real
+
+    # ---- the ramps of a hold and a resume ---------------------------------------------
+
+    def _length(self, step):
+        dx, dy = step
+        return (math.sqrt(2) if dx and dy else 1.0) / self.machine.steps_per_mm
+
+    def _ahead(self):
+        """The steps not yet made, in order."""
+        done = self._done
+        for segment, _ in self._queue:
+            yield from segment.steps[done:]
+            done = 0
+
+    def _accel(self):
+        """The machine's acceleration in the virtual clock's seconds (mm/s²)."""
+        return self.machine.accel / self._factor() ** 2
+
+    def _retime(self, start, reach, *, shift=True, until=None):
+        """Re-time the steps ahead from ``start`` (virtual s): each no earlier than
+        ``start + reach(distance to its end)`` (``None``: it is not reached, nor are those
+        after it), than its planned speed allows after the one before, than planned. With
+        ``shift`` the steps after those re-timed (``until(distance)`` says where the ramp no
+        longer binds) are as late as the last of them is; returns the times replaced (the
+        plan's)."""
+        planned, previous, times = list(self._times), start, []
+        covered = 0.0
+        for index, step in enumerate(self._ahead()):
+            length = self._length(step)
+            covered += length
+            earliest = reach(covered)
+            if earliest is None:
+                break
+            interval = planned[index] - (planned[index - 1] if index else self._last)
+            previous = max(start + earliest, previous + max(interval, 0.0), planned[index])
+            times.append(previous)
+            if until is not None and until(covered):
+                break
+        for index, at in enumerate(times):
+            self._times[index] = at
+        if shift and times:
+            delay = times[-1] - planned[len(times) - 1]
+            for index in range(len(times), len(planned)):
+                self._times[index] += delay
+        return planned[:len(times)]
+
+    @property
+    def _fastest(self):
+        """No planned speed is above this (mm/s, virtual): twice the machine's maximum
+        feed."""
+        return self.machine.max_feed / 60 * 2
+
+    def _ramp_up(self, start):
+        """From rest (or the speed a ramp down had reached) at the acceleration: the time to
+        a distance ``d`` past the point where the speed was zero is ``sqrt(2 d / a)``."""
+        made, before = self._ramp
+        since = before + sum(map(self._length, self.made[made:]))
+        accel = self._accel()
+        offset = math.sqrt(2 * since / accel)
+        self._retime(start, lambda d: math.sqrt(2 * (since + d) / accel) - offset,
+                     until=lambda d: 2 * accel * (since + d) >= self._fastest ** 2)
 
     def _step(self):
         at = self._times.popleft()
@@ -137,6 +226,8 @@ class Motion:
             self._done = 0
         if not block.left:
             self.blocks.popleft()
+        if not self._times:
+            self._ramp = None
 
     def feed(self):
         """The feed now (mm/min): the last step's length over its interval; 0 when idle or
@@ -149,12 +240,51 @@ class Motion:
     # ---- real-time commands -------------------------------------------------------------
 
     def hold(self):
+        """Ramp down to a stop (the steps within the stopping distance re-timed), then
+        hold."""
         self.tick()
+        if self.held:
+            return
         self.held = True
+        self._ramp = None
+        self._ramp_down()
+
+    def _ramp_down(self):
+        """The steps ahead within the stopping distance from the speed now, re-timed."""
+        speed, accel = self._speed(), self._accel()
+        if not self._times or not speed:
+            self._stopping = 0
+            return
+
+        def stop(distance):                 # the time to a distance on the way down
+            left = speed ** 2 - 2 * accel * distance
+            return (speed - math.sqrt(left)) / accel if left >= 0 else None
+        self._saved = self._retime(self._last, stop, shift=False)
+        self._stopping = len(self._saved)
+
+    def _speed(self):
+        """The speed now (mm/s, virtual): the last step's length over its interval."""
+        if self._interval is None:
+            return 0.0
+        length, seconds = self._interval
+        return length / seconds if seconds > 0 else 0.0
 
     def resume(self):
+        """Ramp up from rest (the steps ahead re-timed from now, at the acceleration until
+        the plan's speed)."""
         self.tick()
+        if not self.held:
+            return
         self.held = False
+        speed = 0.0
+        if self._stopping:                  # still ramping down: up again from this speed
+            speed = self._speed()
+            for index, at in enumerate(self._saved[-self._stopping:]):
+                self._times[index] = at
+            self._stopping = 0
+        self._ramp = (len(self.made), speed ** 2 / (2 * self._accel()))
+        if self._times:
+            self._ramp_up(self._last if speed else self.now)
 
     def cancel(self):
         """Drop every step not made (a jog cancel, a soft reset): the machine stops where it
@@ -170,3 +300,5 @@ class Motion:
         self._times.clear()
         self._done = 0
         self._replan_from = None
+        self._stopping = 0
+        self._ramp = None

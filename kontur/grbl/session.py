@@ -186,7 +186,7 @@ class Session:
         if self.check:
             return "Check"
         if motion.held:
-            return "Hold:0"
+            return "Hold:1" if motion.stopping else "Hold:0"
         if motion.busy:
             return "Jog" if motion.kind == "jog" else "Run"
         return "Idle"
