@@ -719,3 +719,24 @@ def test_hold_ramps_down_and_resume_ramps_up():
         now[0] += 0.05
         grbl.poll()
     assert grbl.motion.made == run_steps(LONG.replace("F300", "F600"))
+
+
+@pytest.mark.parametrize("wait, alarm", [(0.0, True), (0.1, False)])
+def test_reset_during_a_hold(wait, alarm):
+    """interface.md: a reset in Hold:1 (the hold in progress) throws an alarm (ALARM:3); in
+    Hold:0 (complete) it does not; the position is kept either way."""
+    now = [0.0]
+    grbl, said = session(speed=1, clock=lambda: now[0])
+    grbl.receive(LONG.encode())
+    grbl.poll()
+    now[0] = 1.0
+    grbl.poll()
+    grbl.receive(b"!")
+    now[0] += wait
+    grbl.poll()
+    assert grbl.state() == ("Hold:1" if alarm else "Hold:0")
+    position = grbl.motion.position
+    grbl.receive(b"\x18")
+    assert ("ALARM:3" in said) == alarm
+    assert grbl.state() == ("Alarm" if alarm else "Idle")
+    assert grbl.motion.position == position

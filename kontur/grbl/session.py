@@ -264,7 +264,7 @@ class Session:
         """Soft reset (ctrl-X): motion stops, the queue and the receive buffer are emptied,
         the position kept; a reset while moving raises ``ALARM:3``, as Grbl's does."""
         motion = self.motion
-        moving = motion.busy and not motion.held
+        moving = motion.busy and (not motion.held or motion.stopping)
         motion.cancel()
         motion.held = False
         motion.overrides = [100, 100, 100]
