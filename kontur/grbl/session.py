@@ -322,17 +322,13 @@ class Session:
         """Read, check and queue one G-code line (``kind="jog"`` for a jog, on a copy of the
         modal state that is dropped after: only its end is kept)."""
         reader = copy.deepcopy(self.reader)
-        z = self.z
+        z = self.z                                  # a line refused changes nothing
         try:
             moves, events = self._read(text, reader)
+            planned = [(move, self._segments(move)) for move in moves]
         except GCodeError as error:
             self.z = z
             raise LineError(p.error_code(error.reason, 20), error.reason) from None
-        except LineError:
-            self.z = z
-            raise
-        try:
-            planned = [(move, self._segments(move)) for move in moves]
         except LineError:
             self.z = z
             raise
