@@ -740,3 +740,35 @@ def test_reset_during_a_hold(wait, alarm):
     assert ("ALARM:3" in said) == alarm
     assert grbl.state() == ("Alarm" if alarm else "Idle")
     assert grbl.motion.position == position
+
+
+def corpus():
+    """The rs274 corpus programs (tests/programs/rs274) that kontur reads whole and that have
+    no O-words (which a line-by-line reader cannot take)."""
+    from kontur.gcode import GCodeError, read
+    for path in sorted((ROOT / "tests" / "programs" / "rs274").glob("*.ngc")):
+        text = path.read_text()
+        try:
+            program = read(text, units="mm")
+        except GCodeError:
+            continue
+        if not any(block.oword for block in program.blocks):
+            yield pytest.param(text, program, id=path.stem)
+
+
+@pytest.mark.parametrize("text, whole", list(corpus()))
+def test_stream_reads_line_by_line_as_whole(text, whole):
+    """kontur.gcode.Stream (the reader kontur serve keeps from line to line) fed one block at
+    a time gives the moves and events the reader gives the whole program (which
+    test_gcode_rs274 holds against LinuxCNC's own interpreter)."""
+    from kontur.gcode import Stream, parse
+    stream = Stream(units="mm")
+    moves, events = [], []
+    for block in parse(text):
+        more, said = stream.feed([block])
+        moves += more
+        events += [(e.line, e.kind, e.text, e.value) for e in said]
+        if stream.ended:
+            break
+    assert moves == list(whole.moves)
+    assert events == [(e.line, e.kind, e.text, e.value) for e in whole.events]
