@@ -342,6 +342,9 @@ def _serve(args, out):
         raise UsageError(f"--tcp must be a port from 0 to 65535, not {args.tcp}")
     args.radius = None
     machine = _machine(args)
+    if args.engine == "verilator":
+        from kontur.sim.runners import ensure_simulator
+        ensure_simulator("verilator")          # before any sender connects: status 1
     serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
           speed=args.speed, engine=args.engine, out=out)
     return 0

@@ -772,3 +772,23 @@ def test_stream_reads_line_by_line_as_whole(text, whole):
             break
     assert moves == list(whole.moves)
     assert events == [(e.line, e.kind, e.text, e.value) for e in whole.events]
+
+
+def test_rtl_check_catches_a_wrong_step():
+    """The RTL check of ``--engine verilator`` is a check: the model's steps of a served move
+    with one step changed (a stand-in for a model that is wrong) are not what the RTL makes,
+    and the failure is recorded (summary.json's rtl_check.failures; the true ones pass:
+    test_verilator_checks_what_the_model_made)."""
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    from dataclasses import replace
+
+    from kontur.grbl.server import RTLCheck
+    grbl, _ = serve_lines("G1 X3 Y1 F1200\n")
+    segments = grbl.motion.segments
+    steps = list(segments[0].steps)
+    steps[5] = (steps[5][0], 1 - steps[5][1])               # a diagonal for an axial step
+    bad = RTLCheck(grbl, "verilator")
+    bad.check([replace(segments[0], steps=steps)], set(), len(grbl.motion.made))
+    assert bad.record["steps"] == 0 and len(bad.record["failures"]) == 1
+    assert "differ" in bad.record["failures"][0]

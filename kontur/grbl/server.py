@@ -67,9 +67,8 @@ class RTLCheck:
     def _run(self, batch):
         from dataclasses import replace
 
-        from kontur.machining import Job, RunError, execute
+        from kontur.machining import Job, execute
         from kontur.planner import plan
-        from kontur.trace import UsageError
         batch = [segment for segment in batch if segment.steps]
         if not batch:
             return
@@ -81,9 +80,10 @@ class RTLCheck:
                   plan(batch, machine), (0, 0))
         try:
             result = execute(job, self.engine)
-        except (RunError, UsageError) as error:
-            lines = sorted({segment.line for segment in batch})
-            self.record["failures"].append(f"lines {lines[0]}-{lines[-1]}: {error}")
+        except Exception as error:      # RunError, a run too long, the simulator failing:
+            lines = sorted({segment.line for segment in batch})     # recorded, never lost
+            self.record["failures"].append(f"lines {lines[0]}-{lines[-1]}: "
+                                           f"{type(error).__name__}: {error}")
             sys.stderr.write(f"kontur: serve: the RTL check failed: {error}\n")
             return
         self.record["runs"] += 1
