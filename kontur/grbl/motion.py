@@ -203,6 +203,9 @@ class Motion:
         made, before = self._ramp
         since = before + sum(map(self._length, self.made[made:]))
         accel = self._accel()
+        if 2 * accel * since >= self._fastest ** 2:      # past any speed: the ramp is over
+            self._ramp = None
+            return
         offset = math.sqrt(2 * since / accel)
         self._retime(start, lambda d: math.sqrt(2 * (since + d) / accel) - offset,
                      until=lambda d: 2 * accel * (since + d) >= self._fastest ** 2)
