@@ -323,7 +323,7 @@ def _add_serve(commands):
                             "icebreaker)")
     serve.add_argument("--machine", metavar="FILE.toml", default=None,
                        help="the machine's configuration, as for kontur run; $$ shows it as "
-                            "Grbl's settings")
+                            "Grbl's settings, and a $N= write of one of them is kept in it")
     serve.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
                        help="steps per millimetre, X and Y (overrides the machine file)")
     serve.add_argument("--speed", type=float, default=1.0, metavar="N",
@@ -346,7 +346,7 @@ def _serve(args, out):
         from kontur.sim.runners import ensure_simulator
         ensure_simulator("verilator")          # before any sender connects: status 1
     serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
-          speed=args.speed, engine=args.engine, out=out)
+          speed=args.speed, engine=args.engine, machine_file=args.machine, out=out)
     return 0
 
 

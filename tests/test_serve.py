@@ -792,3 +792,31 @@ def test_rtl_check_catches_a_wrong_step():
     bad.check([replace(segments[0], steps=steps)], set(), len(grbl.motion.made))
     assert bad.record["steps"] == 0 and len(bad.record["failures"]) == 1
     assert "differ" in bad.record["failures"][0]
+
+
+def test_settings_kept_in_the_machine_file(tmp_path):
+    """With a machine file, ``$100=`` and ``$120=`` rewrite its keys in place (their comments
+    kept), ``$11=`` adds the key it lacks, ``$RST=$`` writes the values it had back; the file
+    read again is the machine the session runs. The other settings stay in memory."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    path = tmp_path / "mill.toml"
+    path.write_text("steps_per_mm = 80   # the leadscrew's\naccel = 400\n")
+    clock = board("icebreaker").clock_hz
+    said = []
+    grbl = Session(Machine.from_toml(path, clock_hz=clock), "icebreaker", said.append,
+                   clock=lambda: 0.0, machine_file=path)
+    grbl.receive(b"$100=100\n$120=300\n$11=0.02\n$13=1\n")
+    grbl.poll()
+    assert said.count("ok") == 4
+    assert path.read_text() == ("steps_per_mm = 100   # the leadscrew's\naccel = 300\n"
+                                "junction_deviation = 0.02\n")
+    again = Machine.from_toml(path, clock_hz=clock)
+    assert (again.steps_per_mm, again.accel, again.junction_deviation) == (100, 300, 0.02)
+    assert again == grbl.machine
+    grbl.receive(b"$RST=$\n")
+    grbl.poll()
+    assert path.read_text() == ("steps_per_mm = 80   # the leadscrew's\naccel = 400\n"
+                                "junction_deviation = 0.01\n")
+    assert Machine.from_toml(path, clock_hz=clock) == Machine(clock_hz=clock, accel=400)

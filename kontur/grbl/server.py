@@ -209,7 +209,7 @@ def _listener(port):
 
 
 def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engine="model",
-          out=sys.stdout):
+          machine_file=None, out=sys.stdout):
     """Serve until a signal ends the process (``KeyboardInterrupt``): the outputs are written
     and the link removed on the way out. ``engine`` ``"verilator"`` checks every run of motion
     on the RTL (:class:`RTLCheck`; with ``out_dir``, where its record is written)."""
@@ -226,7 +226,7 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
         for client in clients.values():
             client.outbox += data
 
-    session = Session(machine, board, send, speed=speed)
+    session = Session(machine, board, send, speed=speed, machine_file=machine_file)
     outputs = Outputs(session, out_dir, engine=engine) \
         if out_dir is not None or engine != "model" else None
     out.write(f"{name}\n")

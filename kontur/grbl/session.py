@@ -35,12 +35,13 @@ class LineError(Exception):
 
 
 class Session:
-    """Grbl on ``machine`` (a :class:`kontur.machine.Machine`) and ``board``; the virtual
-    clock runs ``speed`` times real time; ``send`` takes each line said (no line end)."""
+    """Grbl on ``machine`` (a :class:`kontur.machine.Machine`, read from ``machine_file`` if
+    given: its settings' writes are kept there) and ``board``; the virtual clock runs
+    ``speed`` times real time; ``send`` takes each line said (no line end)."""
 
-    def __init__(self, machine, board, send, *, speed=1.0, clock=None):
+    def __init__(self, machine, board, send, *, speed=1.0, clock=None, machine_file=None):
         self.board, self.send = board, send
-        self.settings = Settings(machine)
+        self.settings = Settings(machine, machine_file)
         options = {} if clock is None else {"clock": clock}
         self.motion = Motion(machine, board, speed=speed, **options)
         self.rx = bytearray()

@@ -6,11 +6,16 @@ arc's start and end radii may differ), ``$100``/``$101`` steps/mm, ``$110``/``$1
 rate, ``$120``/``$121`` the acceleration. X and Y share each of these (the step lattice is
 square and the feed is along the contour): writing either axis's writes both. The others are
 kept as Grbl's defaults, in memory, for a sender to read; those that would promise what kontur
-has not (soft and hard limits, homing, laser mode) are refused when set. Every write lasts for
-the session (the machine file is not rewritten).
+has not (soft and hard limits, homing, laser mode) are refused when set. A write of a setting
+on the machine file is kept in that file (``kontur serve --machine FILE``: its key's line
+rewritten in place, its comment kept, or the key added at the end), as Grbl keeps its settings
+in EEPROM; without a file, and for the others, it lasts for the session.
 """
 
+import os
+import re
 from dataclasses import replace
+from pathlib import Path
 
 from kontur.grbl.protocol import number
 from kontur.machine import MachineError
@@ -45,9 +50,10 @@ class SettingError(Exception):
 class Settings:
     """The ``$`` settings of a session on ``machine`` (the machine file's)."""
 
-    def __init__(self, machine):
+    def __init__(self, machine, path=None):
         self.original = machine
         self.machine = machine
+        self.path = None if path is None else Path(path)
         self.memory = dict(DEFAULTS)
 
     def value(self, key):
@@ -80,9 +86,30 @@ class Settings:
             raise SettingError(12 if "step/dir timing" in str(error) else 3,
                                str(error)) from None
         self.machine = machine
+        self._keep(MACHINE_KEYS[key], value)
         return machine
 
     def restore(self):
-        """``$RST=$``: the machine file's values and Grbl's defaults again."""
+        """``$RST=$``: the machine file's values (as the session found them) and Grbl's
+        defaults again."""
+        for key in sorted(set(MACHINE_KEYS.values())):
+            if getattr(self.machine, key) != getattr(self.original, key):
+                self._keep(key, getattr(self.original, key))
         self.machine = self.original
         self.memory = dict(DEFAULTS)
+
+    def _keep(self, key, value):
+        """Write ``key = value`` into the machine file (if any): its line's value replaced,
+        or the line added; the file replaced at once (a rename)."""
+        if self.path is None:
+            return
+        text = self.path.read_text()
+        number = str(int(value)) if float(value).is_integer() else repr(float(value))
+        line = re.compile(rf"^(\s*{key}\s*=\s*)([^#\n]*?)(\s*(?:#.*)?)$", re.M)
+        if line.search(text):
+            text = line.sub(lambda m: f"{m.group(1)}{number}{m.group(3)}", text, count=1)
+        else:
+            text += ("" if not text or text.endswith("\n") else "\n") + f"{key} = {number}\n"
+        temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}")
+        temporary.write_text(text)
+        temporary.replace(self.path)
