@@ -820,3 +820,53 @@ def test_settings_kept_in_the_machine_file(tmp_path):
     assert path.read_text() == ("steps_per_mm = 80   # the leadscrew's\naccel = 400\n"
                                 "junction_deviation = 0.01\n")
     assert Machine.from_toml(path, clock_hz=clock) == Machine(clock_hz=clock, accel=400)
+
+
+def test_soft_limit():
+    """A machine file's travel (travel_x, travel_y: kontur run's soft limits) on a served
+    line: Grbl's soft limit (interface.md, alarm_codes: ALARM:2, the machine stopped and its
+    queue dropped, position kept, nothing answered until ctrl-X, then the alarm lock until
+    $X); a jog beyond it is error:15 and nothing else."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    now = [0.0]
+    said = []
+    machine = Machine(clock_hz=board("icebreaker").clock_hz, travel_x=(0, 50), travel_y=(0, 50))
+    grbl = Session(machine, "icebreaker", said.append, clock=lambda: now[0])
+    grbl.receive(b"$J=X60 F600\nG1 X10 F600\n")
+    grbl.poll()
+    assert [s for s in said if s == "ok" or s.startswith(("error", "ALARM"))] == \
+        ["error:15", "ok"]
+    now[0] += 0.5                                   # half-way along X10
+    grbl.poll()
+    said.clear()
+    grbl.receive(b"G1 X60\nG0 X0\n")
+    grbl.poll()
+    assert said[-2:] == ["ALARM:2", "[MSG:Reset to continue]"]
+    assert said[0].startswith("[MSG:line 3:") and "travel" in said[0]
+    for _ in range(50):
+        now[0] += 0.01
+        grbl.poll()
+    stopped = grbl.motion.position
+    assert 0 < stopped[0] < 10 * machine.steps_per_mm and grbl.state() == "Alarm"
+    assert not grbl.motion.busy and said[-1] == "[MSG:Reset to continue]"
+    said.clear()
+    grbl.receive(b"\x18")
+    assert "ALARM:3" not in said and said[-1] == "[MSG:'$H'|'$X' to unlock]"
+    grbl.receive(b"G0 X0\n$X\nG0 X0\n")
+    grbl.poll()
+    assert [s for s in said if s == "ok" or s.startswith("error")] == ["error:9", "ok", "ok"]
+    assert grbl.motion.position == stopped
+
+
+@pytest.mark.parametrize("name", ["arcs", "home", "offsets", "params", "inch"])
+def test_corpus_served_as_run(name):
+    """rs274 corpus programs (work offsets, G28/G30 with their intermediate points, G92,
+    parameters, inches, arcs) served line by line make kontur run's steps. (modes.ngc has
+    lines after its M2 and its closing %, which a file reader stops at and a sender streams
+    on, as Grbl runs them.)"""
+    text = (ROOT / "tests" / "programs" / "rs274" / f"{name}.ngc").read_text()
+    grbl, said = serve_lines(text)
+    assert not [s for s in said if s.startswith("error")], said
+    assert grbl.motion.made == run_steps(text)

@@ -48,7 +48,7 @@ ERRORS = {
     36: "Unused words",
 }
 #: Grbl's alarm codes (doc/csv/alarm_codes_en_US.csv), those kontur raises.
-ALARMS = {3: "Reset while in motion"}
+ALARMS = {2: "Soft limit", 3: "Reset while in motion"}
 
 
 def number(value, places=3):

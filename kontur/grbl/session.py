@@ -19,7 +19,7 @@ from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse
 from kontur.grbl import protocol as p
 from kontur.grbl.motion import Block, Motion
 from kontur.grbl.settings import SettingError, Settings
-from kontur.machining import estimate_steps
+from kontur.machining import check_travel, estimate_steps
 from kontur.planner import ProgramError, lattice, plan
 from kontur.sim.models.errors import InputError
 
@@ -29,9 +29,10 @@ __all__ = ["Session", "LineError"]
 class LineError(Exception):
     """A line refused: Grbl's ``code`` and kontur's ``reason`` (sent as ``[MSG:...]``)."""
 
-    def __init__(self, code, reason=None):
+    def __init__(self, code, reason=None, *, soft_limit=False):
         super().__init__(reason or f"error {code}")
         self.code, self.reason = code, reason
+        self.soft_limit = soft_limit
 
 
 class Session:
@@ -53,6 +54,7 @@ class Session:
         self._waiting = None                   # a reply held until the motion ends (M2/M30)
         self._pause = False                    # M0: a feed hold once the motion ends
         self._dwell = None                     # G4: (seconds, virtual end) once it ends
+        self._critical = False                 # a soft limit: nothing taken until ctrl-X
         self._reset_after = False              # $C off, $RST=: a reset after the ok
         self._reports = 0
         self.z = None                          # the first Z a program gives (kontur has X, Y)
@@ -116,6 +118,11 @@ class Session:
         self.motion.tick()
 
     def _take(self):
+        if self._critical:                     # Grbl's critical event loop: stopped, then
+            if self.motion.held and not self.motion.stopping:       # the queue dropped
+                self.motion.cancel()
+                self.motion.held = False
+            return
         while True:
             if self._waiting is not None:
                 if self.motion.busy:
@@ -152,6 +159,8 @@ class Session:
             if self._reset_after:
                 self._reset_after = False
                 self.reset()
+            if self._critical:                 # a soft limit: nothing more until ctrl-X
+                return
 
     def _answer(self, raw):
         """The lines that answer one received line: any messages, then ``ok`` or
@@ -161,6 +170,10 @@ class Session:
             return [*messages, "ok"]
         except LineError as error:
             reason = [f"[MSG:line {self.number}: {error.reason}]"] if error.reason else []
+            if error.soft_limit:               # Grbl: a hold, ALARM:2, no answer until reset
+                self._critical = self.alarm = True
+                self.motion.hold()
+                return [*reason, "ALARM:2", "[MSG:Reset to continue]"]
             return [*reason, f"error:{error.code}"]
 
     def _line(self, raw):
@@ -265,7 +278,8 @@ class Session:
         """Soft reset (ctrl-X): motion stops, the queue and the receive buffer are emptied,
         the position kept; a reset while moving raises ``ALARM:3``, as Grbl's does."""
         motion = self.motion
-        moving = motion.busy and (not motion.held or motion.stopping)
+        moving = motion.busy and (not motion.held or motion.stopping) and not self._critical
+        self._critical = False
         motion.cancel()
         motion.held = False
         motion.overrides = [100, 100, 100]
@@ -306,7 +320,10 @@ class Session:
                                     f"{float(move.z):g} mm)")
         return moves, events
 
-    def _segments(self, move):
+    def _segments(self, move, kind=None):
+        """The move on the lattice from where the last one ends, checked as ``kontur run``
+        checks it: a move beyond the travel (``travel_x``/``travel_y``) is a soft limit
+        (Grbl's ALARM:2; a jog's ``error:15``)."""
         item = registry.board(self.board)
         try:
             estimate_steps([move], self.machine)
@@ -317,21 +334,29 @@ class Session:
         except (ProgramError, InputError) as error:
             reason = getattr(error, "reason", str(error))
             raise LineError(p.error_code(reason), reason) from None
+        try:
+            check_travel(segments, self.machine, self.lattice_position)
+        except ProgramError as error:
+            raise LineError(15, error.reason, soft_limit=kind is None) from None
         return segments
 
     def _gcode(self, text, *, kind=None):
         """Read, check and queue one G-code line (``kind="jog"`` for a jog, on a copy of the
         modal state that is dropped after: only its end is kept)."""
         reader = copy.deepcopy(self.reader)
-        z = self.z                                  # a line refused changes nothing
+        z, position = self.z, self.lattice_position     # a line refused changes nothing
         try:
             moves, events = self._read(text, reader)
-            planned = [(move, self._segments(move)) for move in moves]
+            planned = []
+            for move in moves:
+                planned.append((move, self._segments(move, kind)))
+                if planned[-1][1]:                  # the next starts where this one ends
+                    self.lattice_position = planned[-1][1][-1].end
         except GCodeError as error:
-            self.z = z
+            self.z, self.lattice_position = z, position
             raise LineError(p.error_code(error.reason, 20), error.reason) from None
         except LineError:
-            self.z = z
+            self.z, self.lattice_position = z, position
             raise
         messages = [f"[MSG:{event.text.strip()}]" for event in events
                     if event.kind == "message"]
