@@ -870,3 +870,20 @@ def test_corpus_served_as_run(name):
     grbl, said = serve_lines(text)
     assert not [s for s in said if s.startswith("error")], said
     assert grbl.motion.made == run_steps(text)
+
+
+def test_soft_limits_setting():
+    """``$20`` (soft limits) shows whether the machine file gives a travel; it cannot be
+    turned on without one (error:10, as Grbl without homing) nor off with one."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    for travel, shown, refused in ((None, "$20=0", b"$20=1\n"), ((0, 50), "$20=1", b"$20=0\n")):
+        said = []
+        grbl = Session(Machine(clock_hz=board("icebreaker").clock_hz, travel_x=travel),
+                       "icebreaker", said.append, clock=lambda: 0.0)
+        grbl.receive(b"$$\n" + refused + shown.encode() + b"\n")
+        grbl.poll()
+        assert shown in said
+        assert [s for s in said if s == "ok" or s.startswith("error")] == \
+            ["ok", "error:10" if travel is None else "error:3", "ok"]

@@ -59,6 +59,8 @@ class Settings:
     def value(self, key):
         if key in MACHINE_KEYS:
             return getattr(self.machine, MACHINE_KEYS[key])
+        if key == 20:                       # soft limits: on where the file gives a travel
+            return int(bool(self.machine.travel_x or self.machine.travel_y))
         return self.memory[key]
 
     def lines(self):
@@ -74,6 +76,12 @@ class Settings:
             raise SettingError(3)
         if value < 0:
             raise SettingError(4)
+        if key == 20 and value != self.value(20):
+            raise SettingError(10 if value else 3, None if value else
+                               "soft limits are the machine file's travel_x and travel_y: "
+                               "remove them there to turn them off")
+        if key == 20:
+            return None
         if key in REFUSED and value:
             code, reason = REFUSED[key]
             raise SettingError(code, reason)
