@@ -887,3 +887,29 @@ def test_soft_limits_setting():
         assert shown in said
         assert [s for s in said if s == "ok" or s.startswith("error")] == \
             ["ok", "error:10" if travel is None else "error:3", "ok"]
+
+
+def test_g28_1_kept_in_the_machine_file(tmp_path):
+    """G28.1 and G30.1 (commands.md: stored in EEPROM) keep the position in the machine file
+    as g28_position/g30_position (X, Y); the file read again gives kontur run the same G28;
+    ``$#`` shows it."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+    path = tmp_path / "mill.toml"
+    path.write_text("g28_position = [0, 0]   # where G28 goes\n")
+    clock = board("icebreaker").clock_hz
+    now = [0.0]
+    said = []
+    grbl = Session(Machine.from_toml(path, clock_hz=clock), "icebreaker", said.append,
+                   speed=SPEED, clock=lambda: now[0], machine_file=path)
+    grbl.receive(b"G0 X12.5 Y4\nG28.1\nG0 X1 Y1\nG30.1\n")
+    for _ in range(100):
+        now[0] += 0.1
+        grbl.poll()
+    grbl.receive(b"$#\n")                           # idle only, as Grbl's
+    grbl.poll()
+    assert path.read_text() == ("g28_position = [12.5, 4]   # where G28 goes\n"
+                                "g30_position = [1, 1]\n")
+    assert Machine.from_toml(path, clock_hz=clock).g28_position == (12.5, 4)
+    assert "[G28:12.500,4.000,0.000]" in said and "[G30:1.000,1.000,0.000]" in said

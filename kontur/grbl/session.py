@@ -375,6 +375,9 @@ class Session:
             dwell = [move.seconds for move in moves if move.kind == "dwell"]
             if dwell and not self.check:           # G4: Grbl waits for the motion, then
                 self._dwell = float(dwell[0]), None     # dwells, then says ok
+            for code in (28, 30):                  # G28.1/G30.1: kept as Grbl keeps them
+                if reader.state.home[code] != self.reader.state.home[code]:
+                    self.settings.keep_home(code, reader.state.home[code])
             if ended:                              # M2/M30: Grbl's program end
                 reader.program_end()
                 self.spindle, self.coolant = "M5", "M9"

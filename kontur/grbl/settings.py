@@ -106,13 +106,25 @@ class Settings:
         self.machine = self.original
         self.memory = dict(DEFAULTS)
 
+    def keep_home(self, code, position):
+        """G28.1/G30.1 (``code`` 28 or 30): the machine's ``g28_position``/``g30_position``
+        is ``position`` (X, Y in mm), kept in the machine file as Grbl keeps it in EEPROM."""
+        key = f"g{code}_position"
+        position = tuple(float(c) for c in position[:2])
+        self.machine = replace(self.machine, **{key: position})
+        self._keep(key, position)
+
     def _keep(self, key, value):
-        """Write ``key = value`` into the machine file (if any): its line's value replaced,
-        or the line added; the file replaced at once (a rename)."""
+        """Write ``key = value`` (a number, or a list of them) into the machine file (if
+        any): its line's value replaced, or the line added; the file replaced at once (a
+        rename)."""
         if self.path is None:
             return
         text = self.path.read_text()
-        number = str(int(value)) if float(value).is_integer() else repr(float(value))
+
+        def form(value):
+            return str(int(value)) if float(value).is_integer() else repr(float(value))
+        number = f"[{', '.join(map(form, value))}]" if isinstance(value, tuple) else form(value)
         line = re.compile(rf"^(\s*{key}\s*=\s*)([^#\n]*?)(\s*(?:#.*)?)$", re.M)
         if line.search(text):
             text = line.sub(lambda m: f"{m.group(1)}{number}{m.group(3)}", text, count=1)
