@@ -913,3 +913,38 @@ def test_g28_1_kept_in_the_machine_file(tmp_path):
                                 "g30_position = [1, 1]\n")
     assert Machine.from_toml(path, clock_hz=clock).g28_position == (12.5, 4)
     assert "[G28:12.500,4.000,0.000]" in said and "[G30:1.000,1.000,0.000]" in said
+
+
+@pytest.mark.parametrize("override", [bytes([0x91] * 10), bytes([0x92] * 5)])
+def test_override_ramps(override):
+    """An override during a feed move (200 %, or 50 %) changes the speed at the machine's
+    acceleration, as the feed generator ramps its rate (never at once): from 10 mm/s (F600)
+    to 20 or 5 mm/s at 500 mm/s² takes 0.02 or 0.01 s, over the steps of (v1² - v0²) / 2a =
+    0.3 mm (faster) or 0.075 mm (slower); the steps are kontur run's."""
+    now = [0.0]
+    program = LONG.replace("F300", "F600")
+    grbl, _ = session(speed=1, clock=lambda: now[0])
+    grbl.receive(program.encode())
+    grbl.poll()
+    now[0] = 1.0
+    grbl.poll()
+    made = len(grbl.motion.made)
+    grbl.receive(override)
+    target = 20.0 if len(override) == 10 else 5.0
+    for _ in range(60):
+        now[0] += 0.001
+        grbl.poll()
+    spm = grbl.machine.steps_per_mm
+    speeds = []                                   # machine mm/s of each step since the change
+    for (dx, dy), before, at in zip(grbl.motion.made[made:], grbl.motion.times[made - 1:],
+                                    grbl.motion.times[made:]):
+        factor = target / 10
+        speeds.append((2 ** 0.5 if dx and dy else 1) / spm / (at - before) * factor)
+    ramp = abs(target ** 2 - 10 ** 2) / 1000      # mm
+    first = round(ramp / 2 * spm * 0.85)          # steps well inside the ramp, and after it
+    assert min(speeds[:first], key=lambda v: abs(v - target)) != pytest.approx(target, rel=0.05)
+    assert speeds[-5:] == pytest.approx([target] * 5, rel=0.05)
+    while grbl.motion.busy:
+        now[0] += 0.05
+        grbl.poll()
+    assert grbl.motion.made == run_steps(program)

@@ -10,7 +10,9 @@ already sent changes as later lines arrive, as in Grbl.
 The clock is virtual: it runs ``speed`` times real time (``kontur serve --speed``) and the
 override of the move being made (a feed override on feed moves, a rapid override on rapids:
 timing changes, the steps do not), the feed override's factor quantised as the feed
-generator takes it (Q2.7: ``round(percent * 128 / 100) / 128``). A feed hold ramps the
+generator takes it (Q2.7: ``round(percent * 128 / 100) / 128``); a change of override during
+a move changes the speed at the acceleration, as the feed generator ramps its rate to the
+new target (:meth:`Motion.override`). A feed hold ramps the
 machine down at its acceleration, as the feed generator's model does under ``hold`` (its
 rate falls by the acceleration every clock): the steps ahead re-timed until the speed
 reaches zero (``Hold:1``), then the clock stops (``Hold:0``); a resume ramps it up again from
@@ -65,6 +67,7 @@ class Motion:
         self._times = deque()               # virtual times of the steps left, in order
         self._last = 0.0                    # time of the last step made
         self._interval = None               # (length mm, seconds) of the last step
+        self._made_factor = 1.0             # the override factor it was made at
         self._replan_from = None            # blocks added since the last plan: moving then?
         self.made, self.times, self.segments = [], [], []
         self._stopping = 0                  # steps left in a hold's ramp down
@@ -219,6 +222,7 @@ class Motion:
         self.times.append(at)
         length = (2 ** 0.5 if dx and dy else 1.0) / self.machine.steps_per_mm
         self._interval = (length, at - self._last)
+        self._made_factor = self._factor()
         self._last = at
         if self._done == 0:
             self.segments.append(segment)
@@ -241,6 +245,45 @@ class Motion:
         return 60 * length / seconds * self._rate() / self.speed if seconds > 0 else 0.0
 
     # ---- real-time commands -------------------------------------------------------------
+
+    def override(self, index, percent):
+        """Set override ``index`` (0 feed, 1 rapid, 2 spindle) to ``percent``; on the move
+        being made the speed changes at the machine's acceleration, as the feed generator
+        ramps its rate to the new target, not at once."""
+        self.tick()
+        before = self._factor()
+        self.overrides[index] = percent
+        after = self._factor()
+        if after == before or self.held or not self._times or self._interval is None:
+            return
+        speed = self._speed()                     # the machine's speed, in virtual seconds
+        planned = self._length(next(self._ahead())) / max(self._times[0] - self._last, 1e-12)
+        if speed < planned:                       # faster: up from that speed
+            self._ramp = (len(self.made), speed ** 2 / (2 * self._accel()))
+            self._ramp_up(self._last)
+        else:
+            self._slow_down(speed)
+
+    def _slow_down(self, speed):
+        """From ``speed`` (virtual mm/s, above the plan's) down to the plan's at the
+        acceleration: the steps ahead earlier than planned until then, the rest as much
+        earlier as the last of them."""
+        accel, planned = self._accel(), list(self._times)
+        previous, covered, count = self._last, 0.0, 0
+        for index, step in enumerate(self._ahead()):
+            length = self._length(step)
+            interval = planned[index] - (planned[index - 1] if index else self._last)
+            left = speed ** 2 - 2 * accel * (covered + length / 2)
+            if interval <= 0 or left <= (length / interval) ** 2:
+                break                           # down to the plan's speed
+            previous = min(previous + length / math.sqrt(left), planned[index])
+            self._times[index] = previous
+            covered += length
+            count += 1
+        if count:
+            delay = previous - planned[count - 1]
+            for index in range(count, len(planned)):
+                self._times[index] += delay
 
     def hold(self):
         """Ramp down to a stop (the steps within the stopping distance re-timed), then
@@ -266,11 +309,12 @@ class Motion:
         self._stopping = len(self._saved)
 
     def _speed(self):
-        """The speed now (mm/s, virtual): the last step's length over its interval."""
+        """The speed now (mm/s, virtual, at the override in force): the last step's length
+        over its interval, made at the override then in force."""
         if self._interval is None:
             return 0.0
         length, seconds = self._interval
-        return length / seconds if seconds > 0 else 0.0
+        return length / seconds * self._made_factor / self._factor() if seconds > 0 else 0.0
 
     def resume(self):
         """Ramp up from rest (the steps ahead re-timed from now, at the acceleration until

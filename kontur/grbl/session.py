@@ -100,12 +100,10 @@ class Session:
             index, table = (0, p.FEED_OVERRIDES) if byte in p.FEED_OVERRIDES else \
                 (2, p.SPINDLE_OVERRIDES)
             how, amount = table[byte]
-            motion.tick()
             value = amount if how == "set" else motion.overrides[index] + amount
-            motion.overrides[index] = min(max(value, p.OVERRIDE_MIN), p.OVERRIDE_MAX)
+            motion.override(index, min(max(value, p.OVERRIDE_MIN), p.OVERRIDE_MAX))
         elif byte in p.RAPID_OVERRIDES:
-            motion.tick()
-            motion.overrides[1] = p.RAPID_OVERRIDES[byte]
+            motion.override(1, p.RAPID_OVERRIDES[byte])
         # the other bytes of 0x80-0xFF (safety door, coolant toggles): nothing to act on
 
     # ---- the main loop's turn -----------------------------------------------------------
