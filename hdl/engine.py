@@ -96,7 +96,7 @@ class FeedSignature(wiring.Signature):
         Permission for one step.
     due : :py:`Out(1)`
         A step waits for permission.
-    diagonal : :py:`Out(range(axes))`
+    diagonal : :py:`Out((axes - 1).bit_length())`
         The waiting step moves that many axes beyond one (valid with :py:`due`); on two axes,
         one bit: it moves every axis.
     """
@@ -104,7 +104,8 @@ class FeedSignature(wiring.Signature):
     def __init__(self, axes=2):
         check_width("Axis count", axes, minimum=2)
         self._axes = axes
-        super().__init__({"tick": In(1), "due": Out(1), "diagonal": Out(range(axes))})
+        super().__init__({"tick": In(1), "due": Out(1),
+                          "diagonal": Out((axes - 1).bit_length())})
 
     @property
     def axes(self):

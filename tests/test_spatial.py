@@ -6,7 +6,7 @@ import math
 import random
 
 import pytest
-from amaranth import Shape
+from amaranth.lib.wiring import Out
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -96,8 +96,8 @@ def test_too_wide():
 def test_signatures():
     assert FeedSignature() == FeedSignature(2)
     assert FeedSignature(3) != FeedSignature()
-    assert Shape.cast(FeedSignature(2).members["diagonal"].shape).width == 1
-    assert Shape.cast(FeedSignature(3).members["diagonal"].shape).width == 2
+    assert FeedSignature(2).members["diagonal"] == Out(1)
+    assert FeedSignature(3).members["diagonal"] == Out(2)
     assert repr(FeedSignature(3)) == "FeedSignature(3)"
     assert LineCoreSignature(8) == LineCoreSignature(8, 2) != LineCoreSignature(8, 3)
     engine = LineEngine(SpatialLineCore(width=8))
