@@ -25,16 +25,16 @@ class HelixEngine(wiring.Component):
     Each transfer on :py:`cmd` is an arc frame (:class:`~kontur.hdl.arc.ArcEngine`'s ``x0``,
     ``y0``, ``x1``, ``y1``, ``cw``) with ``z``, the Z move (signed steps), and ``n``, the arc's
     step count. The engine takes one helix at a time (:py:`cmd.ready` is low from a helix's
-    acceptance to its outcome's transfer), hands the arc to the arc engine in the next clock
-    and lets the Z steps ride on its XY steps (one-clock pulses on ``motion.step[2]``, with
+    acceptance to its outcome's transfer), hands the arc to the arc engine in that same
+    transfer (the arc fields are the arc engine's frame: no register holds them) and lets the Z steps ride on its XY steps (one-clock pulses on ``motion.step[2]``, with
     ``motion.dir[2]`` the sign of ``z`` from the acceptance on). :py:`feed.diagonal` is the arc
     engine's plus one when the waiting step carries a Z step: its length class (1, √2, √3).
 
     A helix with ``|z| > n`` (more than one Z step per XY step) is refused
     (:attr:`~kontur.hdl.engine.Outcome.REFUSED`, nothing moves) before the arc starts; an arc the
     arc engine refuses is refused likewise, with no Z step. The outcome's position is the arc
-    engine's X and Y and the Z steps made. :py:`abort` goes to the arc engine; a helix not yet
-    handed to it ends :attr:`~kontur.hdl.engine.Outcome.ABORTED` here.
+    engine's X and Y and the Z steps made. :py:`abort` goes to the arc engine; a refused helix
+    whose outcome is not yet taken ends :attr:`~kontur.hdl.engine.Outcome.ABORTED` instead.
 
     Parameters
     ----------
@@ -81,16 +81,20 @@ class HelixEngine(wiring.Component):
         ahead = Signal(signed(cw + 2), name="z_ahead")
         moves = Signal(name="z_moves")
         sign = Signal(name="z_dir")
+        # One subtraction gives the increment of a Z step, the accumulator's start and the
+        # check that Z moves at most one step per XY step.
+        difference = Signal(signed(cw + 1))
+        m.d.comb += difference.eq(z_magnitude - p.n)
         with m.If(accept):
             m.d.sync += [
                 rate.eq(z_magnitude),
-                back.eq(z_magnitude - p.n),
-                ahead.eq((p.n >> 1) + z_magnitude - p.n),
+                back.eq(difference),
+                ahead.eq(difference + (p.n >> 1)),
                 moves.eq(p.z.any()),
                 sign.eq(p.z[-1]),
             ]
         refused = Signal()
-        m.d.comb += refused.eq(z_wide | (z_magnitude > p.n))
+        m.d.comb += refused.eq(z_wide | (~difference[-1] & difference.any()))
         xy = Signal()
         coming = Signal()
         m.d.comb += [
@@ -107,53 +111,48 @@ class HelixEngine(wiring.Component):
         pw = self.signature.position_width
 
         active = Signal()       # a helix was accepted whose outcome has not been transferred
-        pending = Signal()      # ... and it has not been handed to the arc engine
-        own = Signal()          # ... and its outcome is given here (refused or aborted)
+        own = Signal()          # ... and its outcome is given here (refused, or then aborted)
         own_outcome = Signal(Outcome)
-        frame = Signal(ArcEngine.Frame(arc.coord_width), reset_less=True)
         number = Signal(self.signature.number_width)
         moved = Signal(signed(pw))   # Z steps made by the running helix, before this clock
 
+        # A helix goes to the arc engine in the clock it is accepted (the arc fields are the
+        # arc engine's frame), unless it is refused here; then its outcome is given here.
         accept = Signal()
+        z_step, z_coming, z_dir, refused = self._z_unit(m, accept)
         m.d.comb += [
-            self.cmd.ready.eq(~active & ~self.abort),
+            arc.cmd.valid.eq(self.cmd.valid & ~active & ~refused & ~self.abort),
+            *(arc.cmd.payload[name].eq(self.cmd.payload[name])
+              for name in ArcEngine.Frame(arc.coord_width).members),
+            self.cmd.ready.eq(~active & ~self.abort & (refused | arc.cmd.ready)),
             accept.eq(self.cmd.valid & self.cmd.ready),
         ]
-        z_step, z_coming, z_dir, refused = self._z_unit(m, accept)
-
         with m.If(accept):
-            m.d.sync += [
-                active.eq(1), pending.eq(1), own.eq(refused), own_outcome.eq(Outcome.REFUSED),
-                *(frame[name].eq(self.cmd.payload[name]) for name in frame.shape().members),
-            ]
-        m.d.comb += [
-            arc.cmd.valid.eq(pending & ~own & ~self.abort),
-            arc.cmd.payload.eq(frame),
-        ]
-        with m.If(arc.cmd.valid & arc.cmd.ready):
-            m.d.sync += pending.eq(0)
-        with m.If(self.abort & pending):
-            m.d.sync += [own.eq(1), own_outcome.eq(Outcome.ABORTED)]
+            m.d.sync += [active.eq(1), own.eq(refused), own_outcome.eq(Outcome.REFUSED)]
+        with m.If(self.abort & own):
+            m.d.sync += own_outcome.eq(Outcome.ABORTED)
 
         own_valid = Signal()
         z_position = Signal(signed(pw))
         m.d.comb += [
-            own_valid.eq(pending & own & ~self.abort),
+            own_valid.eq(active & own & ~self.abort),
             z_position.eq(moved + Mux(z_step, Mux(z_dir, -1, 1), 0)),
             self.status.valid.eq(own_valid | arc.status.valid),
             arc.status.ready.eq(self.status.ready),
             self.status.p.number.eq(number),
             self.status.p.outcome.eq(Mux(own_valid, own_outcome, arc.status.p.outcome)),
         ]
-        with m.If(~own_valid):
-            m.d.comb += [
-                self.status.p.position[0].eq(arc.status.p.position[0]),
-                self.status.p.position[1].eq(arc.status.p.position[1]),
-                self.status.p.position[2].eq(z_position),
-            ]
+        # A refused helix's position needs no multiplexer: the arc engine is idle and reads
+        # zero then (its counters were cleared by the transfer before this helix was taken,
+        # at least two clocks ago), and no Z step was made.
+        m.d.comb += [
+            self.status.p.position[0].eq(arc.status.p.position[0]),
+            self.status.p.position[1].eq(arc.status.p.position[1]),
+            self.status.p.position[2].eq(z_position),
+        ]
         m.d.sync += moved.eq(z_position)
         with m.If(self.status.valid & self.status.ready):
-            m.d.sync += [active.eq(0), pending.eq(0), number.eq(number + 1), moved.eq(0)]
+            m.d.sync += [active.eq(0), own.eq(0), number.eq(number + 1), moved.eq(0)]
 
         m.d.comb += [
             arc.feed.tick.eq(self.feed.tick),

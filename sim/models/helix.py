@@ -62,9 +62,8 @@ class HelixEngineModel:
 
     def reset(self):
         self.arc.reset()
-        self.active = self.pending = self.own = 0
+        self.active = self.own = 0
         self.own_outcome = REFUSED
-        self.frame = None
         self.number = 0
         self.moved = 0
         self.rate = self.back = self.ahead = 0
@@ -78,17 +77,23 @@ class HelixEngineModel:
         return (value + half) % (2 * half) - half
 
     def cycle(self, *, valid=0, payload=None, tick=1, abort=0, status_ready=1):
-        ready = int(not self.active and not abort)
-        accept = int(bool(valid) and bool(ready))
-        arc_valid = int(bool(self.pending) and not self.own and not abort)
-        arc_out, _ = self.arc.cycle(valid=arc_valid, payload=self.frame, tick=tick, abort=abort,
+        limit = (1 << self.count_width) - 1
+        z = payload["z"] if payload is not None else 0
+        n = payload["n"] if payload is not None else 0
+        refused = int(abs(z) > limit or abs(z) > n)
+        arc_valid = int(bool(valid) and not self.active and not refused and not abort)
+        frame = (None if payload is None
+                 else {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")})
+        arc_out, _ = self.arc.cycle(valid=arc_valid, payload=frame, tick=tick, abort=abort,
                                     status_ready=status_ready)
+        ready = int(not self.active and not abort and (bool(refused) or bool(arc_out["ready"])))
+        accept = int(bool(valid) and bool(ready))
         state = self.state()
         coming = int(bool(self.moves) and self.ahead >= 0)
         xy = int(arc_out["step"] != 0)
         z_step = xy & coming
         z_position = self._wrap(self.moved + ((-1 if self.sign else 1) if z_step else 0))
-        own_valid = int(bool(self.pending) and bool(self.own) and not abort)
+        own_valid = int(bool(self.active) and bool(self.own) and not abort)
         if own_valid:
             status = [self.number, self.own_outcome, [0, 0, 0]] if status_ready else None
         elif arc_out["status"] is not None:
@@ -105,22 +110,16 @@ class HelixEngineModel:
         if xy and not accept:
             self.ahead += self.back if self.ahead >= 0 else self.rate
         if accept:
-            z, n = payload["z"], payload["n"]
-            limit = (1 << self.count_width) - 1
-            self.active, self.pending = 1, 1
-            self.own, self.own_outcome = int(abs(z) > limit or abs(z) > n), REFUSED
-            self.frame = {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")}
+            self.active, self.own, self.own_outcome = 1, refused, REFUSED
             self.rate = abs(z) & limit
             self.back = self.rate - n
             self.ahead = (n >> 1) + self.rate - n
             self.moves, self.sign = int(z != 0), int(z < 0)
-        if arc_valid and arc_out["ready"]:
-            self.pending = 0
-        if abort and self.pending:
-            self.own, self.own_outcome = 1, ABORTED
+        if abort and self.own:
+            self.own_outcome = ABORTED
         self.moved = z_position
         if status is not None:
-            self.active = self.pending = 0
+            self.active = self.own = 0
             self.number = (self.number + 1) % (1 << self.number_width)
             self.moved = 0
         return outputs, state
