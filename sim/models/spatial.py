@@ -9,7 +9,7 @@ Exact integers.
 
 from .errors import InputError
 
-__all__ = ["AXIS_NAMES", "check_spatial", "spatial_steps", "SpatialLineCoreModel"]
+__all__ = ["AXIS_NAMES", "check_spatial", "spatial_steps", "line_steps", "SpatialLineCoreModel"]
 
 AXIS_NAMES = ("x", "y", "z")
 
@@ -130,3 +130,9 @@ class SpatialLineCoreModel:
         elif take or abort:
             self.prepared = None
         return outputs, state
+
+
+def line_steps(x, y, z=0, *, width=16, axes=3):
+    """:func:`spatial_steps` on ``axes`` axes: ``(dx, dy)`` steps on two (the registry's
+    ``spatial`` line variant), ``(dx, dy, dz)`` on three."""
+    return [step[:axes] for step in spatial_steps(x, y, z, width=width)]
