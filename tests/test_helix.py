@@ -13,7 +13,7 @@ from kontur import registry
 from kontur.hdl.helix import HelixEngine
 from kontur.sim.models.arc import arc_steps, points_ahead
 from kontur.sim.models.errors import InputError
-from kontur.sim.models.helix import HelixEngineModel, helix_frame, helix_steps
+from kontur.sim.models.helix import HelixEngineModel, helix_frame, helix_steps, ride
 from kontur.sim.runners import run_amaranth
 from kontur.sim.stimulus import Job, first_difference, record_outcomes, record_steps, run_model
 
@@ -95,40 +95,58 @@ def test_refused():
     assert helix_frame(6, 0, 0, 6, 3, width=WIDTH)["n"] == 8
 
 
-def _engine():
-    return HelixEngine(registry.make_engine("arc", "fast", width=WIDTH))
+def _engine(variant="fast"):
+    return HelixEngine(registry.make_engine("arc", variant, width=WIDTH))
 
 
-def _model():
-    return HelixEngineModel(registry.make_model("arc", "fast", width=WIDTH))
+def _model(variant="fast"):
+    return HelixEngineModel(registry.make_model("arc", variant, width=WIDTH))
 
 
-def _frames(rng, count):
+def _arc(frame):
+    return {k: frame[k] for k in ("x0", "y0", "x1", "y1", "cw")}
+
+
+def _frames(rng, count, variant="fast"):
+    """Random helices, ``n`` from the XY steps of the variant's arc core."""
     frames = []
     for _ in range(count):
         x0, y0, x1, y1, cw = random_arc(rng, top=12)
-        frame = helix_frame(x0, y0, x1, y1, 0, cw=cw, width=WIDTH)
+        frame = {"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw}
+        frame["n"] = len(registry.steps("arc", frame, variant, width=WIDTH))
         frame["z"] = rng.randint(-frame["n"], frame["n"])
         frames.append(frame)
     return frames
 
 
-def test_rtl_equals_model_and_plain_arc():
+def _helix(frame, variant):
+    return ride(registry.steps("arc", _arc(frame), variant, width=WIDTH), frame["z"], frame["n"],
+                width=WIDTH)
+
+
+#: Any arc engine: the wrapper follows its steps, whatever its core's timing.
+ARC_VARIANTS = pytest.mark.parametrize("variant", registry.variants("arc"))
+
+
+@ARC_VARIANTS
+def test_rtl_equals_model_and_plain_arc(variant):
     rng = random.Random(5)
-    frames = _frames(rng, 10) + [
+    circle = {"x0": 3, "y0": 4, "x1": 3, "y1": 4, "cw": 0}
+    n = len(registry.steps("arc", circle, variant, width=WIDTH))
+    frames = _frames(rng, 10, variant) + [
         {"x0": 4, "y0": -4, "x1": -4, "y1": -4, "cw": 1, "z": 9, "n": 8},     # too steep
         {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 0, "z": 0, "n": 0},        # arc refused
-        helix_frame(3, 4, 3, 4, -27, width=WIDTH)]                            # 28 steps
+        {**circle, "z": 1 - n, "n": n}]
     job = Job(frames=frames, tick=[int(rng.random() < 0.7) for _ in range(29)],
               status_ready=[int(rng.random() < 0.8) for _ in range(17)],
               gaps=[rng.choice([0, 0, 3]) for _ in frames])
-    expected = run_model(_model(), job)
-    actual = run_amaranth(_engine(), job)
+    expected = run_model(_model(variant), job)
+    actual = run_amaranth(_engine(variant), job)
     assert first_difference(expected, actual) is None
     outcomes = record_outcomes(actual)
     assert [outcome for _, _, outcome, _ in outcomes] == [0] * 10 + [1, 1, 0]
     made = record_steps(actual, 3)
-    want = [s for f in frames[:10] + frames[12:] for s in helix_steps(**f, width=WIDTH)]
+    want = [s for f in frames[:10] + frames[12:] for s in _helix(f, variant)]
     assert made == want
     for (_, _, _, position), frame in zip(outcomes, frames):
         if position != [0, 0, 0]:
@@ -138,18 +156,19 @@ def test_rtl_equals_model_and_plain_arc():
         if not entry["rst"] and entry["step"]:
             assert entry["diagonal"] == bin(entry["step"]).count("1") - 1
     # The arc engine alone, given the same arcs, makes the same XY steps.
-    arcs = [{k: f[k] for k in ("x0", "y0", "x1", "y1", "cw")} for f in frames]
-    plain = run_amaranth(registry.make_engine("arc", "fast", width=WIDTH),
+    arcs = [_arc(f) for f in frames]
+    plain = run_amaranth(registry.make_engine("arc", variant, width=WIDTH),
                          Job(frames=arcs[:10] + arcs[12:]))
     assert record_steps(plain) == [s[:2] for s in made]
 
 
-def test_rtl_aborts():
+@ARC_VARIANTS
+def test_rtl_aborts(variant):
     rng = random.Random(11)
-    frames = _frames(rng, 8)
+    frames = _frames(rng, 8, variant)
     job = Job(frames=frames, aborts={30: 1, 31: 1, 80: 2, 160: 1})
-    expected = run_model(_model(), job)
-    actual = run_amaranth(_engine(), job)
+    expected = run_model(_model(variant), job)
+    actual = run_amaranth(_engine(variant), job)
     assert first_difference(expected, actual) is None
     outcomes = record_outcomes(actual)
     assert [o for _, _, o, _ in outcomes].count(2) >= 2

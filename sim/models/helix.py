@@ -11,7 +11,7 @@ from .arc import arc_steps
 from .engine import ABORTED, REFUSED
 from .errors import InputError
 
-__all__ = ["helix_frame", "check_helix", "helix_steps", "HelixEngineModel"]
+__all__ = ["helix_frame", "check_helix", "helix_steps", "ride", "HelixEngineModel"]
 
 
 def helix_frame(x0, y0, x1, y1, z, *, cw=0, width=24):
@@ -32,7 +32,12 @@ def check_helix(z, n, width):
 def helix_steps(x0, y0, x1, y1, cw=0, z=0, n=None, *, width=24):
     """Return the steps ``(dx, dy, dz)`` of the helix (``n`` by default the arc's step
     count)."""
-    xy = arc_steps(x0, y0, x1, y1, cw=bool(cw), width=width)
+    return ride(arc_steps(x0, y0, x1, y1, cw=bool(cw), width=width), z, n, width=width)
+
+
+def ride(xy, z, n=None, *, width=24):
+    """Z spread over the XY steps ``xy`` of any arc core (the textbook's too): the steps
+    ``(dx, dy, dz)``; ``n`` by default ``len(xy)``."""
     n = len(xy) if n is None else n
     check_helix(z, n, width)
     sign = -1 if z < 0 else 1
