@@ -124,7 +124,10 @@ class HelixEngine(wiring.Component):
             arc.cmd.valid.eq(self.cmd.valid & ~active & ~refused & ~self.abort),
             *(arc.cmd.payload[name].eq(self.cmd.payload[name])
               for name in ArcEngine.Frame(arc.coord_width).members),
-            self.cmd.ready.eq(~active & ~self.abort & (refused | arc.cmd.ready)),
+            # (A refused helix is taken when the arc engine could take it, as it always can
+            # when no helix is active but while it reports an abort: so cmd.ready does not
+            # wait for the check.)
+            self.cmd.ready.eq(~active & ~self.abort & arc.cmd.ready),
             accept.eq(self.cmd.valid & self.cmd.ready),
         ]
         with m.If(accept):

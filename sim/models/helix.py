@@ -91,7 +91,7 @@ class HelixEngineModel:
                  else {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")})
         arc_out, _ = self.arc.cycle(valid=arc_valid, payload=frame, tick=tick, abort=abort,
                                     status_ready=status_ready)
-        ready = int(not self.active and not abort and (bool(refused) or bool(arc_out["ready"])))
+        ready = int(not self.active and not abort and bool(arc_out["ready"]))
         accept = int(bool(valid) and bool(ready))
         state = self.state()
         coming = int(bool(self.moves) and self.ahead >= 0)
