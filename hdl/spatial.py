@@ -66,8 +66,8 @@ class SpatialLineCore(wiring.Component):
         for value in magnitudes[1:]:
             longest = Mux(longest >= value, longest, value)
         p = {
-            "full": Signal(),
-            "queued": Signal(),                          # full, and the segment has steps
+            "full": Signal(name="full"),
+            "queued": Signal(name="queued"),             # full, and the segment has steps
             "empty": Signal(name="prepared_empty", reset_less=True),
             "longest": Signal(w, name="prepared_longest", reset_less=True),
             "m": [Signal(w, name=f"prepared_{name}", reset_less=True) for name in names],
@@ -87,8 +87,8 @@ class SpatialLineCore(wiring.Component):
         w, axes = self.width, self.axes
         p = self._prepared(m)
 
-        running = Signal()
-        left = Signal(w)                  # steps left, the waiting one included
+        running = Signal(name="running")
+        left = Signal(w, name="left")     # steps left, the waiting one included
         functions = [Signal(signed(w + 1), name=f"function_{name}")
                      for name in AXIS_NAMES[:axes]]
         stays = [Signal(w, name=f"stays_{name}") for name in AXIS_NAMES[:axes]]   # m
