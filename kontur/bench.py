@@ -220,15 +220,21 @@ def controllers_table(rows):
 
 
 def _write_controllers(path, rows, command):
-    """Put the controllers' table into ``path`` (BENCHMARKS.md): its section replaced, or added
+    """Put the controllers' table into ``path`` (BENCHMARKS.md)."""
+    _write_section(path, CONTROLLERS_HEADING,
+                   f"The machine controller (`kontur build`, the default machine file's step/dir "
+                   f"timing) on each board, per nextpnr seed; written by `{command}`. The step "
+                   f"rate is the controller clock over `dir_setup + step_width + 1` clocks.\n\n"
+                   f"{controllers_table(rows)}")
+
+
+def _write_section(path, heading, body):
+    """Put a section into ``path`` (BENCHMARKS.md): replaced where ``heading`` is, or added
     before ``## How``."""
     text = Path(path).read_text() if Path(path).exists() else "# Benchmarks\n"
-    section = (f"{CONTROLLERS_HEADING}\n\nThe machine controller (`kontur build`, the default "
-               f"machine file's step/dir timing) on each board, per nextpnr seed; written by "
-               f"`{command}`. The step rate is the controller clock over `dir_setup + "
-               f"step_width + 1` clocks.\n\n{controllers_table(rows)}\n")
-    if CONTROLLERS_HEADING in text:
-        head, rest = text.split(CONTROLLERS_HEADING, 1)
+    section = f"{heading}\n\n{body}\n"
+    if heading in text:
+        head, rest = text.split(heading, 1)
         tail = rest[rest.index("\n## "):] if "\n## " in rest else ""
         text = head + section + tail.lstrip("\n")
     elif "\n## How" in text:
@@ -263,11 +269,70 @@ def _controllers_main(argv, out):
     return 0
 
 
+#: The heading of the controllers' simulation table in BENCHMARKS.md (:func:`runs`).
+RUNS_HEADING = "## The controllers in simulation: `kontur run` on Verilator"
+#: The program :func:`runs` times: 25 840 steps, 40 s of machining, lines and arcs.
+RUNS_PROGRAM = ROOT / "tests" / "programs" / "rs274" / "offsets.ngc"
+
+
+def runs(program=RUNS_PROGRAM, *, boards=("icebreaker", "ulx3s"), engine="verilator",
+         build_root=None):
+    """Run ``program`` through each board's whole controller on ``engine``
+    (:func:`kontur.machining.execute`, its steps checked against the model's); return one row
+    per board: clocks simulated, the wall time of the run (the simulator's build done first
+    and not counted) and clocks a second."""
+    from kontur.machining import execute, prepare
+    rows = []
+    for board in boards:
+        job = prepare(Path(program).read_text(), board=board, name=Path(program).name)
+        tiny = prepare("G21 G90\nG1 X0.1 F600\n", board=board, name="warm.ngc")
+        execute(tiny, engine, build_root=build_root)     # the build, outside the timing
+        result = execute(job, engine, build_root=build_root)
+        rows.append({"board": board, "engine": engine, "program": Path(program).name,
+                     "steps": len(result.steps), "compress": result.compress,
+                     "clocks": result.clocks, "wall": result.wall,
+                     "rate": result.clocks / result.wall})
+    return rows
+
+
+def runs_table(rows):
+    """The markdown table of :func:`runs`' rows."""
+    return _markdown(["board", "engine", "program", "steps", "time compression", "clocks",
+                      "run s", "clocks per second"],
+                     [[r["board"], r["engine"], r["program"], r["steps"], r["compress"],
+                       r["clocks"], f"{r['wall']:.1f}", f"{r['rate']:,.0f}"] for r in rows])
+
+
+def _runs_main(argv, out):
+    import argparse
+    parser = argparse.ArgumentParser(prog="python -m kontur.bench runs")
+    parser.add_argument("--boards", default="icebreaker,ulx3s")
+    parser.add_argument("--program", default=str(RUNS_PROGRAM))
+    parser.add_argument("--engine", default="verilator", choices=("verilator", "icarus"))
+    parser.add_argument("--out", default=None, help="the markdown file whose section is "
+                        "written (BENCHMARKS.md); default: print the table")
+    args = parser.parse_args(argv)
+    rows = runs(args.program, boards=tuple(args.boards.split(",")), engine=args.engine)
+    table = runs_table(rows)
+    if args.out:
+        command = "python -m kontur.bench runs " + " ".join(argv)
+        _write_section(args.out, RUNS_HEADING,
+                       f"The whole controller of each board running a part program in "
+                       f"`kontur run`'s simulation, its steps checked against the model's; "
+                       f"the simulator's build is not timed. Written by `{command.strip()}` "
+                       f"(on a machine shared with other work: a floor, not a ceiling).\n\n"
+                       f"{table}")
+    out.write(table + (f"{args.out} written\n" if args.out else ""))
+    return 0
+
+
 def main(argv=None, out=None):
     """``kontur bench area|speed|axes``: print the table (``axes``: the third axis's cost,
     :func:`axes_designs`); ``report [--out FILE]``: write
     ``BENCHMARKS.md`` (:func:`report`); ``controllers [--boards B,B] [--seeds 1,2,3] [--out
-    FILE]``: the controllers' builds (:func:`controllers`), their section written into FILE. Return the exit status (0, or 1 with the reason on
+    FILE]``: the controllers' builds (:func:`controllers`), their section written into FILE;
+    ``runs [--boards B,B] [--program F] [--out FILE]``: the controllers simulated
+    (:func:`runs`). Return the exit status (0, or 1 with the reason on
     standard error when a tool is missing or fails)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     out = sys.stdout if out is None else out
@@ -283,14 +348,15 @@ def main(argv=None, out=None):
             return 1
         out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
         return 0
-    if argv[:1] == ["controllers"]:
+    if argv[:1] in (["controllers"], ["runs"]):
         try:
-            return _controllers_main(argv[1:], out)
+            return (_controllers_main if argv[0] == "controllers" else _runs_main)(argv[1:], out)
         except ToolchainError as error:
             sys.stderr.write(f"kontur bench: {error}\n")
             return 1
     if len(argv) != 1 or argv[0] not in tables:
-        sys.stderr.write(f"usage: python -m kontur.bench area|speed|axes|report [--out FILE], "
+        sys.stderr.write(f"usage: python -m kontur.bench area|speed|axes|report|controllers|"
+                         f"runs [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
         return 2
     try:

@@ -27,6 +27,7 @@ engine: :mod:`.compensation` puts the contours' frames among the moves (PROFILE 
 with its FEED), with the engine's step model as their steps.
 """
 
+import itertools
 import json
 import math
 import time
@@ -246,8 +247,43 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
         segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
                            widths=(item.line[1], item.arc[1]))
     start = segments[0].start if segments else (0, 0)
+    check_travel(segments, machine, start)
     return Job(name or "program", board, machine, moves, segments, plan(segments, machine),
                start, contours, list(program.events))
+
+
+def check_travel(segments, machine, start):
+    """Raise :exc:`ProgramError` at the first segment whose steps take the machine (from
+    ``start``, steps) outside the machine file's travel (``travel_x``, ``travel_y``: the soft
+    limits), naming its line, the point reached and the travel. Every step point is checked
+    (the path on the lattice, a compensated contour's equidistant included), before anything
+    moves."""
+    spm = machine.steps_per_mm
+    limits = [(n, axis, travel) for n, (axis, travel) in
+              enumerate((("X", machine.travel_x), ("Y", machine.travel_y))) if travel]
+    if not limits:
+        return
+    bounds = [(n, axis, travel, math.ceil(travel[0] * spm - 1e-9),
+               math.floor(travel[1] * spm + 1e-9)) for n, axis, travel in limits]
+    position = list(start)
+    for n, axis, travel, low, high in bounds:
+        if not low <= position[n] <= high:
+            raise ProgramError(segments[0].line if segments else None,
+                               f"the program starts at {axis} {position[n] / spm:g} mm, beyond "
+                               f"the machine's travel ({axis} from {travel[0]:g} to "
+                               f"{travel[1]:g} mm, travel_{axis.lower()} in the machine file)")
+    for segment in segments:
+        for n, axis, travel, low, high in bounds:
+            path = list(itertools.accumulate((step[n] for step in segment.steps),
+                                             initial=position[n]))
+            outside = [c for c in (min(path), max(path)) if not low <= c <= high]
+            if outside:
+                raise ProgramError(segment.line,
+                                   f"the move reaches {axis} {outside[0] / spm:g} mm, beyond "
+                                   f"the machine's travel ({axis} from {travel[0]:g} to "
+                                   f"{travel[1]:g} mm, travel_{axis.lower()} in the machine "
+                                   f"file): a soft limit")
+        position = [c + sum(step[n] for step in segment.steps) for n, c in enumerate(position)]
 
 
 def max_compress(job):

@@ -79,6 +79,36 @@ def on_lattice(point, machine):
     return tuple(_round(Fraction(c) * spm) for c in point)
 
 
+def line_pieces(start, end, limit):
+    """The points where a line from ``start`` to ``end`` (steps) is split so that no piece
+    moves an axis more than ``limit`` steps: the list of the pieces' ends, ``end`` last.
+
+    Where the line passes through lattice points close enough together, the splits are on
+    the line itself (its pieces trace the line exactly as one frame would, point for point
+    only at the splits); otherwise each split is on the dominant axis, its other coordinate
+    rounded to the nearest step (within half a step of the line), so the pieces' steps stay
+    within a step of the programmed line."""
+    deltas = [b - a for a, b in zip(start, end)]
+    dominant = max(abs(d) for d in deltas)
+    if dominant <= limit:
+        return [tuple(end)]
+    common = math.gcd(*deltas)
+    primitive = dominant // common
+    if primitive <= limit:            # splits on lattice points of the line itself
+        count = -(-common // (limit // primitive))
+        marks = [_round(Fraction(k * common, count)) for k in range(1, count + 1)]
+        return [tuple(a + d // common * j for a, d in zip(start, deltas)) for j in marks]
+    count = -(-dominant // limit)
+    axis = max(range(len(deltas)), key=lambda n: abs(deltas[n]))
+    points = []
+    for k in range(1, count + 1):
+        along = _round(Fraction(deltas[axis] * k, count))
+        points.append(tuple(a + (along if n == axis else _round(Fraction(d * along,
+                                                                          deltas[axis])))
+                            for n, (a, d) in enumerate(zip(start, deltas))))
+    return points
+
+
 def check_arc_radii(line, start, end, machine):
     """Raise :exc:`ProgramError` (naming ``line``) when an arc's radii at its ``start`` and
     ``end`` (relative to its centre, in steps) differ by more than the machine's
@@ -228,8 +258,9 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     Raises
     ------
     ProgramError
-        For an arc whose radii differ by more than the tolerance, an arc of radius zero, or a
-        move the engines cannot make (too wide for their registers).
+        For an arc whose radii differ by more than the tolerance, an arc of radius zero, or an
+        arc the engines cannot make (too wide for their registers). A line longer than the
+        line engine's registers is made in pieces (:func:`line_pieces`).
     """
     segments = []
     position = None if start is None else tuple(start)
@@ -262,10 +293,11 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             min(float(move.feed), machine.max_feed)
         feed = speed / 60
         end = on_lattice(move.end, machine)
-        if move.kind in ("rapid", "line"):
-            add(move.line, "line", {"x": end[0] - position[0], "y": end[1] - position[1]},
-                position, end, feed)
-            position = end
+        if move.kind in ("rapid", "line"):   # a line longer than the registers: in pieces
+            for piece in line_pieces(position, end, (1 << widths[0]) - 1):
+                add(move.line, "line", {"x": piece[0] - position[0],
+                                        "y": piece[1] - position[1]}, position, piece, feed)
+                position = piece
             continue
         # The program's arc, its centre rounded to the nearest step: refused as before (radius
         # zero, radii beyond the tolerance); then the lattice centre nearest its circle.

@@ -112,11 +112,32 @@ def _move_path(move):
     return [start, end]
 
 
+def tool_states(moves, events):
+    """For each move, whether the spindle (laser, torch) is on as it runs: M3 or M4 in force
+    (not yet M5) at a speed (power) above zero, as a laser in Grbl's laser mode. ``None`` for
+    a program that never switches it."""
+    switches = [e for e in events if e.kind in ("spindle", "speed")]
+    if not any(e.kind == "spindle" for e in switches):
+        return None
+    states, on, speed, taken = [], False, None, 0
+    for n in range(len(moves)):
+        while taken < len(switches) and switches[taken].move <= n:
+            event = switches[taken]
+            if event.kind == "spindle":
+                on = event.text[:2] in ("M3", "M4")
+            if event.value is not None and (event.kind == "speed" or on):
+                speed = event.value
+            taken += 1
+        states.append(on and (speed is None or speed > 0))
+    return states
+
+
 def plot_toolpath(job, steps, speeds, path, *, title=None):
-    """``kontur run``'s ``toolpath.png``: the programmed contour (black; rapid moves dotted),
-    the offset path of every compensated contour (its exact equidistant, blue, dashed), and
-    the traced steps (a line through the points visited) coloured by the feed (mm/min), in
-    millimetres.
+    """``kontur run``'s ``toolpath.png``: the programmed contour (black; rapid moves dotted;
+    in a program that switches the spindle, laser or torch, its feed moves with the tool off
+    grey), the offset path of every compensated contour (its exact equidistant, blue,
+    dashed), and the traced steps (a line through the points visited) coloured by the feed
+    (mm/min), in millimetres.
 
     Drawn in bounded time and memory whatever the program's length: one collection for each
     class (feed moves, rapid moves, offset paths, steps), each of at most about
@@ -130,12 +151,17 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
 
     spm = job.machine.steps_per_mm
     figure, axes = pyplot.subplots(figsize=(9, 8))
-    for kind, style, label in (("feed", "-", "programmed contour"),
-                               ("rapid", ":", "rapid moves")):
-        paths = [_move_path(move) for move in job.moves
-                 if (move.kind == "rapid") == (kind == "rapid")]
+    tool = tool_states(job.moves, getattr(job, "events", ()))
+    for kind, style, colour, label in (
+            ("feed", "-", "black", "programmed contour" if tool is None else
+             "programmed contour, tool on (M3/M4)"),
+            ("off", "-", "tab:gray", "feed moves, tool off"),
+            ("rapid", ":", "black", "rapid moves")):
+        paths = [_move_path(move) for n, move in enumerate(job.moves)
+                 if move.kind != "dwell" and (move.kind == "rapid") == (kind == "rapid")
+                 and (kind == "rapid" or tool is None or tool[n] == (kind == "feed"))]
         if paths:
-            axes.add_collection(LineCollection(_polylines(paths), colors="black",
+            axes.add_collection(LineCollection(_polylines(paths), colors=colour,
                                                linewidths=1.2, linestyles=style, label=label))
     offsets = []
     for contour in getattr(job, "contours", ()):
@@ -183,7 +209,7 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
     axes.grid(True, linewidth=0.3)
     axes.set_xlabel("X (mm)")
     axes.set_ylabel("Y (mm)")
-    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=5, fontsize="small")
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize="small")
     axes.set_title(title or f"{len(steps)} steps")
     figure.savefig(path, dpi=120, bbox_inches="tight")
     pyplot.close(figure)

@@ -174,8 +174,29 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m kontur.bench area|speed|axes|report [--out FILE], "
-                         "not 'fast'\n")
+                         "usage: python -m kontur.bench area|speed|axes|report|controllers|runs "
+                         "[--out FILE], not 'fast'\n")
+
+    def test_runs_section(self):
+        # The simulation table from made-up runs: clocks a second are clocks over the run's
+        # wall time; the section goes before "## How", and replaces itself when written again.
+        from kontur.machining import Result
+
+        def execute(job, engine, build_root=None):
+            return Result(engine, job.steps, [], job.end, compress=32, clocks=3_000_000,
+                          wall=2.0 if job.name == "offsets.ngc" else 0.1)
+        with tempfile.TemporaryDirectory() as folder, \
+                mock.patch("kontur.machining.execute", execute):
+            target = Path(folder) / "BENCHMARKS.md"
+            target.write_text("# Benchmarks\n\n## Area\n\nx\n\n## How\n\ny\n")
+            for _ in range(2):
+                self.assertEqual(bench.main(["runs", "--boards", "ulx3s", "--out", str(target)],
+                                            io.StringIO()), 0)
+            text = target.read_text()
+        self.assertEqual(text.count(bench.RUNS_HEADING), 1)
+        self.assertLess(text.index(bench.RUNS_HEADING), text.index("## How"))
+        self.assertIn("| ulx3s | verilator | offsets.ngc | 25840 | 32 | 3000000 | 2.0 | "
+                      "1,500,000 |", text)
 
     def test_axes_designs(self):
         # The third axis's table: the 2-axis and 3-axis line cores and engines, the arc

@@ -109,3 +109,18 @@ def test_machine_file_home_positions(tmp_path):
     from kontur.machine import MachineError
     with pytest.raises(MachineError, match=r"^g28_position must be \[X, Y\] or \[X, Y, Z\]"):
         Machine.from_toml(path, clock_hz=12e6)
+
+
+def test_tool_on_and_off_moves():
+    """toolpath.png greys the feed moves made with the tool off: in the LightBurn-style laser
+    program, M4 with S0 switches nothing on, the two squares (lines 8-11 at S600, 13-16 at S300)
+    are cut, the G1 S0 of line 18 is not; a program with no M3/M4/M5 has no tool states."""
+    from kontur.gcode import read
+    from kontur.plot import tool_states
+    program = read((PROGRAMS / "laser.ngc").read_text(), units="mm")
+    cut = {move.line for move, on in zip(program.moves,
+                                         tool_states(program.moves, program.events))
+           if on and move.kind != "rapid"}
+    assert cut == {8, 9, 10, 11, 13, 14, 15, 16}
+    plain = read("G21 G90\nG1 X1 F100\n", units="mm")
+    assert tool_states(plain.moves, plain.events) is None

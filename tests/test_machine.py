@@ -69,3 +69,16 @@ def test_binary_machine_file(tmp_path):
     path.write_bytes(b"\xff\xfe\x00 binary")
     with pytest.raises(MachineError, match="m.toml"):
         Machine.from_toml(path, clock_hz=CLOCK)
+
+
+@pytest.mark.parametrize("value, taken", [
+    ([0, 300], (0.0, 300.0)), ((-12.5, 12.5), (-12.5, 12.5)), (None, None),
+    ([300, 0], False), ([5, 5], False), ([0], False), ("0 300", False), ([0, float("inf")], False),
+    ([True, 3], False),
+])
+def test_travel(value, taken):
+    if taken is False:
+        with pytest.raises(MachineError, match=r"^travel_y must be \[min, max\] in mm"):
+            Machine(travel_y=value)
+    else:
+        assert Machine(travel_y=value).travel_y == taken

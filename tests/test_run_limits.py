@@ -4,8 +4,11 @@ acceleration's field and the link keep; the work estimated before any step is co
 long program drawn in bounded time; each run's outputs in a folder of their own; bad outputs
 and inputs refused with status 2 and one line before anything runs. All on the model: cheap."""
 
+import json
 import math
 import re
+
+from pathlib import Path
 
 import pytest
 
@@ -240,3 +243,92 @@ def test_bad_inputs_and_outputs_refused_before_running(program, tmp_path, capsys
                                         tmp_path / "missing" / "p.png"])
     assert "--plot" in refused(capsys, ["trace", "profile", profile, "--radius", 3, "--plot",
                                         tmp_path / "p.xyz"])
+
+
+# ---- 3. lines longer than the line engine's registers -----------------------------------
+
+@pytest.mark.parametrize("start, end, limit", [
+    ((0, 0), (72000, 800), 65535),        # through lattice points 90 steps apart: exact splits
+    ((5, -3), (-200001, 77777), 65535),   # a primitive direction: the splits rounded
+    ((0, 0), (17, 1000), 255),
+    ((0, 0), (3, 3), 1),
+])
+def test_line_pieces(start, end, limit):
+    """Every piece moves each axis at most ``limit`` steps, the last ends on ``end``, and every
+    split is within half a step of the line along its minor axis (on it, where the line passes
+    lattice points close enough together)."""
+    from kontur.planner import line_pieces
+    pieces = line_pieces(start, end, limit)
+    assert pieces[-1] == end
+    previous = start
+    (x0, y0), (x1, y1) = start, end
+    for x, y in pieces:
+        assert max(abs(x - previous[0]), abs(y - previous[1])) <= limit
+        previous = (x, y)
+        if abs(x1 - x0) >= abs(y1 - y0):
+            off = abs(y - (y0 + (y1 - y0) * (x - x0) / (x1 - x0)))
+        else:
+            off = abs(x - (x0 + (x1 - x0) * (y - y0) / (y1 - y0)))
+        assert off <= 0.5 + 1e-9
+    if math.gcd(x1 - x0, y1 - y0) > 1 and max(abs(x1 - x0), abs(y1 - y0)) // math.gcd(
+            x1 - x0, y1 - y0) <= limit:
+        assert all((x - x0) * (y1 - y0) == (y - y0) * (x1 - x0) for x, y in pieces)
+
+
+def test_a_line_longer_than_the_registers_runs_in_pieces(program, tmp_path, capsys):
+    """A 900 mm line (72 000 steps at 80 steps/mm) on the ULX3S's 16-bit line engine runs
+    (it was refused as too wide) in two frames: every step point within one step of the
+    programmed line (computed here from the G-code), the end exact, the steps counted."""
+    path = program("G21 G90\nG1 X900 Y9.9875 F3000\nG0 X0 Y0\n")   # Y 799 steps: no split on it
+    assert main(["run", str(path), "--board", "ulx3s", "--out", str(tmp_path / "o")]) == 0
+    capsys.readouterr()
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["segments"] == 4 and summary["end_steps"] == [0, 0]
+    x = y = worst = 0
+    for n, row in enumerate((tmp_path / "o" / "steps.txt").read_text().splitlines()):
+        dx, dy = map(int, row.split())
+        x, y = x + dx, y + dy
+        if n < 72000:
+            worst = max(worst, abs(y - 799 * x / 72000))
+        if n == 71999:
+            assert (x, y) == (72000, 799)
+    assert n + 1 == 144000 and worst <= 1
+
+
+# ---- 4. soft limits ------------------------------------------------------------------------
+
+#: Lines and arcs whose end points are all within X 0..47, Y -10..10; the G3 of line 5 bulges
+#: to X 48 (its centre X 40, radius 8).
+BULGE = "G21 G90\nG0 X10 Y0\nG1 X40 F600\nG2 X40 Y-8 I0 J-4\nG3 X40 Y8 I0 J8\nG0 X0 Y0\n"
+
+
+@pytest.mark.parametrize("travel_x, refusal", [
+    ([0, 48], None),
+    ([0, 47.9], "line 5: the move reaches X 48 mm, beyond the machine's travel (X from 0 to 47.9 "
+                "mm, travel_x in the machine file): a soft limit"),
+    ([5, 48], "line 2: the program starts at X 0 mm, beyond the machine's travel (X from 5 to 48 "
+              "mm, travel_x in the machine file)"),
+])
+def test_soft_limits_refuse_before_anything_moves(travel_x, refusal, program, tmp_path, capsys):
+    machine = program(f"travel_x = {travel_x}\ntravel_y = [-10, 10]\n", name="m.toml")
+    argv = ["run", program(BULGE), "--machine", machine, "--out", tmp_path / "o"]
+    if refusal is None:
+        assert main([str(a) for a in argv]) == 0
+        return
+    assert refused(capsys, argv).endswith(refusal)
+    assert not (tmp_path / "o").exists()
+
+
+def test_soft_limits_hold_the_cutter_path(program, tmp_path, capsys):
+    """A compensated contour is checked where the cutter goes: the 40 mm square of
+    tests/programs/square.ngc cut outside (G42, a 3 mm cutter) reaches X 43 and Y -3 though its
+    outline stays within X 0..40, Y 0..40."""
+    square = (Path(__file__).parent / "programs" / "square.ngc").read_text().replace("G41",
+                                                                                       "G42")
+    text = "G21 F300\n" + square
+    machine = program("cutter_radius = 3.0\ntravel_x = [-5, 42]\ntravel_y = [-5, 45]\n",
+                      name="m.toml")
+    line = refused(capsys, ["run", program(text), "--board", "ulx3s", "--machine", machine,
+                            "--out", tmp_path / "o"])
+    assert re.search(r"line \d+: the move reaches X 4[23](\.\d+)? mm, beyond the machine's "
+                     r"travel \(X from -5 to 42 mm", line), line

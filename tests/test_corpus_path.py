@@ -1,0 +1,138 @@
+"""The corpus's traced paths against LinuxCNC's: every program of the rs274 corpus that
+kontur runs (``tests/test_gcode_rs274.py``'s ``CORPUS``, the uncompensated ones) is prepared
+for the ULX3S's controller, and every step point of the model's path must lie within
+:data:`LINE_BOUND` steps of the rs274 move it belongs to (a line) or :data:`ARC_BOUND` (an arc:
+the engine's circle is about a lattice centre, see ``tests/test_run_geometry.py``), every move
+ending exactly on rs274's end rounded to the step grid. The geometry here is rs274's canonical
+commands (STRAIGHT_TRAVERSE, STRAIGHT_FEED, ARC_FEED), not kontur's reader's.
+
+A third of the programs also run on Verilator (the whole controller), whose steps must be the
+model's (:func:`kontur.machining.execute` compares them step for step and raises otherwise).
+"""
+
+import math
+from fractions import Fraction
+
+import pytest
+
+from kontur.machining import execute, prepare
+from kontur.gcode import read_tool_table
+
+from .test_gcode_rs274 import CORPUS, TABLE, canonical, _text
+from .conftest import selected_simulators
+
+BOARD = "ulx3s"
+SPM = 80
+LINE_BOUND = 1.5
+ARC_BOUND = 1.75
+
+#: The corpus's programs kontur runs, without cutter compensation (its paths are the
+#: equidistant engine's: tests/test_compensation_run.py).
+RUNS = [path for path, refusal in sorted(CORPUS.items(), key=lambda item: item[0].name)
+        if refusal is None and not any(word in _text(path).upper()
+                                       for word in ("G41", "G42"))
+        and path.name not in ("factorial.ngc", "retval.ngc")]   # these two make no move
+#: A third of them on Verilator: the quickest (3 to 6 million clocks each at the run's time
+#: compression; inch.ngc is 420 million).
+VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
+                                                     "tools.ngc")]
+
+
+def _grid(value):
+    """A coordinate (mm) on the step grid, halves away from zero."""
+    scaled = Fraction(value).limit_denominator(10 ** 6) * SPM
+    return math.floor(scaled + Fraction(1, 2)) if scaled >= 0 else -math.floor(-scaled + Fraction(1, 2))
+
+
+def _to_line(p, a, b):
+    """Distance (steps) from ``p`` to the segment ``a``-``b``."""
+    (px, py), (ax, ay), (bx, by) = p, a, b
+    dx, dy = bx - ax, by - ay
+    length = dx * dx + dy * dy
+    t = 0.0 if length == 0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / length))
+    return math.hypot(px - ax - t * dx, py - ay - t * dy)
+
+
+def _to_arc(p, a, b, centre, cw):
+    """Distance (steps) from ``p`` to the arc from ``a`` to ``b`` about ``centre`` (a full
+    circle when ``a`` is ``b``)."""
+    cx, cy = centre
+    radius = math.hypot(a[0] - cx, a[1] - cy)
+    sign = -1 if cw else 1
+
+    def angle(q):
+        return math.atan2(q[1] - cy, q[0] - cx)
+    sweep = (sign * (angle(b) - angle(a))) % (2 * math.pi) or 2 * math.pi
+    along = (sign * (angle(p) - angle(a))) % (2 * math.pi)
+    if along <= sweep:
+        return abs(math.hypot(p[0] - cx, p[1] - cy) - radius)
+    return min(math.hypot(p[0] - q[0], p[1] - q[1]) for q in (a, b))
+
+
+def _check_path(path, job, theirs):
+    """Each segment's step points against the rs274 move its program move is."""
+    assert len(job.moves) == len(theirs)
+    index = {id(move): n for n, move in enumerate(job.moves)}
+    position = list(job.start)
+    previous = {}                          # rs274's start of each move, steps
+    at = (0.0, 0.0)
+    for n, ref in enumerate(theirs):
+        previous[n] = at
+        if ref["kind"] != "dwell":
+            at = tuple(c * SPM for c in ref["end"])
+    worst = 0.0
+    for segment in job.segments:
+        if segment.kind == "dwell":
+            continue
+        n = index[id(segment.source)]
+        ref = theirs[n]
+        a, b = previous[n], tuple(c * SPM for c in ref["end"])
+        for dx, dy in segment.steps:
+            position[0] += dx
+            position[1] += dy
+            if ref["kind"] == "arc":
+                off = _to_arc(position, a, b, tuple(c * SPM for c in ref["centre"]), ref["cw"])
+                bound = ARC_BOUND
+            else:
+                off, bound = _to_line(position, a, b), LINE_BOUND
+            worst = max(worst, off)
+            assert off <= bound, (f"{path.name}: line {segment.line}: step point {position} "
+                                  f"{off:.3f} steps off rs274's {ref}")
+        if segment is _last_of(job, segment.source):
+            assert tuple(position) == tuple(_grid(c) for c in ref["end"]), \
+                f"{path.name}: line {segment.line} ends at {position}, rs274 at {ref['end']}"
+    return worst
+
+
+def _last_of(job, move):
+    return [s for s in job.segments if s.source is move][-1]
+
+
+def _prepare(path, tmp_path):
+    text = _text(path)
+    theirs, _, run = canonical(text, tmp_path)
+    assert run.returncode == 0, run.stderr[-300:]
+    job = prepare(text, board=BOARD, name=path.name,
+                  tools=read_tool_table(TABLE.read_text()))
+    return job, theirs
+
+
+def test_enough_programs_run():
+    assert len(RUNS) >= 11 and len(VERILATOR) * 3 >= len(RUNS), [p.name for p in RUNS]
+
+
+@pytest.mark.parametrize("path", RUNS, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_model_path_is_rs274s(path, tmp_path):
+    job, theirs = _prepare(path, tmp_path)
+    assert job.steps, path.name
+    _check_path(path, job, theirs)
+
+
+@pytest.mark.cocotb
+@pytest.mark.parametrize("path", VERILATOR, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_verilator_steps_are_the_models(path, tmp_path):
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    job, _ = _prepare(path, tmp_path)
+    result = execute(job, "verilator")
+    assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
