@@ -80,27 +80,45 @@ class FeedSignature(wiring.Signature):
     (the faithful SU 1665343 core, four clocks a step) keep it inside: :py:`due` rises only
     when the core can make the step.
 
+    With more than two axes a step is one of ``axes`` length classes (1, √2, √3 on three
+    axes): :py:`diagonal` widens to the number of axes the waiting step moves beyond the first
+    (0 for one axis, 1 for two, 2 for three). On two axes that is the one bit above, so a
+    two-axis engine's feed interface is the same as before.
+
+    Parameters
+    ----------
+    axes : :class:`int`
+        Number of axes of the engine (at least 2).
+
     Members
     -------
     tick : :py:`In(1)`
         Permission for one step.
     due : :py:`Out(1)`
         A step waits for permission.
-    diagonal : :py:`Out(1)`
-        The waiting step moves every axis (valid with :py:`due`).
+    diagonal : :py:`Out((axes - 1).bit_length())`
+        The waiting step moves that many axes beyond one (valid with :py:`due`); on two axes,
+        one bit: it moves every axis.
     """
 
-    def __init__(self):
-        super().__init__({"tick": In(1), "due": Out(1), "diagonal": Out(1)})
+    def __init__(self, axes=2):
+        check_width("Axis count", axes, minimum=2)
+        self._axes = axes
+        super().__init__({"tick": In(1), "due": Out(1),
+                          "diagonal": Out((axes - 1).bit_length())})
+
+    @property
+    def axes(self):
+        return self._axes
 
     def __eq__(self, other):
-        return type(other) is type(self)
+        return type(other) is type(self) and other.axes == self.axes
 
     def __hash__(self):
-        return hash(type(self))
+        return hash((type(self), self._axes))
 
     def __repr__(self):
-        return "FeedSignature()"
+        return "FeedSignature()" if self._axes == 2 else f"FeedSignature({self._axes})"
 
 
 class StatusLayout(data.StructLayout):
@@ -188,8 +206,8 @@ class EngineSignature(wiring.Signature):
     -------
     cmd : :py:`In(stream.Signature(frame))`
         Commands.
-    feed : :py:`Out(FeedSignature())`
-        Step permission and the kind of the next step.
+    feed : :py:`Out(FeedSignature(axes))`
+        Step permission and the kind of the next step (its length class).
     motion : :py:`Out(MotionSignature(axes))`
         Step pulses and directions.
     status : :py:`Out(stream.Signature(StatusLayout(...)))`
@@ -217,7 +235,7 @@ class EngineSignature(wiring.Signature):
         self._status_layout = status
         super().__init__({
             "cmd":    In(stream.Signature(frame)),
-            "feed":   Out(FeedSignature()),
+            "feed":   Out(FeedSignature(max(axes, 2))),
             "motion": Out(MotionSignature(axes)),
             "status": Out(stream.Signature(status)),
             "abort":  In(1),

@@ -8,7 +8,33 @@ from .elements import magnitude
 from .elements._checks import check_width
 from .engine import (EngineSignature, FeedSignature, Outcome, StatusUnit, frame_coord_width)
 
-__all__ = ["LineCoreSignature", "LineEngine"]
+__all__ = ["LineCoreSignature", "LineEngine", "AXIS_NAMES"]
+
+#: The frames' coordinate names, axis by axis.
+AXIS_NAMES = ("x", "y", "z")
+
+
+def _axis_names(axes):
+    check_width("Axis count", axes, minimum=2)
+    if axes > len(AXIS_NAMES):
+        raise ValueError(f"Axis count must be at most {len(AXIS_NAMES)}, not {axes!r}")
+    return AXIS_NAMES[:axes]
+
+
+def _any(values):
+    values = list(values)
+    result = values[0]
+    for value in values[1:]:
+        result = result | value
+    return result
+
+
+def _all(values):
+    values = list(values)
+    result = values[0]
+    for value in values[1:]:
+        result = result & value
+    return result
 
 
 class LineCoreSignature(wiring.Signature):
@@ -18,23 +44,29 @@ class LineCoreSignature(wiring.Signature):
     Y (or both) up by one. It holds one segment prepared while another runs, so that segments
     follow one another with no idle clock.
 
+    With ``axes=3`` a segment ends at ``(x, y, z)`` and a step moves any of the three axes
+    up by one; :py:`feed` is then :py:`FeedSignature(3)`, whose ``diagonal`` counts the axes a
+    step moves beyond the first.
+
     Parameters
     ----------
     width : :class:`int`
         Register width: magnitudes up to ``2**width - 1``.
+    axes : :class:`int`
+        Number of axes, 2 (X, Y) or 3 (X, Y, Z).
 
     Members
     -------
-    cmd : :py:`In(stream.Signature(LineCoreSignature.Frame(width)))`
-        Segments, ``x`` and ``y`` magnitudes. A segment transferred in clock ``k`` may start in
+    cmd : :py:`In(stream.Signature(LineCoreSignature.Frame(width, axes)))`
+        Segments, ``x`` and ``y`` (and ``z``) magnitudes. A segment transferred in clock ``k`` may start in
         clock ``k + 1`` at the earliest.
     feed : :py:`Out(FeedSignature())`
         Permission for each step (:class:`~kontur.hdl.engine.FeedSignature`).
     abort : :py:`In(1)`
         No step in this clock; the running segment ends (:py:`done`) and the prepared one is
         dropped.
-    step : :py:`Out(2)`
-        Step pulses, bit 0 X, bit 1 Y.
+    step : :py:`Out(axes)`
+        Step pulses, bit 0 X, bit 1 Y, bit 2 Z.
     start : :py:`Out(1)`
         The prepared segment starts in this clock (its steps from the next clock; a segment of
         length zero ends in this same clock, with :py:`done`).
@@ -50,17 +82,19 @@ class LineCoreSignature(wiring.Signature):
     """
 
     @staticmethod
-    def Frame(width):
-        return data.StructLayout({"x": unsigned(width), "y": unsigned(width)})
+    def Frame(width, axes=2):
+        return data.StructLayout({name: unsigned(width) for name in _axis_names(axes)})
 
-    def __init__(self, width):
+    def __init__(self, width, axes=2):
         check_width("Register width", width, minimum=2)
+        _axis_names(axes)
         self._width = width
+        self._axes = axes
         super().__init__({
-            "cmd":   In(stream.Signature(self.Frame(width))),
-            "feed":  Out(FeedSignature()),
+            "cmd":   In(stream.Signature(self.Frame(width, axes))),
+            "feed":  Out(FeedSignature(axes)),
             "abort": In(1),
-            "step":  Out(2),
+            "step":  Out(axes),
             "start": Out(1),
             "done":  Out(1),
             "busy":  Out(1),
@@ -70,14 +104,21 @@ class LineCoreSignature(wiring.Signature):
     def width(self):
         return self._width
 
+    @property
+    def axes(self):
+        return self._axes
+
     def __eq__(self, other):
-        return type(other) is type(self) and other.width == self.width
+        return (type(other) is type(self) and other.width == self.width
+                and other.axes == self.axes)
 
     def __hash__(self):
-        return hash((type(self), self._width))
+        return hash((type(self), self._width, self._axes))
 
     def __repr__(self):
-        return f"LineCoreSignature({self._width})"
+        if self._axes == 2:
+            return f"LineCoreSignature({self._width})"
+        return f"LineCoreSignature({self._width}, axes={self._axes})"
 
 
 class LineEngine(wiring.Component):
@@ -90,6 +131,9 @@ class LineEngine(wiring.Component):
     with no idle clock between the last step of one and the first step of the next (the stage
     and the core each hold one while another runs). A segment offered at clock ``k`` to an
     idle engine makes its first step at ``k + 3`` at the earliest.
+
+    The engine has as many axes as its core (:py:`core.signature.axes`): a three-axis core
+    makes a three-axis engine, whose segments end at ``(x, y, z)``.
 
     A segment with a magnitude above ``2**width - 1`` is refused (:attr:`~kontur.hdl.engine.Outcome.
     REFUSED`, nothing moves) from the stage, one clock after it is taken at the earliest; it
@@ -123,8 +167,8 @@ class LineEngine(wiring.Component):
     """
 
     @staticmethod
-    def Frame(coord_width):
-        return data.StructLayout({"x": signed(coord_width), "y": signed(coord_width)})
+    def Frame(coord_width, axes=2):
+        return data.StructLayout({name: signed(coord_width) for name in _axis_names(axes)})
 
     def __init__(self, core, *, coord_width=None):
         if (not isinstance(core, wiring.Component)
@@ -133,7 +177,8 @@ class LineEngine(wiring.Component):
         width = core.signature.width
         self._coord_width = frame_coord_width(width, coord_width)
         self._core = core
-        super().__init__(EngineSignature(self.Frame(self._coord_width),
+        axes = core.signature.axes
+        super().__init__(EngineSignature(self.Frame(self._coord_width, axes), axes=axes,
                                          position_width=width + 1))
 
     @property
@@ -148,14 +193,19 @@ class LineEngine(wiring.Component):
     def coord_width(self):
         return self._coord_width
 
+    @property
+    def axes(self):
+        return self._core.signature.axes
+
     def elaborate(self, platform):
         m = Module()
         w = self.width
         m.submodules.core = core = self._core
-        m.submodules.status = status = StatusUnit(position_width=w + 1,
+        names = _axis_names(self.axes)
+        m.submodules.status = status = StatusUnit(axes=self.axes, position_width=w + 1,
                                                   number_width=self.signature.number_width)
 
-        x, y = self.cmd.payload.x, self.cmd.payload.y
+        coords = [self.cmd.payload[name] for name in names]
 
         # Every segment goes first into a stage register holding its magnitudes, its signs
         # and whether it is too wide or of length zero; from there a segment goes to the core,
@@ -165,17 +215,15 @@ class LineEngine(wiring.Component):
         # leaves the stage only when it is the one command in flight and no outcome waits, so
         # that its outcome follows the others'.
         staged = Signal()                     # the stage holds a segment
-        stage_x = Signal(w, reset_less=True)
-        stage_y = Signal(w, reset_less=True)
-        stage_dir = Signal(2, reset_less=True)
+        stages = [Signal(w, name=f"stage_{name}", reset_less=True) for name in names]
+        stage_dir = Signal(self.axes, reset_less=True)
         stage_zero = Signal(reset_less=True)
         stage_wide = Signal(reset_less=True)
         handover = Signal()
         refuse = Signal()
         m.d.comb += [
             core.cmd.valid.eq(staged & ~stage_wide & (~stage_zero | status.alone) & ~self.abort),
-            core.cmd.payload.x.eq(stage_x),
-            core.cmd.payload.y.eq(stage_y),
+            *(core.cmd.payload[name].eq(stage) for name, stage in zip(names, stages)),
             handover.eq(core.cmd.valid & core.cmd.ready),
             refuse.eq(staged & stage_wide & status.alone & ~self.abort),
             self.cmd.ready.eq(~self.abort & ~status.flushing & (~staged | handover | refuse)),
@@ -186,23 +234,21 @@ class LineEngine(wiring.Component):
             m.d.sync += staged.eq(0)
         # The stage's registers follow cmd whenever it may be taken (``staged`` says whether
         # they count), so that their load enable does not wait for cmd.valid.
-        magnitude_x, beyond_x = magnitude(m, x, w)
-        magnitude_y, beyond_y = magnitude(m, y, w)
+        magnitudes = [magnitude(m, coord, w) for coord in coords]
         with m.If(self.cmd.ready):
             m.d.sync += [
-                stage_x.eq(magnitude_x),
-                stage_y.eq(magnitude_y),
-                stage_dir.eq(Cat(x[-1], y[-1])),
-                stage_wide.eq(beyond_x | beyond_y),
+                *(stage.eq(value) for stage, (value, _) in zip(stages, magnitudes)),
+                stage_dir.eq(Cat(*(coord[-1] for coord in coords))),
+                stage_wide.eq(_any(beyond for _, beyond in magnitudes)),
                 # The magnitudes' low bits are zero exactly when the coordinates' are.
-                stage_zero.eq(~x[:w].any() & ~y[:w].any()),
+                stage_zero.eq(_all(~coord[:w].any() for coord in coords)),
             ]
 
         # Directions: those of the prepared segment, from its start those of the running one.
         # A segment of length zero leaves them as they are.
-        prepared_dir = Signal(2)
+        prepared_dir = Signal(self.axes)
         prepared_moves = Signal()
-        direction = Signal(2)
+        direction = Signal(self.axes)
         with m.If(handover):
             m.d.sync += [
                 prepared_dir.eq(stage_dir),

@@ -10,7 +10,7 @@ parameters and data only, not behaviour.
 import math
 from dataclasses import dataclass
 
-__all__ = ["Kind", "Formats", "OCTAGON", "ONE", "SQRT2"]
+__all__ = ["Kind", "Formats", "OCTAGON", "ONE", "SQRT2", "SQRT3", "STEP_LENGTHS"]
 
 
 class Kind:
@@ -104,6 +104,9 @@ OCTAGON = ((14, 4), (9, 11), (-9, 11), (-14, 4), (-14, -4), (-9, -11), (9, -11),
 
 #: Distances in the feed generator's accumulator (:class:`kontur.hdl.motion.feed.FeedGenerator`, its
 #: model :class:`kontur.sim.models.motion.FeedGeneratorModel`): one axial step and one diagonal step
-#: (Q2.24).
+#: (Q2.24); a step on three axes (a 3-axis engine's ``feed.diagonal`` of 2).
 ONE = 1 << 24
 SQRT2 = round(math.sqrt(2) * ONE)
+SQRT3 = round(math.sqrt(3) * ONE)
+#: A step's length by ``feed.diagonal``, the number of axes it moves beyond one.
+STEP_LENGTHS = (ONE, SQRT2, SQRT3)

@@ -48,6 +48,35 @@ def area_designs():
     return rows
 
 
+def axes_designs():
+    """``(label, width, variant, factory)`` rows of ``kontur bench axes``: the third axis's
+    cost. The 2-axis SU 1571551 core (``exact``), the spatial core on two and three axes, at 16
+    and 32 bits; their line engines at 16; the fast arc engine and the helix engine around it
+    at 24."""
+    from kontur import registry
+    from kontur.hdl.helix import HelixEngine
+    from kontur.hdl.line import LineEngine
+    from kontur.hdl.spatial import SpatialLineCore
+
+    def spatial(axes, width):
+        return SpatialLineCore(width=width, axes=axes)
+
+    rows = []
+    for width in (16, 32):
+        rows += [("line core", width, "exact", lambda w=width: registry.make_core(
+                     "line", "exact", width=w)),
+                 ("line core", width, "spatial 2 axes", lambda w=width: spatial(2, w)),
+                 ("line core", width, "spatial 3 axes", lambda w=width: spatial(3, w))]
+    rows += [("line engine", 16, "exact", lambda: registry.make_engine("line", "exact",
+                                                                       width=16)),
+             ("line engine", 16, "spatial 2 axes", lambda: LineEngine(spatial(2, 16))),
+             ("line engine", 16, "spatial 3 axes", lambda: LineEngine(spatial(3, 16))),
+             ("arc engine", 24, "fast", lambda: registry.make_engine("arc", "fast", width=24)),
+             ("arc engine", 24, "fast + helix", lambda: HelixEngine(
+                 registry.make_engine("arc", "fast", width=24)))]
+    return rows
+
+
 def speed_designs():
     """``(label, width, variant, factory)`` rows of :func:`speed`: every registered engine at
     the widths of :func:`_widths`. The equidistant engine, slower than the board's clock, is
@@ -298,7 +327,8 @@ def _runs_main(argv, out):
 
 
 def main(argv=None, out=None):
-    """``kontur bench area|speed``: print the table; ``report [--out FILE]``: write
+    """``kontur bench area|speed|axes``: print the table (``axes``: the third axis's cost,
+    :func:`axes_designs`); ``report [--out FILE]``: write
     ``BENCHMARKS.md`` (:func:`report`); ``controllers [--boards B,B] [--seeds 1,2,3] [--out
     FILE]``: the controllers' builds (:func:`controllers`), their section written into FILE;
     ``runs [--boards B,B] [--program F] [--out FILE]``: the controllers simulated
@@ -306,7 +336,9 @@ def main(argv=None, out=None):
     standard error when a tool is missing or fails)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     out = sys.stdout if out is None else out
-    tables = {"area": area, "speed": speed}
+    tables = {"area": area, "speed": speed,
+              "axes": lambda out: area(out, designs=axes_designs(),
+                                       build_root=BUILD_ROOT / "axes")}
     if argv[:1] == ["report"] and len(argv) in (1, 3) and argv[1:2] in ([], ["--out"]):
         target = argv[2] if len(argv) == 3 else str(ROOT / "BENCHMARKS.md")
         try:
@@ -323,8 +355,8 @@ def main(argv=None, out=None):
             sys.stderr.write(f"kontur bench: {error}\n")
             return 1
     if len(argv) != 1 or argv[0] not in tables:
-        sys.stderr.write(f"usage: python -m kontur.bench area|speed|report|controllers|runs "
-                         f"[--out FILE], "
+        sys.stderr.write(f"usage: python -m kontur.bench area|speed|axes|report|controllers|"
+                         f"runs [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
         return 2
     try:

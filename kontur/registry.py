@@ -26,6 +26,7 @@ from kontur.hdl.line import LineEngine
 from kontur.hdl.linear import LinearCore
 from kontur.hdl.motion.controller import MotionController
 from kontur.hdl.serial import SerialArcCore, SerialLineCore
+from kontur.hdl.spatial import SpatialLineCore
 from kontur.hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
 from kontur.hdl.top import DemoTop
 from kontur.sim.models.arc import ArcEngineModel, arc_steps, check_arc, round_sqrt
@@ -36,6 +37,8 @@ from kontur.sim.models.line import LineEngineModel
 from kontur.sim.models.linear import LinearCoreModel, check_line
 from kontur.sim.models.linear import steps as linear_steps
 from kontur.sim.models.serial import SerialArcCoreModel, SerialLineCoreModel, word_length
+from kontur.sim.models.spatial import SpatialLineCoreModel
+from kontur.sim.models.spatial import line_steps as spatial_line_steps
 from kontur.sim.models.textbook import (DdaCoreModel, SeparateArcCoreModel, SeparateLineCoreModel,
                                  dda_capacity, dda_steps, separate_arc_steps,
                                  separate_line_steps)
@@ -357,6 +360,11 @@ VARIANT_TABLE = (
     Variant("line", "exact", "SU 1571551's equation (1): constant increments",
             LinearCore, LinearCoreModel, linear_steps, fixed={"variant": "exact"},
             params=("period",), widths=(16, 32), accuracy=HALF),
+    # The third axis's core on two axes (its steps are exact's; axes=3 in docs/architecture.md,
+    # "The third axis"), so the generic suites hold it to the engine contract.
+    Variant("line", "spatial", "SU 1571551's function per axis against the dominant one",
+            SpatialLineCore, SpatialLineCoreModel, spatial_line_steps, fixed={"axes": 2},
+            accuracy=HALF),
     Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
             FaithfulArcCore, FaithfulArcCoreModel, arc_steps, params=("timing",),
             widths=(24, 32), accuracy=HALF),

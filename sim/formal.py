@@ -228,7 +228,7 @@ def prove(proof, *, root=None, solver=None):
 def _proofs():
     from kontur.hdl.circular_timing import FaithfulTiming
     from kontur.hdl.formal import elements as e
-    from kontur.hdl.formal import circular, linear
+    from kontur.hdl.formal import circular, linear, spatial
 
     proofs = []
 
@@ -289,6 +289,18 @@ def _proofs():
                                                             bounded=True),
             LINEAR_DEPTH, f"width {w}, period 1",
             "LinearInterpolator exact: E = 2(n b - k a), no budget runs out early")
+
+    # ---- lines in space (SU 1571551's function per axis) ------------------------------------
+    for axes, w in ((3, 6), (2, 6)):
+        add(f"spatial_{axes}_axes_{w}",
+            lambda w=w, a=axes: spatial.SpatialLineCoreProperties(width=w, axes=a),
+            LINEAR_DEPTH, f"width {w}, {axes} axes",
+            "SpatialLineCore: each axis within half a step of the line, tick & due, "
+            "diagonal, prepared segment, done, abort")
+    add("spatial_3_axes_4_bounded",
+        lambda: spatial.SpatialLineCoreProperties(width=4, axes=3, bounded=True),
+        LINEAR_DEPTH, "width 4, 3 axes",
+        "SpatialLineCore: all of the above, E = 2(n m - p a) with the products, the end point")
 
     # ---- SU 1665343 ----------------------------------------------------------------------
     # Width 8 takes six minutes since the operand registers (issue 8): run by hand (--slow).

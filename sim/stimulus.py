@@ -237,22 +237,23 @@ def plan_resets(model, job, limit, *, length=1):
     raise RuntimeError(f"the engine did not finish the job within {job.max_cycles} clocks")
 
 
-def record_moves(record):
-    """Return ``(cycle, dx, dy)`` for every clock of ``record`` with a step pulse."""
+def record_moves(record, axes=2):
+    """Return ``(cycle, dx, dy)`` (``(cycle, dx, dy, dz)`` on three axes) for every clock of
+    ``record`` with a step pulse."""
     moves = []
     for entry in record:
         if entry["rst"] or not entry["step"]:
             continue
         step, direction = entry["step"], entry["dir"]
-        dx = (-1 if direction & 1 else 1) if step & 1 else 0
-        dy = (-1 if direction & 2 else 1) if step & 2 else 0
-        moves.append((entry["cycle"], dx, dy))
+        moves.append((entry["cycle"], *((-1 if direction >> axis & 1 else 1)
+                                        if step >> axis & 1 else 0 for axis in range(axes))))
     return moves
 
 
-def record_steps(record):
-    """Return the ``(dx, dy)`` steps of ``record`` in order."""
-    return [(dx, dy) for _, dx, dy in record_moves(record)]
+def record_steps(record, axes=2):
+    """Return the ``(dx, dy)`` (on three axes ``(dx, dy, dz)``) steps of ``record`` in
+    order."""
+    return [move[1:] for move in record_moves(record, axes)]
 
 
 def record_outcomes(record):

@@ -174,7 +174,7 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m kontur.bench area|speed|report|controllers|runs "
+                         "usage: python -m kontur.bench area|speed|axes|report|controllers|runs "
                          "[--out FILE], not 'fast'\n")
 
     def test_runs_section(self):
@@ -197,6 +197,16 @@ class ToolTestCase(unittest.TestCase):
         self.assertLess(text.index(bench.RUNS_HEADING), text.index("## How"))
         self.assertIn("| ulx3s | verilator | offsets.ngc | 25840 | 32 | 3000000 | 2.0 | "
                       "1,500,000 |", text)
+
+    def test_axes_designs(self):
+        # The third axis's table: the 2-axis and 3-axis line cores and engines, the arc
+        # engine with and without the helix, each built by its factory.
+        rows = bench.axes_designs()
+        self.assertEqual([(label, width, variant) for label, width, variant, _ in rows][:3],
+                         [("line core", 16, "exact"), ("line core", 16, "spatial 2 axes"),
+                          ("line core", 16, "spatial 3 axes")])
+        axes = [factory().signature.members["feed"].signature.axes for *_, factory in rows]
+        self.assertEqual(axes, [2, 2, 3] * 2 + [2, 2, 3, 2, 3])
 
 
 class ReportTestCase(unittest.TestCase):

@@ -2,7 +2,10 @@
 
 from .engine import DONE, REFUSED, StatusModel
 
-__all__ = ["LineEngineModel"]
+__all__ = ["LineEngineModel", "AXIS_NAMES"]
+
+#: The frames' coordinate names, axis by axis (as ``kontur.hdl.line.AXIS_NAMES``).
+AXIS_NAMES = ("x", "y", "z")
 
 
 class LineEngineModel:
@@ -11,7 +14,8 @@ class LineEngineModel:
     ``core`` is the model of the RTL's core (for instance
     :class:`~kontur.sim.models.linear.LinearCoreModel`): it has ``width``, ``reset()``, ``state()``,
     ``evaluate(tick=, abort=)`` and ``cycle(tick=, abort=, valid=, payload=)``, as the RTL core
-    has its :class:`~kontur.hdl.line.LineCoreSignature`.
+    has its :class:`~kontur.hdl.line.LineCoreSignature`; a core model with ``axes = 3`` makes
+    a three-axis engine (segments ``x``, ``y``, ``z``).
 
     Call :meth:`cycle` once per clock with the inputs of that clock; it returns the outputs
     during that clock and the core's named registers, then advances.
@@ -20,7 +24,10 @@ class LineEngineModel:
     def __init__(self, core, *, number_width=8):
         self.core = core
         self.width = core.width
-        self.status = StatusModel(position_width=self.width + 1, number_width=number_width)
+        self.axes = getattr(core, "axes", 2)
+        self.names = AXIS_NAMES[:self.axes]
+        self.status = StatusModel(axes=self.axes, position_width=self.width + 1,
+                                  number_width=number_width)
         self.reset()
 
     def reset(self):
@@ -40,8 +47,7 @@ class LineEngineModel:
         hold = status.hold
         core = self.core.evaluate(tick=int(bool(tick) and not hold), abort=abort)
         limit = (1 << self.width) - 1
-        x = payload["x"] if payload is not None else 0
-        y = payload["y"] if payload is not None else 0
+        coords = [payload[name] if payload is not None else 0 for name in self.names]
 
         # The stage register: a segment's magnitudes, signs and checks on their way to the
         # core (or, refused, to its outcome).
@@ -65,7 +71,8 @@ class LineEngineModel:
         state = self.state()
 
         # ---- clock edge -------------------------------------------------------------------
-        magnitudes = stage["magnitudes"] if stage is not None else {"x": 0, "y": 0}
+        magnitudes = (stage["magnitudes"] if stage is not None
+                      else {name: 0 for name in self.names})
         self.core.cycle(tick=int(bool(tick) and not hold), abort=abort, valid=core_valid,
                         payload=magnitudes)
         if core["start"] and self.prepared_moves:
@@ -73,10 +80,11 @@ class LineEngineModel:
         if handover:
             self.prepared_dir, self.prepared_moves = stage["dir"], int(not stage["zero"])
         if accept:
-            self.stage = {"magnitudes": {"x": abs(x) & limit, "y": abs(y) & limit},
-                          "dir": int(x < 0) | int(y < 0) << 1,
-                          "zero": (abs(x) & limit) == 0 and (abs(y) & limit) == 0,
-                          "wide": abs(x) > limit or abs(y) > limit}
+            self.stage = {"magnitudes": {name: abs(c) & limit
+                                         for name, c in zip(self.names, coords)},
+                          "dir": sum(int(c < 0) << axis for axis, c in enumerate(coords)),
+                          "zero": all(abs(c) & limit == 0 for c in coords),
+                          "wide": any(abs(c) > limit for c in coords)}
         elif handover or refuse or abort:
             self.stage = None
         status.advance(accept=accept, flush=abort)
