@@ -10,7 +10,9 @@ in one line); 130 on an interrupt.
 
 ``kontur run FILE.ngc`` runs a G-code program through the whole machine controller (the model,
 or its RTL on a simulator) and writes its steps, plot and summary; ``kontur send FILE.ngc
---port DEVICE`` streams it to a board; ``kontur build`` makes a board's bitstream. Their
+--port DEVICE`` streams it to a board; ``kontur serve`` is a Grbl 1.1 device on a
+pseudo-terminal for any G-code sender (:mod:`kontur.grbl`); ``kontur build`` makes a board's
+bitstream. Their
 statuses are the same: 2 for a program refused (its line named), 1 for a failure.
 """
 
@@ -203,6 +205,7 @@ def _parser():
                        help="where the controller's build record goes (default "
                             "<build dir>/report.json)")
     _add_machining(commands)
+    _add_serve(commands)
     return parser
 
 
@@ -289,12 +292,69 @@ def _add_machining(commands):
                            "frame beyond its planned time (default 10)")
 
 
-def _job(args):
+def _add_serve(commands):
+    serve = commands.add_parser(
+        "serve", help="be a Grbl 1.1 device on a pseudo-terminal: any G-code sender drives "
+                      "kontur's virtual machine",
+        description="Present a Grbl 1.1-compatible device on a pseudo-terminal (its path "
+                    "the first line of standard output) and, with --tcp, on a localhost TCP "
+                    "port; run what a sender streams on the virtual machine in real time, "
+                    "its steps written to --out DIR as kontur run writes them. See "
+                    "docs/grbl.md.",
+        epilog="Runs until SIGINT, SIGTERM or SIGHUP (status 128 + the signal, the outputs "
+               "written first); 2 for an option refused.")
+    serve.add_argument("--link", metavar="PATH", default=None,
+                       help="keep a symlink to the pseudo-terminal at PATH (a stable name to "
+                            "point a sender at); removed at the end")
+    serve.add_argument("--tcp", type=int, default=None, metavar="PORT",
+                       help="also listen on 127.0.0.1:PORT (0: any free port; its number is "
+                            "the second line of standard output)")
+    serve.add_argument("--engine", choices=("model", "verilator"), default="model",
+                       help="what runs the moves: the golden models in real time (default); "
+                            "verilator: the models in real time, and every run of motion "
+                            "run again, once the machine rests, on the controller's RTL under "
+                            "Verilator, its steps checked against the model's (summary.json's "
+                            "rtl_check). A board behind it (--port) is issue 29's next slice")
+    serve.add_argument("--out", metavar="DIR", default=None,
+                       help="write steps.txt and summary.json of the steps made since the "
+                            "start to DIR after every run of motion and at the end")
+    serve.add_argument("--board", choices=list(registry.BOARDS), default="icebreaker",
+                       help="the board whose controller it is (its engines and clock; default "
+                            "icebreaker)")
+    serve.add_argument("--machine", metavar="FILE.toml", default=None,
+                       help="the machine's configuration, as for kontur run; $$ shows it as "
+                            "Grbl's settings, and a $N= write of one of them is kept in it")
+    serve.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
+                       help="steps per millimetre, X and Y (overrides the machine file)")
+    serve.add_argument("--speed", type=float, default=1.0, metavar="N",
+                       help="run the virtual machine's clock N times faster than real time "
+                            "(default 1; the steps do not change)")
+
+
+def _serve(args, out):
+    import math
+
+    from kontur.grbl.server import serve
+    from kontur.trace import UsageError
+    if not (math.isfinite(args.speed) and args.speed > 0):
+        raise UsageError(f"--speed must be a positive number, not {args.speed:g}")
+    if args.tcp is not None and not 0 <= args.tcp < 65536:
+        raise UsageError(f"--tcp must be a port from 0 to 65535, not {args.tcp}")
+    args.radius = None
+    machine = _machine(args)
+    if args.engine == "verilator":
+        from kontur.sim.runners import ensure_simulator
+        ensure_simulator("verilator")          # before any sender connects: status 1
+    serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
+          speed=args.speed, engine=args.engine, machine_file=args.machine, out=out)
+    return 0
+
+
+def _machine(args):
+    """The machine of ``--board``, ``--machine``, ``--steps-per-mm`` (and ``--radius``)."""
     from kontur.machine import Machine, MachineError
-    from kontur.machining import prepare
     from kontur.trace import UsageError
     board = registry.board(args.board)
-    text = _read_program(args.file)
     try:
         if args.machine:
             machine = Machine.from_toml(args.machine, clock_hz=board.clock_hz,
@@ -305,8 +365,16 @@ def _job(args):
                                                        ("cutter_radius", args.radius))
                          if value is not None}
             machine = Machine(clock_hz=board.clock_hz, **overrides)
+        return machine.check()
     except MachineError as error:
         raise UsageError(str(error)) from None
+
+
+def _job(args):
+    from kontur.machining import prepare
+    from kontur.trace import UsageError
+    text = _read_program(args.file)
+    machine = _machine(args)
     tools = None
     if args.tool_table:
         from kontur.gcode import ToolTableError, read_tool_table
@@ -498,6 +566,8 @@ def _main(argv):
             return _run(args, sys.stdout)
         if args.command == "send":
             return _send(args, sys.stdout)
+        if args.command == "serve":
+            return _serve(args, sys.stdout)
         return _build(args, sys.stdout)
     except SystemExit as stop:             # argparse: --help (0) or a usage error (2)
         return stop.code if isinstance(stop.code, int) else 2

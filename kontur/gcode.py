@@ -41,7 +41,7 @@ from typing import NamedTuple
 from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
-           "read", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL"]
+           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL"]
 
 
 class GCodeError(ValueError):
@@ -467,6 +467,7 @@ class _Interpreter:
         self.frames = [_Frame()]
         self.moves, self.events = [], []
         self.line = None
+        self.ended = False
         self.m61 = False
         self.evaluate = Evaluator(self.get_numbered, self.get_named, self.exists)
 
@@ -586,6 +587,7 @@ class _Interpreter:
                 pc = self.control(pc, block)
                 continue
             if self.block(block):
+                self.ended = True
                 break
             pc += 1
         return self.moves
@@ -1072,6 +1074,79 @@ def interpret(blocks, *, start=(0, 0), name=None, units=None, tools=None, parame
     if events is not None:
         events.extend(interpreter.events)
     return moves
+
+
+class Stream:
+    """A program read a few blocks at a time (``kontur serve``: the lines a G-code sender
+    streams): one interpreter whose modal state, offsets and parameters carry from one
+    :meth:`feed` to the next, so that a program read line by line reads as it does whole.
+    The arguments are :func:`interpret`'s. O-words must be matched within the blocks of one
+    :meth:`feed` (a subroutine defined in an earlier one is not known).
+
+    The state may be copied (:func:`copy.deepcopy`) to try a line and keep it only if the
+    machine takes its moves; :attr:`ended` says a feed ended the program (M2, M30), and
+    :meth:`program_end` then sets the modes a program end sets."""
+
+    def __init__(self, *, start=(0, 0), name=None, units=None, tools=None, parameters=None,
+                 block_delete=False):
+        if units not in UNITS:
+            raise ValueError(f"Units must be one of {', '.join(map(repr, UNITS))}, "
+                             f"not {units!r}")
+        self.state = _Interpreter((), start=start, name=name, units=units, tools=tools,
+                                  parameters=parameters, block_delete=block_delete)
+
+    def feed(self, blocks):
+        """Run ``blocks`` on the state the earlier ones left; return their moves and events
+        (:class:`Event`, ``move`` counting this feed's moves).
+
+        Raises
+        ------
+        :exc:`GCodeError`
+            As :func:`interpret` does; the state is then part-way through the block refused
+            (run a copy to keep it unchanged)."""
+        state = self.state
+        state.blocks, state.moves, state.events = list(blocks), [], []
+        state.ended = False
+        state.run()
+        return state.moves, state.events
+
+    @property
+    def ended(self):
+        """The last feed ended the program (M2, M30)."""
+        return self.state.ended
+
+    def program_end(self):
+        """The modes after M2/M30 (LinuxCNC's and Grbl's): G1, G90, G54, G40; the
+        position, offsets and parameters kept."""
+        state = self.state
+        state.ended = False
+        state.motion, state.absolute, state.cs = 10, True, 1
+        state.side = state.radius = state.radius_source = None
+
+    @property
+    def position(self):
+        """Where the moves so far end: ``(x, y, z)`` in machine coordinates."""
+        return tuple(self.state.pos)
+
+    def move_to(self, x, y):
+        """Put the reader at machine ``(x, y)`` (where the machine is after a stop)."""
+        self.state.pos[0], self.state.pos[1] = Fraction(x), Fraction(y)
+
+    def modes(self):
+        """The modal state as a dict: ``motion`` (ten times the G code, ``None`` after G80),
+        ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in the program's units),
+        ``side``, ``coordinate_system`` (1-9: G54-G59.3), ``tool``, ``speed``, and the offset
+        in force (``offset``: G5x plus G92, machine units) with each system's
+        (``systems``), G92's and the G28/G30 positions (``g92``, ``home``)."""
+        state = self.state
+        return {"motion": state.motion, "absolute": state.absolute,
+                "arc_absolute": state.arc_absolute, "inches": state.scale != 1,
+                "feed": None if state.feed is None else state.feed / state.scale,
+                "side": state.side, "coordinate_system": state.cs, "tool": state.tool,
+                "speed": state.speed,
+                "offset": tuple(state.offset_of(axis) for axis in range(3)),
+                "systems": {n: tuple(v) for n, v in state.g5x.items()},
+                "g92": tuple(state.g92), "home": {n: tuple(v) for n, v in state.home.items()}}
 
 
 def planar(moves, *, name=None, unit="mm"):

@@ -826,9 +826,10 @@ def _move_into_place(staging, out_dir):
         return
 
 
-def write_outputs(job, result, out_dir, *, staging=None):
-    """Write ``steps.txt``, ``toolpath.png`` and ``summary.json`` into ``out_dir``; return the
-    summary dict.
+def write_outputs(job, result, out_dir, *, staging=None, plot=True, extra=None):
+    """Write ``steps.txt``, ``toolpath.png`` (unless ``plot`` is false: ``kontur serve``
+    rewrites its outputs after every run of motion) and ``summary.json`` (with the keys of
+    ``extra`` added) into ``out_dir``; return the summary dict.
 
     The files are written into ``staging`` (default a fresh :func:`staging_dir`; the run's
     waveform may already be there), and that folder then replaces ``out_dir`` whole: its
@@ -839,11 +840,13 @@ def write_outputs(job, result, out_dir, *, staging=None):
     with open(staging / "steps.txt", "w") as handle:
         handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)
-    from kontur.plot import plot_toolpath
-    plot_toolpath(job, result.steps, _speeds(result.steps, result.times,
-                                             job.machine.steps_per_mm),
-                  staging / "toolpath.png",
-                  title=f"{job.name}: {len(result.steps)} steps, {result.engine}")
+    data.update(extra or {})
+    if plot:
+        from kontur.plot import plot_toolpath
+        plot_toolpath(job, result.steps, _speeds(result.steps, result.times,
+                                                 job.machine.steps_per_mm),
+                      staging / "toolpath.png",
+                      title=f"{job.name}: {len(result.steps)} steps, {result.engine}")
     (staging / "summary.json").write_text(json.dumps(data, indent=2) + "\n")
     _move_into_place(staging, out_dir)
     return data
