@@ -67,6 +67,11 @@ def read_steps(out):
             .splitlines()]
 
 
+#: How long a reply may take (s): a read returns at the line's end, so only a missing line waits
+#: this long; generous for a machine loaded by the rest of the suite (CI runs two workers).
+LINE_WAIT = 30
+
+
 @pytest.fixture
 def server(tmp_path, request):
     """A ``kontur serve`` child: ``(link, out, process)`` (more options, after ``--speed``,
@@ -88,7 +93,7 @@ class Port:
     """A plain Grbl client on pyserial: lines, commands, status polls."""
 
     def __init__(self, path):
-        self.serial = serial.Serial(str(path), 115200, timeout=3)
+        self.serial = serial.Serial(str(path), 115200, timeout=LINE_WAIT)
 
     def line(self):
         text = self.serial.readline().decode()
@@ -113,7 +118,7 @@ class Port:
                 state, *position = match.groups()
                 return state, tuple(float(c) for c in position), time.monotonic() - sent
 
-    def wait_idle(self, timeout=20):
+    def wait_idle(self, timeout=60):
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             state, position, _ = self.status()
@@ -135,7 +140,7 @@ def port(server):
     port.close()
 
 
-def wait_for_outputs(out, count, timeout=10):
+def wait_for_outputs(out, count, timeout=60):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if (out / "summary.json").exists() and len(read_steps(out)) == count:
@@ -155,7 +160,7 @@ def stream(port, text):
         while pending and (line is None or sum(map(len, pending)) + len(line) > 128):
             port.serial.timeout = 0.05
             raw = port.serial.readline().decode()
-            port.serial.timeout = 3
+            port.serial.timeout = LINE_WAIT
             if raw.endswith("\r\n"):
                 raw = raw.strip()
                 if raw == "ok" or raw.startswith("error:"):
