@@ -251,7 +251,10 @@ def _add_machining(commands):
                      help="a scripted event at that much machining time after the first step "
                           "(repeatable): estop, estop-release, limit-x, limit-y, "
                           "limit-x-release, limit-y-release (the switch inputs), unlock (an "
-                          "UNLOCK frame); the e-stop or a limit stops the program in ALARM")
+                          "UNLOCK frame), hold, resume (feed hold: HOLD, RESUME frames), "
+                          "feed=PCT (feed override, 10-200), rapid=PCT (rapid override: 25, "
+                          "50, 100); the e-stop or a limit stops the program in ALARM, a hold "
+                          "never resumed in HOLD")
     run.add_argument("--compress", type=int, default=None, metavar="N",
                      help="time compression of an RTL run: rates N times the planned ones "
                           "(default: the largest power of two the step timing and the link "
@@ -368,7 +371,7 @@ def _events(texts):
     for one that is not)."""
     import math
 
-    from kontur.sim.models.motion import EVENTS
+    from kontur.sim.models.motion import EVENTS, FRAME_EVENTS, event_kind
     from kontur.trace import UsageError
     events = []
     for text in texts:
@@ -377,9 +380,17 @@ def _events(texts):
             seconds = float(at)
         except ValueError:
             seconds = math.nan
-        if name not in EVENTS or not (math.isfinite(seconds) and seconds >= 0):
+        try:
+            event_kind(name)
+            problem = None
+        except ValueError as error:
+            problem = str(error)
+        if problem is not None and "override" in problem:      # feed=PCT, rapid=PCT
+            raise UsageError(f"--event {text}: {problem.partition(': ')[2]}")
+        if problem is not None or not (math.isfinite(seconds) and seconds >= 0):
             raise UsageError(f"--event {text}: expected WHAT@SECONDS, WHAT one of "
-                             f"{', '.join(EVENTS)} and SECONDS a time of at least 0")
+                             f"{', '.join(list(EVENTS) + list(FRAME_EVENTS))} and SECONDS a "
+                             f"time of at least 0")
         events.append((seconds, name))
     return events
 

@@ -457,7 +457,8 @@ def dwell_clocks(seconds, machine, compress=1):
 
 def frames(segments, items, machine, *, compress=1):
     """The frames of the program: the configuration, a FEED and a move for each segment (a
-    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
+    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. A rapid's FEED (a segment of a G0
+    move) carries the rapid flag. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
     frame comes from (``None`` for CONFIG and STOP).
 
     With ``compress`` (a simulation's time compression) every rate is ``compress`` times the
@@ -494,7 +495,9 @@ def frames(segments, items, machine, *, compress=1):
         except ValueError as error:          # MachineError: never clamped
             raise ProgramError(segment.line, f"{error} (time compression {compress})") \
                 from None
-        out.append(protocol.feed(*rates, item.decelerate))
+        # A rapid (G0) says so: the rapid override applies to it, not the feed override.
+        rapid = getattr(segment.source, "kind", None) == "rapid"
+        out.append(protocol.feed(*rates, item.decelerate, rapid=rapid))
         out.append(_move_frame(segment))
         lines += [segment.line, segment.line]
     out.append(protocol.stop())

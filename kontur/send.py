@@ -41,8 +41,9 @@ __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", 
 OUTCOMES = ("done", "refused", "aborted")
 DONE, REFUSED, ABORTED = range(3)
 
-#: The flags a STATUS may carry: bit 0 moving, bit 1 an error reported since reset.
-MOVING, ERRORED = 1, 2
+#: The flags a STATUS may carry: bit 0 moving, bit 1 an error reported since reset, bit 2 at
+#: a standstill under feed hold.
+MOVING, ERRORED, HELD = 1, 2, 4
 
 #: A frame may take this many times its planned time (and the timeout besides).
 PACE = 1.25
@@ -222,8 +223,9 @@ class _Sender:
 
     def check_flags(self, fields, *, abort=True):
         x, y, free, flags, state = fields[:5]
-        if flags & ~(MOVING | ERRORED) or state >= len(STATES):
-            what = f"flags {flags:#04x}" if flags & ~(MOVING | ERRORED) else f"state {state}"
+        if flags & ~(MOVING | ERRORED | HELD) or state >= len(STATES):
+            what = f"flags {flags:#04x}" if flags & ~(MOVING | ERRORED | HELD) \
+                else f"state {state}"
             self.fail(f"the board sent a STATUS with {what}, which no controller "
                       f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?",
                       abort=abort)

@@ -98,9 +98,10 @@ class FakeMachine:
         x, y = self.position
         if self.count:
             x, y = x + self.offset[0], y + self.offset[1]
-        return protocol.frame(0x81, struct.pack("<iiBBBBB", x, y,
+        return protocol.frame(0x81, struct.pack("<iiBBBBBIHB", x, y,
                                                 max(self.free - self.unanswered, 0), self.flags,
-                                                self.state, self.alarm, self.inputs))
+                                                self.state, self.alarm, self.inputs, 0, 128,
+                                                100))
 
     def write(self, data):
         if self.closed or (self.misbehave == "write" and self.count >= self.after):
@@ -469,7 +470,7 @@ def test_the_gateware_reports_its_queue_length_when_idle():
                                       queue_frames=frames)
         run = run_amaranth(controller, [protocol.query()], divisor=8, window=frames,
                            max_clocks=5000)
-        assert [reply.fields for _, reply in run.replies] == [(0, 0, frames, 0, 0, 0, 0)]
+        assert [reply.fields[:7] for _, reply in run.replies] == [(0, 0, frames, 0, 0, 0, 0)]
 
 
 # ---- a misbehaving machine -------------------------------------------------------------------
