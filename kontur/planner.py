@@ -419,7 +419,7 @@ def _plan(segments, machine):
         length = lengths[i]
         peak = math.sqrt(max((2 * a * length + v0 * v0 + v1 * v1) / 2, 0))
         vc = max(_quantise(min(nominal[i], peak), unit), v1, v0)
-        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 1     # step lengths, and one more
+        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 2     # step lengths, and two more
         remaining = s.length
         decelerate = 0
         for index, (dx, dy) in enumerate(s.steps):
