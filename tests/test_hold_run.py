@@ -274,8 +274,8 @@ G40 G0 X0 Y-1
 
 def machine(board="icebreaker", **keys):
     from kontur.machine import Machine
-    return Machine(clock_hz=registry.board(board).clock_hz, steps_per_mm=10, baud=1_000_000,
-                   accel=5000, **keys)
+    return Machine(clock_hz=registry.board(board).clock_hz, steps_per_mm=10, accel=5000,
+                   **({"baud": 1_000_000} | keys))
 
 
 class EventsTestCase(unittest.TestCase):
@@ -339,8 +339,10 @@ class EventsTestCase(unittest.TestCase):
         from .conftest import selected_simulators
         if "verilator" not in selected_simulators():
             self.skipTest("SIM selects another simulator")
-        job = prepare(CONTOUR, machine=machine("ulx3s", cutter_radius=0.3), board="ulx3s",
-                      name="contour.ngc")
+        # (The default link: the controller tests/test_compensation_run.py builds for the
+        # plate, so the Verilator build is shared.)
+        job = prepare(CONTOUR, machine=machine("ulx3s", cutter_radius=0.3, baud=115200),
+                      board="ulx3s", name="contour.ngc")
         self.assertTrue(job.contours)
         half = job.seconds / 2
         rtl = execute(job, "verilator", events=[(half, "hold"), (half + 0.3, "resume"),
