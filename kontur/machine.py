@@ -21,6 +21,8 @@ cycle_start = "no"
 feed_hold = "nc"
 g28_position = [0, 0]      # mm, machine coordinates: where G28 goes (X Y, or X Y Z)
 g30_position = [0, 0]      # mm: where G30 goes (LinuxCNC's parameters 5161-5163, 5181-5183)
+travel_x = [0, 300]        # mm, machine coordinates: the soft limits, [min, max] (no default:
+travel_y = [0, 200]        #   without them a program is not checked against any travel)
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -42,6 +44,8 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
    ``dir_setup + step_width + 1`` clocks per axis).
 5. ``input_filter_us``: more than 0, at most 10 000 (10 ms); the switches' kinds ``"nc"`` or
    ``"no"``.
+6. ``travel_x``, ``travel_y``: ``[min, max]``, mm, min below max (the soft limits:
+   :func:`kontur.planner.check_travel`).
 """
 
 import math
@@ -84,6 +88,8 @@ class Machine:
     feed_hold: str = "nc"
     g28_position: tuple = (0.0, 0.0)  # mm, machine coordinates: G28's (X, Y) or (X, Y, Z)
     g30_position: tuple = (0.0, 0.0)  # mm: G30's
+    travel_x: tuple = None            # mm: the soft limits [min, max] of X (None: none)
+    travel_y: tuple = None            # mm: of Y
 
     def __post_init__(self):
         for name in SWITCHES:
@@ -97,6 +103,16 @@ class Machine:
                     or not math.isfinite(c) for c in value):
                 raise MachineError(f"{name} must be [X, Y] or [X, Y, Z] in mm, not {value!r}")
             object.__setattr__(self, name, tuple(float(c) for c in value))
+        for name in ("travel_x", "travel_y"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            if not isinstance(value, (list, tuple)) or len(value) != 2 or any(
+                    isinstance(c, bool) or not isinstance(c, (int, float))
+                    or not math.isfinite(c) for c in value) or not value[0] < value[1]:
+                raise MachineError(f"{name} must be [min, max] in mm with min below max, not "
+                                   f"{value!r}")
+            object.__setattr__(self, name, (float(value[0]), float(value[1])))
         if self.cutter_radius is not None:
             value = self.cutter_radius
             if isinstance(value, bool) or not isinstance(value, (int, float)) \
@@ -104,7 +120,8 @@ class Machine:
                 raise MachineError(f"cutter_radius must be a number of at least 0 (mm), not "
                                    f"{value!r}")
         for item in fields(self):
-            if item.name in ("cutter_radius", "g28_position", "g30_position") \
+            if item.name in ("cutter_radius", "g28_position", "g30_position", "travel_x",
+                             "travel_y") \
                     or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)

@@ -39,7 +39,8 @@ from kontur import registry
 from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, planar, read, sweep
 from kontur.machine import Machine, MachineError
-from kontur.planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
+from kontur.planner import (ProgramError, check_travel, check_travel_steps, frames as program_frames,
+                            lattice, plan, planned_feed)
 from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -203,7 +204,10 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     ``tools`` is the tool table (``{tool: diameter, mm}``, :func:`kontur.gcode.
     read_tool_table`) for the program's D words and loaded tools; the machine's G28 and G30
     positions are the program's parameters 5161-5163 and 5181-5183. A move that changes Z is
-    refused (:func:`kontur.gcode.planar`): the controller has X and Y.
+    refused (:func:`kontur.gcode.planar`): the controller has X and Y. With the machine's
+    travel (``travel_x``, ``travel_y``) a move that leaves it is refused
+    (:func:`kontur.planner.check_travel`: an arc's bulge too; a compensated contour's steps,
+    :func:`kontur.planner.check_travel_steps`).
 
     Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
     and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
@@ -238,10 +242,12 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
         raise ProgramError(dwell.line, "a dwell (G4) inside a compensated contour: the "
                                        "equidistant engine takes the contour whole; dwell "
                                        "before G41/G42 or after G40")
+    check_travel(moves, machine)              # the soft limits, before anything is computed
     estimate_steps(moves, machine, max_steps=max_steps)
     contours = []
     if any(move.side is not None for move in moves):
         segments, contours = program_segments(moves, machine, board)
+        check_travel_steps([s for s in segments if s.kind == "profile"], machine)
     else:
         segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
                            widths=(item.line[1], item.arc[1]))

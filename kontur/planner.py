@@ -34,7 +34,7 @@ from kontur.gcode import sweep
 __all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "dwell_clocks", "ProgramError",
            "on_lattice",
            "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
-           "planned_feed"]
+           "planned_feed", "check_travel", "check_travel_steps"]
 
 
 class ProgramError(ValueError):
@@ -325,6 +325,81 @@ def _junction(previous, following, machine):
         return math.inf
     sin_half = math.sqrt(0.5 * (1 - cos_theta))
     return math.sqrt(machine.accel * machine.junction_deviation * sin_half / (1 - sin_half))
+
+
+def _extent(move):
+    """The box ``((xmin, xmax), (ymin, ymax))`` (mm, floats) a move sweeps: a line's (or a
+    rapid's) ends; an arc's ends and every point of its circle (the larger of its two radii
+    about the programmed centre) where its sweep crosses an axis direction from the centre:
+    its bulge."""
+    (x0, y0), (x1, y1) = [tuple(float(c) for c in p) for p in (move.start, move.end)]
+    xs, ys = [x0, x1], [y0, y1]
+    if move.kind == "arc":
+        cx, cy = (float(c) for c in move.centre)
+        radius = max(math.hypot(x0 - cx, y0 - cy), math.hypot(x1 - cx, y1 - cy))
+        start = math.atan2(y0 - cy, x0 - cx)
+        swept = float(move.sweep)
+        sign = -1 if move.cw else 1
+        for quarter in range(4):                      # the directions +X, +Y, -X, -Y
+            angle = quarter * math.pi / 2
+            to = (sign * (angle - start)) % (2 * math.pi)
+            if to <= swept + 1e-12:
+                xs.append(cx + radius * math.cos(angle))
+                ys.append(cy + radius * math.sin(angle))
+    return (min(xs), max(xs)), (min(ys), max(ys))
+
+
+def check_travel(moves, machine):
+    """Refuse a program that leaves the machine's travel (its soft limits: ``travel_x``,
+    ``travel_y``, mm; an axis without one is not checked): the first move (a line, a rapid,
+    an arc with its bulge) that goes beyond, before anything moves.
+
+    Raises
+    ------
+    ProgramError
+        Naming the move's line, the axis, how far it goes and the limit."""
+    limits = [(axis, travel) for axis, travel in (("X", machine.travel_x),
+                                                  ("Y", machine.travel_y)) if travel]
+    if not limits:
+        return
+    for move in moves:
+        if move.kind == "dwell":
+            continue
+        box = dict(zip("XY", _extent(move)))
+        for axis, (low, high) in limits:
+            least, most = box[axis]
+            what = "the arc" if move.kind == "arc" else "the move"
+            if most > high + 1e-9:
+                raise ProgramError(move.line, f"{what} reaches {axis} {most:.4f} mm, beyond the "
+                                              f"machine's travel (travel_{axis.lower()} max "
+                                              f"{high:g} mm)")
+            if least < low - 1e-9:
+                raise ProgramError(move.line, f"{what} reaches {axis} {least:.4f} mm, beyond the "
+                                              f"machine's travel (travel_{axis.lower()} min "
+                                              f"{low:g} mm)")
+
+
+def check_travel_steps(segments, machine):
+    """:func:`check_travel` at the level of steps, for segments whose path is not a program
+    move's (a compensated contour's equidistant): every position a step reaches, within the
+    travel widened to whole steps (half a step's rounding of the lattice)."""
+    spm = machine.steps_per_mm
+    limits = [(index, travel) for index, travel in ((0, machine.travel_x),
+                                                    (1, machine.travel_y)) if travel]
+    if not limits:
+        return
+    for segment in segments:
+        x, y = segment.start
+        for dx, dy in segment.steps:
+            x, y = x + dx, y + dy
+            for index, (low, high) in limits:
+                at = (x, y)[index]
+                if not math.floor(low * spm) <= at <= math.ceil(high * spm):
+                    axis = "XY"[index]
+                    raise ProgramError(segment.line, f"the cutter's path reaches {axis} "
+                                                     f"{at / spm:.4f} mm, beyond the machine's "
+                                                     f"travel (travel_{axis.lower()} "
+                                                     f"[{low:g}, {high:g}] mm)")
 
 
 def min_feed(machine):
