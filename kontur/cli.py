@@ -287,6 +287,11 @@ def _add_machining(commands):
     send.add_argument("--unlock", action="store_true",
                       help="leave ALARM first (an UNLOCK instead of the handshake's QUERY; "
                            "refused while the e-stop is pressed)")
+    send.add_argument("--feed", type=int, default=100, metavar="PCT",
+                      help="feed override, 10-200 %% (an OVERRIDE frame after the handshake; "
+                           "default 100)")
+    send.add_argument("--rapid", type=int, default=100, metavar="PCT",
+                      help="rapid override: 100, 50 or 25 %% (default 100)")
     send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                       help="how long the board may take to answer a QUERY, and to answer a "
                            "frame beyond its planned time (default 10)")
@@ -402,6 +407,11 @@ def _send(args, out):
     from kontur.trace import UsageError
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
+    from kontur.hdl.motion.protocol import override
+    try:
+        override(args.feed, args.rapid)
+    except ValueError as error:
+        raise UsageError(f"--feed {args.feed} --rapid {args.rapid}: {error}") from None
     job = _job(args)
     from kontur.send import unhonoured
     from kontur.planner import ProgramError
@@ -418,7 +428,8 @@ def _send(args, out):
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
         with Stop() as stop, port, _progress(len(frames), "frames") as bar:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
-                       timeout=args.timeout, stop=stop, unlock=args.unlock)
+                       timeout=args.timeout, stop=stop, unlock=args.unlock, feed=args.feed,
+                       rapid=args.rapid)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum

@@ -426,7 +426,8 @@ class _Sender:
         raise SendInterrupted(message, signum)
 
 
-def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False):
+def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False,
+         feed=100, rapid=100):
     """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
     anything with ``write``, ``read`` and ``in_waiting``) after the handshake; return the final
     position read back (steps).
@@ -437,6 +438,9 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     ``out`` where to write what the machine says besides (a file). ``stop`` (a :class:`Stop`,
     or any callable) returns a signal number once the send must stop. ``unlock``: the
     handshake sends UNLOCK instead of QUERY (its STATUS must then show the ALARM left).
+    ``feed`` and ``rapid``: the overrides (percent: 10-200; 100, 50 or 25), sent in an
+    OVERRIDE frame after the handshake when either is not 100 (a frame's allowed time then
+    stretched by ``100 / feed`` below 100 %).
 
     Raises
     ------
@@ -449,9 +453,14 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     """
     if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
         raise ValueError(f"The timeout must be a positive number of seconds, not {timeout!r}")
+    frame = protocol.override(feed, rapid) if (feed, rapid) != (100, 100) else None
     sender = _Sender(job, port, progress=progress, timeout=timeout, out=out, stop=stop)
+    slower = 100 / min(feed, 100, rapid)
+    sender.durations = [d * slower for d in sender.durations]
     try:
         sender.handshake(unlock)
+        if frame is not None:
+            sender.write(frame)
         sender.stream()
         return sender.finish()
     except _LinkDown as error:

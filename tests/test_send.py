@@ -77,6 +77,7 @@ class FakeMachine:
         self.flags = flags
         self.state, self.alarm, self.inputs = state, alarm, inputs
         self.unlocks = 0
+        self.overrides = []                         # (factor, rapid %, frames before it)
         self.first = first
         self.pending = bytearray()
         self.later = []
@@ -120,6 +121,8 @@ class FakeMachine:
                 if self.state == 4 and not self.inputs & 1:
                     self.state = self.alarm = 0
                 self.pending += self.status()
+            elif event[0] == "override":
+                self.overrides.append((event[1], event[2], self.count))
             elif event[0] == "query":
                 self.queries += 1
                 if not (self.mute or self.acting_up and self.misbehave == "dead"):
@@ -432,6 +435,19 @@ HANDSHAKES = {
               r"^the board is in ALARM \(tripped: estop, limit_x; inputs active now: estop\) "
               r"at \(0, 0\) steps: release the e-stop, then send with --unlock"),
 }
+
+
+def test_overrides_sent_after_the_handshake():
+    # --feed 150 --rapid 50: one OVERRIDE (factor 150 * 128 / 100 = 192, rapid 50 %) after
+    # the handshake's QUERY, before the first queued frame; none at 100 %.
+    port = FakeMachine(4)
+    within(10, send, quick_job(), port, timeout=0.3, feed=150, rapid=50)
+    assert port.overrides == [(192, 50, 0)] and port.count > 0
+    port = FakeMachine(4)
+    within(10, send, quick_job(), port, timeout=0.3)
+    assert port.overrides == []
+    with pytest.raises(ValueError, match="feed override must be a whole percentage"):
+        send(quick_job(), FakeMachine(4), feed=250)
 
 
 def test_unlock_leaves_alarm_unless_the_estop_is_pressed():
