@@ -162,6 +162,11 @@ class HoldRunTestCase(unittest.TestCase):
         self.assertEqual([value for _, value in edges], [1, 0, 1, 0])
         runs = _runs(watch.held)
         self.assertEqual(len(runs), 2)
+        # The first hold stands still in the line, the second in the arc.
+        line = len(registry.steps("line", LINE, width=12))
+        arc = len(registry.steps("arc", ARC, "fast", width=12))
+        made = [sum(1 for c, _, _ in result.steps if c <= first) for first, _ in runs]
+        self.assertTrue(0 < made[0] < line and line < made[1] < line + arc, made)
         for (first, last), (rise, _), (fall, _) in zip(runs, edges[::2], edges[1::2]):
             self.assertLess(first - rise, 260)
             self.assertEqual(last, fall - 1)
@@ -345,6 +350,11 @@ class EventsTestCase(unittest.TestCase):
                       board="ulx3s", name="contour.ngc")
         self.assertTrue(job.contours)
         half = job.seconds / 2
+        # The hold comes in the contour: the step planned at that time is a PROFILE frame's.
+        from kontur.machining import _plan_times
+        index = sum(1 for t in _plan_times(job) if t <= half)
+        kinds = [s.kind for s in job.segments for _ in s.steps]
+        self.assertEqual(kinds[index], "profile")
         rtl = execute(job, "verilator", events=[(half, "hold"), (half + 0.3, "resume"),
                                                 (half + 0.35, "feed=50")])
         self.assertEqual(rtl.steps, job.steps)
