@@ -337,6 +337,22 @@ class EventsTestCase(unittest.TestCase):
         self.assertEqual(rtl.end, (job.start[0] + sum(dx for dx, _ in rtl.steps),
                                    job.start[1] + sum(dy for _, dy in rtl.steps)))
 
+    def test_amaranth_estop_in_a_hold_ends_it(self):
+        # Held, then the e-stop: ALARM (the hold ends with it), released and unlocked: IDLE,
+        # the program stopped where the hold stood.
+        from kontur.machining import execute, prepare
+        job = prepare(TINY, machine=machine(), name="tiny.ngc")
+        half = job.seconds / 2
+        events = [(half, "hold"), (half + 0.1, "estop"), (half + 0.15, "estop-release"),
+                  (half + 0.2, "unlock")]
+        model = execute(job, "model", events=events)
+        rtl = execute(job, "amaranth", events=events)
+        self.assertEqual((model.final_state, rtl.final_state), ("IDLE", "IDLE"))
+        self.assertEqual([(e["alarm"], e["hold"]) for e in rtl.events],
+                         [(False, True), (True, False), (True, False), (False, False)])
+        self.assertEqual(rtl.steps, job.steps[:len(rtl.steps)])
+        self.assertLessEqual(abs(len(rtl.steps) - len(model.steps)), 3)
+
     def test_compensated_contour_held_on_verilator(self):
         # A hold in the middle of the compensated contour (PROFILE frames through the
         # equidistant engine), resumed, then 50 %: the model's steps exactly.
