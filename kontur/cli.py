@@ -400,6 +400,49 @@ def _events(texts):
     return events
 
 
+class _keys:
+    """The operator's keys while ``kontur send`` streams, when standard input is a terminal
+    (Grbl's): ``!`` or ``h`` feed hold, ``~`` or ``r`` resume, ``+`` and ``-`` the feed
+    override up and down by 10 % (10 to 200). The terminal is in cbreak mode meanwhile
+    (Ctrl-C still stops the machine), restored on the way out; the context gives the
+    ``controls`` callable of :func:`kontur.send.send` (``None`` without a terminal)."""
+
+    def __init__(self, feed):
+        self.feed = feed
+        self.saved = None
+
+    def __enter__(self):
+        if not sys.stdin.isatty():
+            return None
+        import termios
+        import tty
+        self.saved = termios.tcgetattr(sys.stdin)
+        tty.setcbreak(sys.stdin)
+        sys.stderr.write("keys: ! or h hold, ~ or r resume, + and - feed override by 10 %\n")
+        return self.poll
+
+    def poll(self):
+        import os
+        import select
+        commands = []
+        while select.select([sys.stdin], [], [], 0)[0]:
+            key = os.read(sys.stdin.fileno(), 1).decode(errors="replace")
+            if key in "!h":
+                commands.append("hold")
+            elif key in "~r":
+                commands.append("resume")
+            elif key in "+-":
+                self.feed = min(200, max(10, self.feed + (10 if key == "+" else -10)))
+                commands.append(("feed", self.feed))
+        return commands
+
+    def __exit__(self, *exc):
+        if self.saved is not None:
+            import termios
+            termios.tcsetattr(sys.stdin, termios.TCSADRAIN, self.saved)
+        return False
+
+
 def _send(args, out):
     import math
 
@@ -426,10 +469,11 @@ def _send(args, out):
         return 1
     try:
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
-        with Stop() as stop, port, _progress(len(frames), "frames") as bar:
+        with Stop() as stop, port, _progress(len(frames), "frames") as bar, \
+                _keys(args.feed) as controls:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
                        timeout=args.timeout, stop=stop, unlock=args.unlock, feed=args.feed,
-                       rapid=args.rapid)
+                       rapid=args.rapid, controls=controls)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum
