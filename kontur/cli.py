@@ -254,7 +254,10 @@ def _add_machining(commands):
                      help="a scripted event at that much machining time after the first step "
                           "(repeatable): estop, estop-release, limit-x, limit-y, "
                           "limit-x-release, limit-y-release (the switch inputs), unlock (an "
-                          "UNLOCK frame); the e-stop or a limit stops the program in ALARM")
+                          "UNLOCK frame), hold, resume (feed hold: HOLD, RESUME frames), "
+                          "feed=PCT (feed override, 10-200), rapid=PCT (rapid override: 25, "
+                          "50, 100); the e-stop or a limit stops the program in ALARM, a hold "
+                          "never resumed in HOLD")
     run.add_argument("--compress", type=int, default=None, metavar="N",
                      help="time compression of an RTL run: rates N times the planned ones "
                           "(default: the largest power of two the step timing and the link "
@@ -287,6 +290,11 @@ def _add_machining(commands):
     send.add_argument("--unlock", action="store_true",
                       help="leave ALARM first (an UNLOCK instead of the handshake's QUERY; "
                            "refused while the e-stop is pressed)")
+    send.add_argument("--feed", type=int, default=100, metavar="PCT",
+                      help="feed override, 10-200 %% (an OVERRIDE frame after the handshake; "
+                           "default 100)")
+    send.add_argument("--rapid", type=int, default=100, metavar="PCT",
+                      help="rapid override: 100, 50 or 25 %% (default 100)")
     send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                       help="how long the board may take to answer a QUERY, and to answer a "
                            "frame beyond its planned time (default 10)")
@@ -436,7 +444,7 @@ def _events(texts):
     for one that is not)."""
     import math
 
-    from kontur.sim.models.motion import EVENTS
+    from kontur.sim.models.motion import EVENTS, FRAME_EVENTS, event_kind
     from kontur.trace import UsageError
     events = []
     for text in texts:
@@ -445,11 +453,62 @@ def _events(texts):
             seconds = float(at)
         except ValueError:
             seconds = math.nan
-        if name not in EVENTS or not (math.isfinite(seconds) and seconds >= 0):
+        try:
+            event_kind(name)
+            problem = None
+        except ValueError as error:
+            problem = str(error)
+        if problem is not None and "override" in problem:      # feed=PCT, rapid=PCT
+            raise UsageError(f"--event {text}: {problem.partition(': ')[2]}")
+        if problem is not None or not (math.isfinite(seconds) and seconds >= 0):
             raise UsageError(f"--event {text}: expected WHAT@SECONDS, WHAT one of "
-                             f"{', '.join(EVENTS)} and SECONDS a time of at least 0")
+                             f"{', '.join(list(EVENTS) + list(FRAME_EVENTS))} and SECONDS a "
+                             f"time of at least 0")
         events.append((seconds, name))
     return events
+
+
+class _keys:
+    """The operator's keys while ``kontur send`` streams, when standard input is a terminal
+    (Grbl's): ``!`` or ``h`` feed hold, ``~`` or ``r`` resume, ``+`` and ``-`` the feed
+    override up and down by 10 % (10 to 200). The terminal is in cbreak mode meanwhile
+    (Ctrl-C still stops the machine), restored on the way out; the context gives the
+    ``controls`` callable of :func:`kontur.send.send` (``None`` without a terminal)."""
+
+    def __init__(self, feed):
+        self.feed = feed
+        self.saved = None
+
+    def __enter__(self):
+        if not sys.stdin.isatty():
+            return None
+        import termios
+        import tty
+        self.saved = termios.tcgetattr(sys.stdin)
+        tty.setcbreak(sys.stdin)
+        sys.stderr.write("keys: ! or h hold, ~ or r resume, + and - feed override by 10 %\n")
+        return self.poll
+
+    def poll(self):
+        import os
+        import select
+        commands = []
+        while select.select([sys.stdin], [], [], 0)[0]:
+            key = os.read(sys.stdin.fileno(), 1).decode(errors="replace")
+            if key in "!h":
+                commands.append("hold")
+            elif key in "~r":
+                commands.append("resume")
+            elif key in "+-":
+                self.feed = min(200, max(10, self.feed + (10 if key == "+" else -10)))
+                commands.append(("feed", self.feed))
+        return commands
+
+    def __exit__(self, *exc):
+        if self.saved is not None:
+            import termios
+            termios.tcsetattr(sys.stdin, termios.TCSADRAIN, self.saved)
+        return False
 
 
 def _send(args, out):
@@ -459,6 +518,11 @@ def _send(args, out):
     from kontur.trace import UsageError
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
+    from kontur.hdl.motion.protocol import override
+    try:
+        override(args.feed, args.rapid)
+    except ValueError as error:
+        raise UsageError(f"--feed {args.feed} --rapid {args.rapid}: {error}") from None
     job = _job(args)
     from kontur.send import unhonoured
     from kontur.planner import ProgramError
@@ -473,9 +537,11 @@ def _send(args, out):
         return 1
     try:
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
-        with Stop() as stop, port, _progress(len(frames), "frames") as bar:
+        with Stop() as stop, port, _progress(len(frames), "frames") as bar, \
+                _keys(args.feed) as controls:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
-                       timeout=args.timeout, stop=stop, unlock=args.unlock)
+                       timeout=args.timeout, stop=stop, unlock=args.unlock, feed=args.feed,
+                       rapid=args.rapid, controls=controls)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum

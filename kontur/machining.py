@@ -204,7 +204,10 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     ``tools`` is the tool table (``{tool: diameter, mm}``, :func:`kontur.gcode.
     read_tool_table`) for the program's D words and loaded tools; the machine's G28 and G30
     positions are the program's parameters 5161-5163 and 5181-5183. A move that changes Z is
-    refused (:func:`kontur.gcode.planar`): the controller has X and Y.
+    refused (:func:`kontur.gcode.planar`): the controller has X and Y. With the machine's
+    travel (``travel_x``, ``travel_y``) a move that leaves it is refused
+    (:func:`check_travel`: every step point, an arc's bulge and a compensated contour's cutter
+    path too).
 
     Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
     and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
@@ -405,10 +408,10 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
         times = _plan_times(job)
         if not events:
             return Result("model", expected, times, job.end)
-        model = safety_run(times, events)
+        model = safety_run(times, events, braking=_braking(job, times))
         steps = expected[:model["steps"]]
         end = (job.start[0] + sum(dx for dx, _ in steps), job.start[1] + sum(dy for _, dy in steps))
-        return Result("model", steps, times[:len(steps)], end, final_state=model["state"],
+        return Result("model", steps, model["times"], end, final_state=model["state"],
                       alarm=model["alarm"], events=model["events"])
     from kontur.sim.testbench.hostlink import steps_of
     from kontur.hdl.motion.protocol import query
@@ -417,7 +420,9 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     machine = job.machine
     divisor = round(machine.clock_hz / machine.baud)
     bound = MAX_CLOCKS[engine]
-    planned = max([job.seconds] + [at for at, _ in events]) / compress * machine.clock_hz
+    held = sum(b[0] - a[0] for a, b in _hold_spans(events))      # the holds' time
+    planned = (max([job.seconds] + [at for at, _ in events]) + held) / compress \
+        * machine.clock_hz
     link = sum(len(f) for f in frames) * 10 * divisor
     if planned + link > bound:
         from kontur.trace import UsageError
@@ -427,7 +432,10 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     max_clocks = int(min(bound, 2 * (planned + link) + 10 * machine.clock_hz / compress
                          + 1_000_000))
     controller = registry.make_controller(job.board, machine)
-    schedule = _schedule(events, machine, compress)
+    model = safety_run(_plan_times(job), events, braking=_braking(job, _plan_times(job))) \
+        if events else None
+    schedule = _schedule(events, machine, compress, job=job,
+                         held=model is not None and model["state"] == "HOLD")
     # The final position is read back after the program: the host sends a QUERY once every
     # frame before it is answered (and every event taken).
     sent = frames + [query()]
@@ -454,13 +462,11 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
                                    idle=controller.idle_inputs)
     wall = time.monotonic() - started
     steps = steps_of(run)
-    model = None
-    if events:
-        model = safety_run(_plan_times(job), events)
+    if model is not None and (model["stopped"] is not None or model["state"] == "HOLD"):
         slack = 1 if engine == "icarus" else 0        # cocotb drives the pins a clock later
         _check_events(job, run, steps, expected, model, machine.input_filter + 2 + slack)
-    else:
-        _check(job, run, steps, expected, len(frames))
+    else:                                             # held and resumed, overridden: whole
+        _check(job, run, steps, expected, len(frames), model)
     times = [clock * compress / machine.clock_hz for clock, _, _ in run.steps]
     first = times[0] if times else 0.0
     times = [t - first for t in times]
@@ -477,22 +483,73 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     return result
 
 
-def _schedule(events, machine, compress):
-    """The switch pins and UNLOCKs of ``events`` (``(seconds, name)``, machining time) as a
+def _schedule(events, machine, compress, *, job=None, held=False):
+    """The switch pins and frames of ``events`` (``(seconds, name)``, machining time) as a
     host link's schedule: clocks after the first step at ``compress``, each pin event the
-    whole pin word after it (:func:`kontur.hdl.motion.inputs.pin_levels`)."""
+    whole pin word after it (:func:`kontur.hdl.motion.inputs.pin_levels`), UNLOCK, HOLD and
+    RESUME frames, an OVERRIDE with both overrides as they stand after it. With ``held`` (the
+    run ends held: a hold never resumed) an ABORT follows the last event once the braking
+    from twice the program's fastest feed is surely over (:func:`_brake_seconds`), ending
+    the frames the hold keeps waiting (as an operator does), so that the run ends."""
+    from kontur.hdl.motion import protocol
     from kontur.hdl.motion.inputs import pin_levels
-    from kontur.sim.models.motion import EVENTS
-    schedule, pressed = [], set()
+    from kontur.sim.models.motion import event_kind
+    schedule, pressed, feed, rapid = [], set(), 100, 100
     for at, name in sorted(events, key=lambda item: item[0]):
         offset = round(at * machine.clock_hz / compress)
-        switch, press = EVENTS[name]
-        if switch is None:
+        kind = event_kind(name)
+        if kind[0] == "unlock":
             schedule.append((offset, ("unlock",)))
-            continue
-        (pressed.add if press else pressed.discard)(switch)
-        schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity))))
+        elif kind[0] == "pins":
+            _, switch, press = kind
+            (pressed.add if press else pressed.discard)(switch)
+            schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity))))
+        elif kind[0] in ("hold", "resume"):
+            schedule.append((offset, ("frame", getattr(protocol, kind[0])())))
+        else:
+            feed, rapid = (kind[1], rapid) if kind[0] == "feed" else (feed, kind[1])
+            schedule.append((offset, ("frame", protocol.override(feed, rapid))))
+    if held and schedule:
+        last = max(at for at, _ in events)
+        offset = round((last + _brake_seconds(job)) * machine.clock_hz / compress)
+        schedule.append((offset, ("frame", protocol.abort())))
     return schedule
+
+
+def _brake_seconds(job):
+    """Seconds of machining within which a hold surely stands still: the braking from twice
+    the fastest planned feed (the feed override's 200 %), and 10 ms more (the link's frames
+    and the look-ahead)."""
+    fastest = max((item.cruise for item in job.items), default=0.0)
+    return 2 * fastest / job.machine.accel + 0.01
+
+
+def _braking(job, times):
+    """``braking(t)``: the steps a hold at time ``t`` of the plan makes before it stands
+    still, about: the braking distance ``v² / 2a`` at the plan's speed there, in steps."""
+    import bisect
+    spm, a = job.machine.steps_per_mm, job.machine.accel
+
+    def braking(t):
+        i = bisect.bisect_right(times, t)
+        if i == 0 or i >= len(times):
+            return 0
+        interval = times[i] - times[i - 1]
+        speed = 1 / (spm * interval) if interval > 0 else 0.0       # mm/s, an axial step
+        return math.ceil(speed * speed / (2 * a) * spm)
+    return braking
+
+
+def _hold_spans(events):
+    """``((hold time, name), (resume time, name))`` of each hold resumed, in time order."""
+    spans, hold = [], None
+    for at, name in sorted(events, key=lambda item: item[0]):
+        if name == "hold" and hold is None:
+            hold = (at, name)
+        elif name == "resume" and hold is not None:
+            spans.append((hold, (at, name)))
+            hold = None
+    return spans
 
 
 def _check_events(job, run, steps, expected, model, bound):
@@ -527,6 +584,8 @@ def _check_events(job, run, steps, expected, model, bound):
             raise RunError(f"the RTL reports {reply.state} where the model says "
                            f"{'ALARM' if taken['alarm'] else 'no ALARM'}")
     final = status[-1].fields
+    if (status[-1].state == "HOLD") != (model["state"] == "HOLD"):
+        raise RunError(f"the RTL ends in {status[-1].state}, the model in {model['state']}")
     if model["state"] == "ALARM" and input_names(final[5]) != model["alarm"]:
         raise RunError(f"the RTL's ALARM cause {input_names(final[5])} is not the model's "
                        f"{model['alarm']}")
@@ -535,7 +594,11 @@ def _check_events(job, run, steps, expected, model, bound):
         raise RunError(f"the position read back, {final[:2]}, is not the steps made {end}")
 
 
-def _check(job, run, steps, expected, count):
+def _check(job, run, steps, expected, count, model=None):
+    """A run that makes the whole program (held and resumed, overridden, or without events)
+    against the model: the same steps, every frame ``DONE``, no error, the position read back
+    the program's end, and (with ``model``, :func:`kontur.sim.models.motion.safety_run`'s)
+    the state the model ends in."""
     from kontur.hdl.motion.link import ERROR, OUTCOME, STATUS
     if steps != expected:
         at = next((i for i, (a, b) in enumerate(zip(steps, expected)) if a != b),
@@ -554,6 +617,9 @@ def _check(job, run, steps, expected, count):
     if not status or (status[-1][0], status[-1][1]) != tuple(job.end):
         raise RunError(f"the position read back, {status[-1][:2] if status else None}, is "
                        f"not the program's end {tuple(job.end)}")
+    final = [reply for _, reply in run.replies if reply.kind == STATUS][-1]
+    if model is not None and final.state != model["state"]:
+        raise RunError(f"the RTL ends in {final.state}, the model in {model['state']}")
 
 
 def _root(build_root, what):
@@ -757,17 +823,23 @@ def summary_text(data, out_dir=None):
         f"({data['end_steps'][0]}, {data['end_steps'][1]}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]
            else f", stopped short of the programmed end {tuple(data['programmed_end_steps'])}"
-           if any(e["alarm"] for e in data.get("events", ()))
+           if any(e["alarm"] or e.get("hold") for e in data.get("events", ()))
            else f", NOT the programmed end {tuple(data['programmed_end_steps'])}"),
     ]
     for event in data.get("events", ()):
         taken = event.get("taken_at")
         lines.append(f"event      {event['event']} at {event['at']:g} s"
                      + (f" (taken at {taken:.6f} s)" if taken is not None else "")
-                     + (": ALARM" if event["alarm"] else ": no ALARM"))
+                     + (": ALARM" if event["alarm"] else ": HOLD" if event.get("hold")
+                        else ": no ALARM"))
     lines.append(f"state      {data['final_state']}"
                  + (f" (tripped: {', '.join(data['alarm'])})" if data.get("alarm") else ""))
-    if data["engine"] != "model" and data.get("events"):
+    if data["engine"] != "model" and data.get("events") and \
+            data["end_steps"] == data["programmed_end_steps"]:
+        lines.append("checked    the RTL's steps equal the model's (held, resumed or "
+                     "overridden: only the timing differs), every frame DONE, the state and "
+                     "the position read back")
+    elif data["engine"] != "model" and data.get("events"):
         lines.append("checked    the RTL's steps are the program's first ones, none after the "
                      "stop bound, the state and the position read back as the model's")
     elif data["engine"] != "model":

@@ -451,7 +451,7 @@ def _plan(segments, machine):
         length = lengths[i]
         peak = math.sqrt(max((2 * a * length + v0 * v0 + v1 * v1) / 2, 0))
         vc = max(_quantise(min(nominal[i], peak), unit), v1, v0)
-        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 1     # step lengths, and one more
+        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 2     # step lengths, and two more
         remaining = s.length
         decelerate = 0
         for index, (dx, dy) in enumerate(s.steps):
@@ -489,7 +489,8 @@ def dwell_clocks(seconds, machine, compress=1):
 
 def frames(segments, items, machine, *, compress=1):
     """The frames of the program: the configuration, a FEED and a move for each segment (a
-    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
+    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. A rapid's FEED (a segment of a G0
+    move) carries the rapid flag. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
     frame comes from (``None`` for CONFIG and STOP).
 
     With ``compress`` (a simulation's time compression) every rate is ``compress`` times the
@@ -526,7 +527,9 @@ def frames(segments, items, machine, *, compress=1):
         except ValueError as error:          # MachineError: never clamped
             raise ProgramError(segment.line, f"{error} (time compression {compress})") \
                 from None
-        out.append(protocol.feed(*rates, item.decelerate))
+        # A rapid (G0) says so: the rapid override applies to it, not the feed override.
+        rapid = getattr(segment.source, "kind", None) == "rapid"
+        out.append(protocol.feed(*rates, item.decelerate, rapid=rapid))
         out.append(_move_frame(segment))
         lines += [segment.line, segment.line]
     out.append(protocol.stop())

@@ -41,8 +41,9 @@ __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", 
 OUTCOMES = ("done", "refused", "aborted")
 DONE, REFUSED, ABORTED = range(3)
 
-#: The flags a STATUS may carry: bit 0 moving, bit 1 an error reported since reset.
-MOVING, ERRORED = 1, 2
+#: The flags a STATUS may carry: bit 0 moving, bit 1 an error reported since reset, bit 2 at
+#: a standstill under feed hold.
+MOVING, ERRORED, HELD = 1, 2, 4
 
 #: A frame may take this many times its planned time (and the timeout besides).
 PACE = 1.25
@@ -171,6 +172,8 @@ class _Sender:
         self.stop = stop if stop is not None else (lambda: None)
         self.frames, self.lines = job.frames()
         self.durations = _durations(job, len(self.frames))
+        self.controls = lambda: ()                # the operator's (send's ``controls``)
+        self.held, self.feed, self.rapid = False, 100, 100
         self.parser = protocol.ReplyParser()
         self.window = job.machine.queue_frames
         self.sent = self.answered = 0
@@ -222,8 +225,9 @@ class _Sender:
 
     def check_flags(self, fields, *, abort=True):
         x, y, free, flags, state = fields[:5]
-        if flags & ~(MOVING | ERRORED) or state >= len(STATES):
-            what = f"flags {flags:#04x}" if flags & ~(MOVING | ERRORED) else f"state {state}"
+        if flags & ~(MOVING | ERRORED | HELD) or state >= len(STATES):
+            what = f"flags {flags:#04x}" if flags & ~(MOVING | ERRORED | HELD) \
+                else f"state {state}"
             self.fail(f"the board sent a STATUS with {what}, which no controller "
                       f"sets (at ({x}, {y}), {free} slots free): is it a kontur controller?",
                       abort=abort)
@@ -322,17 +326,39 @@ class _Sender:
                       f"its coordinates count from where the board was reset; reset it there",
                       abort=False)
 
+    def control(self):
+        """The operator's controls (``controls``: ``"hold"``, ``"resume"``, ``("feed", PCT)``,
+        ``("rapid", PCT)``), sent at once as HOLD, RESUME, OVERRIDE. While held no frame is
+        overdue; a resume counts as an answer (the oldest frame's time starts again)."""
+        for command in self.controls() or ():
+            if command == "hold":
+                self.write(protocol.hold())
+                self.held = True
+            elif command == "resume":
+                self.write(protocol.resume())
+                self.held = False
+                self.heard = time.monotonic()
+            else:
+                what, percent = command
+                self.feed, self.rapid = (percent, self.rapid) if what == "feed" else \
+                    (self.feed, percent)
+                self.write(protocol.override(self.feed, self.rapid))
+
     def deadline(self):
-        """When the oldest unanswered frame is overdue."""
+        """When the oldest unanswered frame is overdue (never while held)."""
+        if self.held:
+            return math.inf
         index = self.answered
         begun = max(self.heard, self.sent_at[index])
-        return begun + PACE * self.durations[index] + self.timeout
+        slower = 100 / min(self.feed, 100, self.rapid)     # the overrides below 100 %
+        return begun + PACE * self.durations[index] * slower + self.timeout
 
     def stream(self):
         count = len(self.frames)
         self.heard = time.monotonic()
         while self.answered < count:
             self.check_interrupt()
+            self.control()
             while self.sent < count and self.sent - self.answered < self.window:
                 self.write(self.frames[self.sent])
                 self.sent_at.append(time.monotonic())
@@ -424,7 +450,8 @@ class _Sender:
         raise SendInterrupted(message, signum)
 
 
-def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False):
+def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False,
+         feed=100, rapid=100, controls=None):
     """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
     anything with ``write``, ``read`` and ``in_waiting``) after the handshake; return the final
     position read back (steps).
@@ -435,6 +462,12 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     ``out`` where to write what the machine says besides (a file). ``stop`` (a :class:`Stop`,
     or any callable) returns a signal number once the send must stop. ``unlock``: the
     handshake sends UNLOCK instead of QUERY (its STATUS must then show the ALARM left).
+    ``feed`` and ``rapid``: the overrides (percent: 10-200; 100, 50 or 25), sent in an
+    OVERRIDE frame after the handshake when either is not 100 (a frame's allowed time then
+    stretched by ``100 / feed`` below 100 %). ``controls``, if given, is called while the
+    frames stream and returns the operator's commands since (``"hold"``, ``"resume"``,
+    ``("feed", PCT)``, ``("rapid", PCT)``), each sent at once (HOLD, RESUME, OVERRIDE); no
+    frame is overdue while held.
 
     Raises
     ------
@@ -447,9 +480,14 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     """
     if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
         raise ValueError(f"The timeout must be a positive number of seconds, not {timeout!r}")
+    frame = protocol.override(feed, rapid) if (feed, rapid) != (100, 100) else None
     sender = _Sender(job, port, progress=progress, timeout=timeout, out=out, stop=stop)
+    sender.controls = controls or (lambda: ())
+    sender.feed, sender.rapid = feed, rapid
     try:
         sender.handshake(unlock)
+        if frame is not None:
+            sender.write(frame)
         sender.stream()
         return sender.finish()
     except _LinkDown as error:

@@ -10,10 +10,11 @@
 // usage: fastrun [--schedule=FILE] FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD [VCD_CLOCKS]]
 //   VCD_CLOCKS: dump only the first VCD_CLOCKS clocks (default: all)
 //   FRAMES: for each frame a 16-bit little-endian length, then its bytes.
-//   --schedule=FILE: the switch pins (port "inputs") and UNLOCK frames at clocks after the
+//   --schedule=FILE: the switch pins (port "inputs") and immediate frames at clocks after the
 //     first step (kontur.sim.testbench.hostlink.write_schedule): a line "I word" (the pins
-//     before any event), then "offset P word" (the pins from then) or "offset U" (send an
-//     UNLOCK). Each event applied is written "A clock P word" or "A clock U". With a schedule
+//     before any event), then "offset P word" (the pins from then), "offset U" (send an
+//     UNLOCK) or "offset F hex" (send these bytes: a HOLD, RESUME, OVERRIDE, QUERY frame).
+//     Each event applied is written "A clock P word", "A clock U" or "A clock F hex". With a schedule
 //     the host sends no more queued frames once one is answered other than DONE, and
 //     a QUERY waits for every event too (as HostLink does).
 
@@ -34,7 +35,7 @@
 static const uint8_t SYNC = 0xA5, OUTCOME = 0x80, ERROR = 0x82, QUERY = 0x20, ABORT = 0x21,
                      UNLOCK = 0x22;
 
-struct Event { unsigned long long offset; bool unlock; unsigned word; };
+struct Event { unsigned long long offset; char what; unsigned word; std::vector<uint8_t> bytes; };
 
 static uint16_t crc16(const std::vector<uint8_t> &data) {
     uint16_t crc = 0xFFFF;
@@ -73,15 +74,28 @@ int main(int argc, char **argv) {
     if (schedule_path) {
         FILE *file = std::fopen(schedule_path, "r");
         if (!file) { std::perror("fastrun"); return 1; }
-        char line[128];
+        char line[1024];
         while (std::fgets(line, sizeof line, file)) {
             unsigned long long offset;
             char what;
             unsigned word = 0;
+            char hex[1000] = "";
             if (line[0] == 'I') {
                 if (std::sscanf(line + 1, "%u", &pins) != 1) return 1;
-            } else if (std::sscanf(line, "%llu %c %u", &offset, &what, &word) >= 2) {
-                schedule.push_back(Event{offset, what == 'U', word});
+            } else if (std::sscanf(line, "%llu %c", &offset, &what) == 2) {
+                Event event{offset, what, 0, {}};
+                if (what == 'P') {
+                    if (std::sscanf(line, "%llu %c %u", &offset, &what, &word) != 3) return 1;
+                    event.word = word;
+                } else if (what == 'F') {
+                    if (std::sscanf(line, "%llu %c %999s", &offset, &what, hex) != 3) return 1;
+                    for (size_t i = 0; hex[i] && hex[i + 1]; i += 2) {
+                        unsigned byte;
+                        if (std::sscanf(hex + i, "%2x", &byte) != 1) return 1;
+                        event.bytes.push_back((uint8_t)byte);
+                    }
+                }
+                schedule.push_back(event);
             }
         }
         std::fclose(file);
@@ -154,16 +168,26 @@ int main(int argc, char **argv) {
         while (based && !schedule.empty() && clock >= base + schedule.front().offset) {
             Event event = schedule.front();
             schedule.pop_front();
-            if (event.unlock) {
-                std::fprintf(out, "A %llu U\n", clock);
+            if (event.what == 'U' || event.what == 'F') {
+                if (event.what == 'U') {
+                    std::fprintf(out, "A %llu U\n", clock);
+                } else {
+                    std::fprintf(out, "A %llu F ", clock);
+                    for (uint8_t byte : event.bytes) std::fprintf(out, "%02x", byte);
+                    std::fprintf(out, "\n");
+                }
                 if (level_index == levels.size()) {
                     levels.clear();
                     level_index = 0;
                     level_left = divisor;
                 }
-                std::vector<uint8_t> body = {UNLOCK, 0};
-                uint16_t crc = crc16(body);
-                append_bits(levels, {SYNC, UNLOCK, 0, (uint8_t)(crc >> 8), (uint8_t)crc});
+                if (event.what == 'U') {
+                    std::vector<uint8_t> body = {UNLOCK, 0};
+                    uint16_t crc = crc16(body);
+                    append_bits(levels, {SYNC, UNLOCK, 0, (uint8_t)(crc >> 8), (uint8_t)crc});
+                } else {
+                    append_bits(levels, event.bytes);
+                }
             } else {
                 std::fprintf(out, "A %llu P %u\n", clock, event.word);
                 pins = event.word;

@@ -8,8 +8,6 @@ import json
 import math
 import re
 
-from pathlib import Path
-
 import pytest
 
 from kontur import registry
@@ -295,40 +293,12 @@ def test_a_line_longer_than_the_registers_runs_in_pieces(program, tmp_path, caps
     assert n + 1 == 144000 and worst <= 1
 
 
-# ---- 4. soft limits ------------------------------------------------------------------------
+# ---- 4. soft limits (tests/test_travel.py holds the rest) ---------------------------------
 
-#: Lines and arcs whose end points are all within X 0..47, Y -10..10; the G3 of line 5 bulges
-#: to X 48 (its centre X 40, radius 8).
-BULGE = "G21 G90\nG0 X10 Y0\nG1 X40 F600\nG2 X40 Y-8 I0 J-4\nG3 X40 Y8 I0 J8\nG0 X0 Y0\n"
-
-
-@pytest.mark.parametrize("travel_x, refusal", [
-    ([0, 48], None),
-    ([0, 47.9], "line 5: the move reaches X 48 mm, beyond the machine's travel (X from 0 to 47.9 "
-                "mm, travel_x in the machine file): a soft limit"),
-    ([5, 48], "line 2: the program starts at X 0 mm, beyond the machine's travel (X from 5 to 48 "
-              "mm, travel_x in the machine file)"),
-])
-def test_soft_limits_refuse_before_anything_moves(travel_x, refusal, program, tmp_path, capsys):
-    machine = program(f"travel_x = {travel_x}\ntravel_y = [-10, 10]\n", name="m.toml")
-    argv = ["run", program(BULGE), "--machine", machine, "--out", tmp_path / "o"]
-    if refusal is None:
-        assert main([str(a) for a in argv]) == 0
-        return
-    assert refused(capsys, argv).endswith(refusal)
-    assert not (tmp_path / "o").exists()
-
-
-def test_soft_limits_hold_the_cutter_path(program, tmp_path, capsys):
-    """A compensated contour is checked where the cutter goes: the 40 mm square of
-    tests/programs/square.ngc cut outside (G42, a 3 mm cutter) reaches X 43 and Y -3 though its
-    outline stays within X 0..40, Y 0..40."""
-    square = (Path(__file__).parent / "programs" / "square.ngc").read_text().replace("G41",
-                                                                                       "G42")
-    text = "G21 F300\n" + square
-    machine = program("cutter_radius = 3.0\ntravel_x = [-5, 42]\ntravel_y = [-5, 45]\n",
-                      name="m.toml")
-    line = refused(capsys, ["run", program(text), "--board", "ulx3s", "--machine", machine,
+def test_a_program_starting_outside_the_travel_refused(program, tmp_path, capsys):
+    machine = program("travel_x = [5, 48]\n", name="m.toml")
+    line = refused(capsys, ["run", program("G21 G90\nG0 X10 Y0\n"), "--machine", machine,
                             "--out", tmp_path / "o"])
-    assert re.search(r"line \d+: the move reaches X 4[23](\.\d+)? mm, beyond the machine's "
-                     r"travel \(X from -5 to 42 mm", line), line
+    assert line.endswith("line 2: the program starts at X 0 mm, beyond the machine's travel (X "
+                         "from 5 to 48 mm, travel_x in the machine file)")
+    assert not (tmp_path / "o").exists()

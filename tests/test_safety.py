@@ -208,9 +208,9 @@ class StopTestCase(unittest.TestCase):
         # the one after its release is taken; the last QUERY finds the machine idle.
         (_, refused), (_, taken), (_, final) = statuses(result)
         estop = 1 << INPUTS.index("estop")
-        self.assertEqual(refused[4:], (4, estop, estop))          # ALARM, cause, inputs
-        self.assertEqual(taken[4:], (0, 0, 0))
-        self.assertEqual(final[2:], (8, 0, 0, 0, 0))
+        self.assertEqual(refused[4:7], (4, estop, estop))          # ALARM, cause, inputs
+        self.assertEqual(taken[4:7], (0, 0, 0))
+        self.assertEqual(final[2:], (8, 0, 0, 0, 0, 0, 128, 100))   # rate 0, 100 %
         # The model: the same stop, the same final state.
         model = safety_run([0] * 0, [(2, "estop"), (3, "unlock"), (4, "estop-release"),
                                      (5, "unlock")])
@@ -227,8 +227,8 @@ class StopTestCase(unittest.TestCase):
         self.assertEqual(outcomes[outcomes.index(2):], [2] * (len(outcomes) - outcomes.index(2)))
         limit_y = 1 << INPUTS.index("limit_y")
         (_, unlocked), (_, final) = statuses(result)
-        self.assertEqual(unlocked[4:], (0, 0, limit_y))           # left ALARM, still pressed
-        self.assertEqual(final[4:], (0, 0, limit_y))
+        self.assertEqual(unlocked[4:7], (0, 0, limit_y))           # left ALARM, still pressed
+        self.assertEqual(final[4:7], (0, 0, limit_y))
 
     def test_frames_refused_in_alarm(self):
         # The e-stop pressed at the first step: the line ends ABORTED after a step or two,
@@ -263,7 +263,7 @@ class StopTestCase(unittest.TestCase):
 
     def test_status_ahead_of_outcomes_and_its_latency(self):
         # QUERYs every 500 clocks while the arc runs: each answered STATUS (RUN) within
-        # the time of one reply on the line (the longest, STATUS's 18 bytes) and a few clocks.
+        # the time of one reply on the line (the longest, STATUS's 25 bytes) and a few clocks.
         frames, expected = program()
         dut = controller()
         host = HostLink(frames + [protocol.query()], divisor=BIT, window=8,
@@ -292,7 +292,7 @@ class StopTestCase(unittest.TestCase):
         # Queries that come while a STATUS is on the line are answered by the next one.
         self.assertGreater(len(answered), 2)
         latency = max(min(a for a in answered if a > q) - q for q in asked)
-        self.assertLessEqual(latency, (5 + 13) * 10 * BIT + 2)
+        self.assertLessEqual(latency, (5 + 20) * 10 * BIT + 2)     # a STATUS: 25 bytes
         running = [r.fields[4] for _, r in host.replies if r.kind == STATUS]
         self.assertEqual(running[:-1], [1] * (len(running) - 1))     # RUN
         self.assertEqual(running[-1], 0)
@@ -302,16 +302,19 @@ class StopTestCase(unittest.TestCase):
 
 class ProtocolTestCase(unittest.TestCase):
     def test_status_and_unlock_frames(self):
-        # A STATUS written here from the protocol's table (sync, type 0x81, length 13, the
-        # fields little-endian, CRC-16/CCITT of type, length and payload, high byte first).
+        # A STATUS written here from the protocol's table (sync, type 0x81, length 20, the
+        # fields little-endian, CRC-16/CCITT of type, length and payload, high byte first):
+        # ..., the rate 0.25 steps a clock (Q0.24), the feed override 1.5 (Q2.7), rapid 50 %.
         import binascii
         import struct
-        body = bytes([0x81, 13]) + struct.pack("<iiBBBBB", -5, 7, 3, 1, 4, 0b101, 0b100001)
+        body = bytes([0x81, 20]) + struct.pack("<iiBBBBB", -5, 7, 3, 1, 4, 0b101, 0b100001) \
+            + bytes([0, 0, 0x40, 0, 192, 0, 50])
         frame = bytes([0xA5]) + body + binascii.crc_hqx(body, 0xFFFF).to_bytes(2, "big")
         (reply,) = protocol.ReplyParser().feed(frame)
-        self.assertEqual(reply.fields, (-5, 7, 3, 1, 4, 5, 33))
+        self.assertEqual(reply.fields, (-5, 7, 3, 1, 4, 5, 33, 1 << 22, 192, 50))
         self.assertEqual(reply.state, "ALARM")
         self.assertEqual(str(reply), "ALARM at (-5, 7), 3 queue slots free, flags 0x01, "
+                                     "rate 0.250000 steps/clock, feed 150 %, rapid 50 %, "
                                      "tripped: estop, limit_y, active: estop, feed_hold")
         unlock = bytes([0xA5, 0x22, 0]) + binascii.crc_hqx(bytes([0x22, 0]), 0xFFFF) \
             .to_bytes(2, "big")
@@ -333,7 +336,7 @@ class ModelTestCase(unittest.TestCase):
         self.assertEqual((run["steps"], run["state"], run["alarm"]),
                          (100, "ALARM", ["limit_y"]))
         with self.assertRaisesRegex(ValueError, "Event must be one of"):
-            safety_run(times, [(1, "hold")])
+            safety_run(times, [(1, "jog")])
 
 
 #: A line and an arc, quick on Amaranth's simulator (10 steps/mm, a fast link).
@@ -378,11 +381,12 @@ class RunTestCase(unittest.TestCase):
                                    "10", "--event", "limit-x@0.05"]), 0)
             data = json.loads((out / "summary.json").read_text())
             self.assertEqual((data["final_state"], data["alarm"]), ("ALARM", ["limit_x"]))
-            self.assertEqual(data["events"], [{"at": 0.05, "event": "limit-x", "alarm": True}])
+            self.assertEqual(data["events"], [{"at": 0.05, "event": "limit-x", "alarm": True,
+                                               "hold": False}])
             steps = (out / "steps.txt").read_text().splitlines()
             self.assertEqual(len(steps), data["steps"])
             self.assertLess(len(steps), 30 + 24)              # stopped before the end
-            for bad in ("hold@1", "estop", "estop@-1", "estop@x"):
+            for bad in ("jog@1", "estop", "estop@-1", "estop@x", "feed=5@1", "rapid=75@1"):
                 self.assertEqual(main(["run", str(program), "--out", str(out),
                                        "--event", bad]), 2)
 

@@ -77,6 +77,9 @@ class FakeMachine:
         self.flags = flags
         self.state, self.alarm, self.inputs = state, alarm, inputs
         self.unlocks = 0
+        self.overrides = []                         # (factor, rapid %, frames before it)
+        self.holding = False                        # held: no frame ends
+        self.controls = []                          # (hold or resume, frames before it)
         self.first = first
         self.pending = bytearray()
         self.later = []
@@ -98,9 +101,10 @@ class FakeMachine:
         x, y = self.position
         if self.count:
             x, y = x + self.offset[0], y + self.offset[1]
-        return protocol.frame(0x81, struct.pack("<iiBBBBB", x, y,
+        return protocol.frame(0x81, struct.pack("<iiBBBBBIHB", x, y,
                                                 max(self.free - self.unanswered, 0), self.flags,
-                                                self.state, self.alarm, self.inputs))
+                                                self.state, self.alarm, self.inputs, 0, 128,
+                                                100))
 
     def write(self, data):
         if self.closed or (self.misbehave == "write" and self.count >= self.after):
@@ -119,6 +123,11 @@ class FakeMachine:
                 if self.state == 4 and not self.inputs & 1:
                     self.state = self.alarm = 0
                 self.pending += self.status()
+            elif event[0] == "override":
+                self.overrides.append((event[1], event[2], self.count))
+            elif event[0] in ("hold", "resume"):
+                self.holding = event[0] == "hold"
+                self.controls.append((event[0], self.count))
             elif event[0] == "query":
                 self.queries += 1
                 if not (self.mute or self.acting_up and self.misbehave == "dead"):
@@ -171,8 +180,8 @@ class FakeMachine:
                 self.pending += self.status()
             elif acting and self.misbehave == "garbage":
                 self.pending += bytes(range(0x30, 0x50))       # no sync byte among them
-            elif self.later and not (acting and self.misbehave in ("silent", "status",
-                                                                   "garbage", "dead")):
+            elif self.later and not self.holding and not (
+                    acting and self.misbehave in ("silent", "status", "garbage", "dead")):
                 self._release(bad_crc=acting and self.misbehave == "crc")
         data = bytes(self.pending[:size])
         del self.pending[:size]
@@ -433,6 +442,42 @@ HANDSHAKES = {
 }
 
 
+def test_overrides_sent_after_the_handshake():
+    # --feed 150 --rapid 50: one OVERRIDE (factor 150 * 128 / 100 = 192, rapid 50 %) after
+    # the handshake's QUERY, before the first queued frame; none at 100 %.
+    port = FakeMachine(4)
+    within(10, send, quick_job(), port, timeout=0.3, feed=150, rapid=50)
+    assert port.overrides == [(192, 50, 0)] and port.count > 0
+    port = FakeMachine(4)
+    within(10, send, quick_job(), port, timeout=0.3)
+    assert port.overrides == []
+    with pytest.raises(ValueError, match="feed override must be a whole percentage"):
+        send(quick_job(), FakeMachine(4), feed=250)
+
+
+def test_operator_holds_resumes_and_overrides_while_streaming():
+    # The operator's controls: a hold after the second frame is sent, held for 1 s (more than
+    # the 0.3 s timeout and the frames' planned times: no frame is overdue while held), then
+    # resume and 50 %. Each is sent at once; the program ends where it should.
+    script, started = [], time.monotonic()
+
+    def controls():
+        sent = port.count
+        if not script and sent >= 2:
+            script.append(time.monotonic())
+            return ["hold"]
+        if len(script) == 1 and time.monotonic() - script[0] > 1.0:
+            script.append(time.monotonic())
+            return ["resume", ("feed", 50)]
+        return []
+    port = FakeMachine(4)
+    job = quick_job()
+    assert within(10, send, job, port, timeout=0.3, controls=controls) == tuple(job.end)
+    assert [what for what, _ in port.controls] == ["hold", "resume"]
+    assert port.controls[0][1] >= 2 and port.overrides == [(64, 100, port.controls[1][1])]
+    assert time.monotonic() - started > 1.0
+
+
 def test_unlock_leaves_alarm_unless_the_estop_is_pressed():
     # The e-stop released, a limit still pressed: --unlock's UNLOCK leaves ALARM, the program
     # runs. The e-stop still pressed: the UNLOCK's STATUS shows ALARM, nothing is sent.
@@ -469,7 +514,7 @@ def test_the_gateware_reports_its_queue_length_when_idle():
                                       queue_frames=frames)
         run = run_amaranth(controller, [protocol.query()], divisor=8, window=frames,
                            max_clocks=5000)
-        assert [reply.fields for _, reply in run.replies] == [(0, 0, frames, 0, 0, 0, 0)]
+        assert [reply.fields[:7] for _, reply in run.replies] == [(0, 0, frames, 0, 0, 0, 0)]
 
 
 # ---- a misbehaving machine -------------------------------------------------------------------
@@ -738,3 +783,22 @@ def test_signal_stops_the_machine(signum, tmp_path):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+def test_send_keys_on_a_terminal(monkeypatch):
+    # kontur send's keys (Grbl's): on a terminal, ! hold, + 10 % more, ~ resume, - 10 % less,
+    # anything else nothing; the terminal's mode restored after.
+    import termios
+
+    from kontur.cli import _keys
+    master, slave = os.openpty()
+    with os.fdopen(slave, "r") as stdin:
+        monkeypatch.setattr(sys, "stdin", stdin)
+        before = termios.tcgetattr(stdin)
+        with _keys(100) as poll:
+            os.write(master, b"!+~-x")
+            time.sleep(0.1)
+            assert poll() == ["hold", ("feed", 110), "resume", ("feed", 100)]
+            assert poll() == []
+        assert termios.tcgetattr(stdin) == before
+    os.close(master)

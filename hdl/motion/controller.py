@@ -17,10 +17,10 @@ from ..engine import MotionSignature
 from .dispatch import (DWELL_UNIT, NONE_UNIT, Dispatcher, EngineUnit, Replies, Turn, TurnQueue,
                        UnitSignature, little, raw_bits)
 from .alarm import Alarm
-from .feed import FeedGenerator, rate_limit
+from .feed import OVERRIDE_ONE, FeedGenerator, rate_limit
 from .inputs import INPUTS, Inputs, check_polarity, idle_pins
-from .link import (ARC, CONFIG, DWELL, FEED, LENGTHS, LINE, PROFILE, QUERY, ABORT, STOP,
-                   FrameDecoder, FrameEncoder, profile_bytes)
+from .link import (ARC, CONFIG, DWELL, FEED, IMMEDIATE, LENGTHS, LINE, PROFILE,
+                   RAPID_PERCENT, STOP, FrameDecoder, FrameEncoder, profile_bytes)
 from .player import check_engine
 from .queue import FrameQueue
 from .stepdir import StepDirStage
@@ -82,7 +82,18 @@ class MotionController(wiring.Component):
 
     The switch inputs (:py:`inputs`: e-stop, limits, probe, cycle start, feed hold;
     :class:`~.inputs.Inputs`) are synchronised and filtered (``input_filter`` clocks,
-    ``polarity``). A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
+    ``polarity``).
+
+    **Feed hold.** A HOLD frame or a press of the feed-hold button holds the feed (state HOLD):
+    the feed generator ramps the rate down along the path at the configured acceleration to
+    a standstill (STATUS flag ``held``), and gives no permission until a RESUME frame or a
+    press of the cycle-start button, when it ramps back up; the steps are the engines', so a
+    held and resumed program makes the same steps as an uninterrupted one. An OVERRIDE frame
+    sets the feed override (the cruise of every move but a rapid) and the rapid override (a
+    rapid's, the FEED frame's flag), applied by the feed generator within the acceleration.
+    These act when their frame ends, queued frames or not. Entering ALARM ends a hold.
+
+    A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
     clock its filtered level changes, and ALARM from then on: the step/dir stage drops every
     step still in its direction set-up (a pulse on its pin is finished), every queued frame
     ends ``ABORTED``, every queued frame that comes in ALARM ends ``REFUSED``; UNLOCK
@@ -123,6 +134,9 @@ class MotionController(wiring.Component):
         Clocks an input's new level must hold (:class:`~.inputs.InputFilter`; default 1).
     polarity : :class:`dict`
         ``"nc"`` or ``"no"`` per input (:data:`~.inputs.DEFAULT_POLARITY` for the others).
+    overrides : :class:`bool`
+        Build the feed generator's overrides (default); without them OVERRIDE frames are
+        taken (and reported) but the rates stay at 100 % (:class:`~.feed.FeedGenerator`).
 
     Members
     -------
@@ -157,7 +171,7 @@ class MotionController(wiring.Component):
 
     def __init__(self, *, line, arc, profile=None, engines=(), clock_hz=12e6, baud=115200,
                  queue_frames=32, dir_setup=12, step_width=24, input_filter=1,
-                 polarity=None):
+                 polarity=None, overrides=True):
         check_engine(line)
         check_engine(arc)
         if profile is not None:
@@ -182,6 +196,9 @@ class MotionController(wiring.Component):
         divisor = divisor_for(clock_hz, baud)
         check_width("Input filter", input_filter)
         self._input_filter = input_filter
+        if not isinstance(overrides, bool):
+            raise TypeError(f"Overrides must be True or False, not {overrides!r}")
+        self._overrides = overrides
         self._polarity = check_polarity(polarity)
         self._idle = idle_pins(self._polarity)
         self._table = tuple(table)
@@ -233,6 +250,10 @@ class MotionController(wiring.Component):
         return dict(self._polarity)
 
     @property
+    def overrides(self):
+        return self._overrides
+
+    @property
     def max_step_rate(self):
         """Steps a second at most, per axis (the step/dir timing's limit)."""
         return self._clock_hz / self._min_interval
@@ -250,7 +271,8 @@ class MotionController(wiring.Component):
         self.turns = TurnQueue(self._table)
         self.replies = Replies()
         self.encoder = FrameEncoder()
-        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval))
+        self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval),
+                                  overrides=self._overrides)
         self.stepdir = StepDirStage(dir_setup=self._dir_setup, step_width=self._step_width)
         self.input_stage = Inputs(filter=self._input_filter, polarity=self._polarity)
         self.alarm_unit = Alarm()
@@ -307,6 +329,12 @@ class MotionController(wiring.Component):
             replies.status.state.eq(self.alarm_unit.state),
             replies.status.cause.eq(self.alarm_unit.cause),
             replies.status.inputs.eq(self.input_stage.active),
+            replies.status.held.eq(self.feed.held),
+            replies.status.rate.eq(self.feed.rate),
+            replies.status.feed.eq(self.feed.feed_override),
+            replies.status.rapid.eq(Mux(self.feed.rapid_override == 0, RAPID_PERCENT[0],
+                                        Mux(self.feed.rapid_override == 1, RAPID_PERCENT[1],
+                                            RAPID_PERCENT[2]))),
             self.busy.eq(dispatcher.pending | turns.busy),
             self.error.eq(replies.error_sent),
         ]
@@ -327,6 +355,35 @@ class MotionController(wiring.Component):
             self.dispatcher.alarm.eq(alarm.halt),
             self.alarm.eq(alarm.alarm),
         ]
+        self._hold(m)
+
+    def _hold(self, m):
+        """Feed hold and the overrides: the HOLD, RESUME and OVERRIDE frames, the feed-hold and
+        cycle-start buttons (their presses), to the feed generator."""
+        decoder, feed, active = self.decoder, self.feed, self.input_stage.active
+        buttons = Cat(active[INPUTS.index("feed_hold")], active[INPUTS.index("cycle_start")])
+        before = Signal(2)                          # the buttons' levels a clock before
+        m.d.sync += before.eq(buttons)
+        pressed = buttons & ~before
+        hold = Signal()
+        with m.If(self.alarm_unit.enter):
+            m.d.sync += hold.eq(0)
+        with m.Elif(decoder.hold | pressed[0]):
+            m.d.sync += hold.eq(1)
+        with m.Elif(decoder.resume | pressed[1]):
+            m.d.sync += hold.eq(0)
+        feed_override = Signal(9, init=OVERRIDE_ONE)
+        rapid_override = Signal(2)
+        with m.If(decoder.override):
+            m.d.sync += [feed_override.eq(decoder.feed_override),
+                         rapid_override.eq(decoder.rapid_override)]
+        m.d.comb += [
+            feed.hold.eq(hold),
+            feed.feed_override.eq(feed_override),
+            feed.rapid_override.eq(rapid_override),
+            feed.rapid.eq(self.turns.ramp.profile.rapid),
+            self.alarm_unit.hold.eq(hold),
+        ]
 
 
 def _check_table(table):
@@ -334,7 +391,7 @@ def _check_table(table):
     and the number and type are free (not the controller's own)."""
     units = {NONE_UNIT: "the controller (0: nothing to move)",
              DWELL_UNIT: "the controller (DWELL)"}
-    kinds = {kind: "the controller" for kind in _OWN + (QUERY, ABORT)}
+    kinds = {kind: "the controller" for kind in _OWN + IMMEDIATE}
     names = set()
     for row in table:
         if row.name in names:

@@ -118,9 +118,12 @@ class _UnitPort:
 def StatusFields():
     """The STATUS reply's fields that come from outside the replies: the position, the free
     queue slots, whether a turn is queued or running; the state, the alarm's cause and the
-    inputs active (their bytes, as the reply has them)."""
+    inputs active (their bytes, as the reply has them); whether the feed is held at a
+    standstill, the feed generator's rate (Q0.24), the feed override (Q2.7) and the rapid
+    override (percent)."""
     return data.StructLayout({"position": data.ArrayLayout(signed(32), 2), "free": 8,
-                              "moving": 1, "state": 8, "cause": 8, "inputs": 8})
+                              "moving": 1, "state": 8, "cause": 8, "inputs": 8, "held": 1,
+                              "rate": 24, "feed": 9, "rapid": 8})
 
 
 class Dispatcher(wiring.Component):
@@ -249,7 +252,7 @@ class Dispatcher(wiring.Component):
             turn.payload.argument.eq(Mux(unit == DWELL_UNIT, little(payload, 0, 4), profile)),
         ]
         with m.If(take & ~aborting & ~self.alarm & (kind == FEED)):
-            m.d.sync += profile.eq(little(payload, 0, 9))
+            m.d.sync += profile.eq(little(payload, 0, 10))
         with m.If(take & ~aborting & ~self.alarm & (kind == CONFIG)):
             m.d.sync += self.accel.eq(little(payload, 0, 4))
         with m.If(self.abort):
@@ -454,8 +457,10 @@ class Replies(wiring.Component):
             m.d.comb += [
                 reply.kind.eq(STATUS),
                 reply.payload.as_value().eq(Cat(status.position, status.free, status.moving,
-                                                self.error_sent, C(0, 6), status.state,
-                                                status.cause, status.inputs)),
+                                                self.error_sent, status.held, C(0, 5),
+                                                status.state, status.cause, status.inputs,
+                                                status.rate, C(0, 8), status.feed, C(0, 7),
+                                                status.rapid)),
                 self.o.valid.eq(1),
             ]
             with m.If(sending):

@@ -15,9 +15,9 @@ __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "S
 
 def Profile():
     """The feed of one move (the FEED frame of :mod:`kontur.hdl.motion.link`): its cruise and exit
-    rates in steps a clock (Q0.24), and the steps it makes before it ramps down to the exit
-    rate."""
-    return data.StructLayout({"cruise": 24, "exit": 24, "decelerate": 24})
+    rates in steps a clock (Q0.24), the steps it makes before it ramps down to the exit
+    rate, and whether it is a rapid (G0: the rapid override applies to it)."""
+    return data.StructLayout({"cruise": 24, "exit": 24, "decelerate": 24, "rapid": 1})
 
 
 class RampSignature(wiring.Signature):

@@ -18,6 +18,8 @@ ARC       0x11  x0, y0, x1, y1: int32, relative to the centre; cw: uint8   yes
 DWELL     0x12  clocks: uint32                                             yes
 FEED      0x13  cruise, exit: uint24 step rates (steps a clock, Q0.24);    yes
                 decelerate: uint24 (steps before the ramp down to exit);
+                flags: uint8 (bit 0: the move is a rapid, G0: the rapid
+                override applies to it, not the feed override);
                 for the next move (LINE or ARC); a move starts at the
                 rate the one before it ended at
 STOP      0x14  (none): the end of a program                               yes
@@ -35,6 +37,13 @@ ABORT     0x21  (none): stops the motion at once and ends every queued     no
                 frame ABORTED
 UNLOCK    0x22  (none): leaves ALARM, unless the e-stop is still active;   no
                 answered by a STATUS (whose state says whether it did)
+HOLD      0x23  (none): feed hold: the motion ramps down along the path     no
+                at the configured acceleration to a standstill (HOLD)
+RESUME    0x24  (none): leaves the hold: the motion ramps back up          no
+OVERRIDE  0x25  feed: uint16, the feed override as a factor, Q2.7 (128     no
+                is 100 %; 13 to 256, 10 % to 200 %); rapid: uint8, the
+                rapid override in percent (100, 50 or 25); a value out
+                of range drops the frame (ERROR 6), nothing changed
 ========  ====  =========================================================  ==========
 
 Machine to host:
@@ -46,16 +55,21 @@ OUTCOME   0x80  number: uint8 (the queued frame's, counted from 0 after
                 reset); outcome: uint8 (0 done, 1 refused, 2 aborted)
 STATUS    0x81  x, y: int32 absolute position (the steps made on the pins);
                 free: uint8 queue slots; flags: uint8 (bit 0 moving, bit 1
-                an error was reported); state: uint8 (:data:`STATES`);
+                an error was reported, bit 2 at a standstill under feed
+                hold); state: uint8 (:data:`STATES`);
                 alarm: uint8, the inputs that tripped since ALARM began
                 (bit 0 e-stop, 1 limit X, 2 limit Y; 0 out of ALARM);
                 inputs: uint8, the inputs active now, filtered (bit 0
                 e-stop, 1 limit X, 2 limit Y, 3 probe, 4 cycle start, 5
-                feed hold)
+                feed hold); rate: uint32, the feed generator's rate
+                now (steps a clock, Q0.24); feed: uint16, the feed
+                override (Q2.7); rapid: uint8, the rapid override (%)
 ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
 ========  ====  ==========================================================
 
-A STATUS answers a QUERY (or an UNLOCK) ahead of any OUTCOME still waiting: it is sent as
+HOLD, RESUME and OVERRIDE act in the clock their CRC checks, however many frames are queued
+(the feed-hold and cycle-start buttons do what HOLD and RESUME do, on their press). A STATUS
+answers a QUERY (or an UNLOCK) ahead of any OUTCOME still waiting: it is sent as
 soon as the reply being sent is out. In ALARM (an e-stop or a limit switch tripped: see
 :mod:`kontur.hdl.motion.alarm`) every queued frame that comes ends ``REFUSED`` without
 running (one that came before the trip ends ``ABORTED``).
@@ -78,44 +92,55 @@ from amaranth.lib.wiring import In, Out
 from .queue import QueueWriteSignature
 
 __all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
-           "ABORT", "UNLOCK", "OUTCOME", "STATUS", "ERROR", "STATES",
+           "ABORT", "UNLOCK", "HOLD", "RESUME", "OVERRIDE", "IMMEDIATE", "RAPID_PERCENT",
+           "FEED_OVERRIDE_RANGE", "OUTCOME", "STATUS", "ERROR", "STATES",
            "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
            "host_lengths", "profile_bytes", "crc16_byte", "FrameDecoder", "FrameEncoder"]
 
 SYNC = 0xA5
 LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
-QUERY, ABORT, UNLOCK = 0x20, 0x21, 0x22
+QUERY, ABORT, UNLOCK, HOLD, RESUME, OVERRIDE = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
 OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 
 #: Frames that go into the queue.
 QUEUED = (LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE)
 
+#: Frames that act at once.
+IMMEDIATE = (QUERY, ABORT, UNLOCK, HOLD, RESUME, OVERRIDE)
+
+#: OVERRIDE's rapid percentages, by the feed generator's shift (0, 1, 2).
+RAPID_PERCENT = (100, 50, 25)
+
+#: OVERRIDE's feed factors (Q2.7): 10 % to 200 %.
+FEED_OVERRIDE_RANGE = (13, 256)
+
 #: Payload length of every frame type of fixed length, both directions (PROFILE's is the
 #: controller's: :func:`host_lengths`).
-LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 9, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
-           UNLOCK: 0, OUTCOME: 2, STATUS: 13, ERROR: 1}
+LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 10, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
+           UNLOCK: 0, HOLD: 0, RESUME: 0, OVERRIDE: 3, OUTCOME: 2, STATUS: 20, ERROR: 1}
 
 #: STATUS's state codes (:class:`kontur.hdl.motion.alarm.State`).
 STATES = ("IDLE", "RUN", "HOLD", "HOMING", "ALARM")
 
 #: ERROR codes.
 ERRORS = {1: "CRC mismatch", 2: "unknown frame type", 3: "wrong payload length",
-          4: "serial framing error or overrun", 5: "frame queue full"}
+          4: "serial framing error or overrun", 5: "frame queue full",
+          6: "override out of range"}
 
 
 
 def host_lengths(profile=None):
     """The payload length of every frame type from the host to a controller whose PROFILE
     frames carry ``profile`` bytes (``None``: a controller without a profile engine, which
-    does not know the type); a dict: the fixed types in the order of :data:`QUEUED`, QUERY,
-    ABORT, UNLOCK, then PROFILE.
+    does not know the type); a dict: the fixed types in the order of :data:`QUEUED`, then
+    :data:`IMMEDIATE`, then PROFILE.
 
     Raises
     ------
     :exc:`ValueError`
         If ``profile`` is not an integer from 1 to 255 (a length byte).
     """
-    table = {kind: LENGTHS[kind] for kind in QUEUED + (QUERY, ABORT, UNLOCK) if kind in LENGTHS}
+    table = {kind: LENGTHS[kind] for kind in QUEUED + IMMEDIATE if kind in LENGTHS}
     if profile is not None:
         if isinstance(profile, bool) or not isinstance(profile, int) or not 1 <= profile <= 255:
             raise ValueError(f"A PROFILE payload must be 1 to 255 bytes, not {profile!r}")
@@ -156,7 +181,9 @@ class FrameDecoder(wiring.Component):
     arrives, its type byte then its payload, and committed only when its CRC checks; a frame
     whose CRC does not check is rolled back (code 1), one the queue has no room for is dropped
     (code 5), so the reader never sees a byte of a dropped frame. An immediate type signals
-    on :py:`query`, :py:`abort` or :py:`unlock` when its CRC checks. :py:`error` carries the code of each
+    on :py:`query`, :py:`abort`, :py:`unlock`, :py:`hold`, :py:`resume` or :py:`override`
+    when its CRC checks (an OVERRIDE with its values, or dropped with code 6 if one is out
+    of range). :py:`error` carries the code of each
     dropped frame (and of the serial errors given on :py:`line_error`, code 4).
 
     Parameters
@@ -166,8 +193,8 @@ class FrameDecoder(wiring.Component):
         ``None`` (the default): the controller has none, and PROFILE is an unknown type.
     queued : :class:`dict` or ``None``
         Instead of ``profile``: the payload length of every queued frame type the controller
-        knows (its engine table's types and the fixed ones); QUERY, ABORT and UNLOCK are
-        added.
+        knows (its engine table's types and the fixed ones); the immediate types
+        (:data:`IMMEDIATE`) are added.
 
     Members
     -------
@@ -177,8 +204,14 @@ class FrameDecoder(wiring.Component):
         A character was lost on the line (framing error or overrun).
     q : :py:`Out(QueueWriteSignature())`
         To the frame queue's write side (bytes, commit, rollback; the room left).
-    query, abort, unlock : :py:`Out(1)`
-        A checked QUERY, ABORT or UNLOCK frame ended in this clock.
+    query, abort, unlock, hold, resume, override : :py:`Out(1)`
+        A checked QUERY, ABORT, UNLOCK, HOLD, RESUME or OVERRIDE frame (its values in range)
+        ended in this clock.
+    feed_override : :py:`Out(9)`
+        The OVERRIDE's feed factor (Q2.7), valid with :py:`override`.
+    rapid_override : :py:`Out(2)`
+        The OVERRIDE's rapid override as the feed generator's shift (0, 1, 2 for 100, 50,
+        25 %), valid with :py:`override`.
     error : :py:`Out(stream.Signature(8))`
         Codes of dropped frames (:data:`ERRORS`); a code not yet taken is replaced by the
         next.
@@ -216,6 +249,11 @@ class FrameDecoder(wiring.Component):
             "query":      Out(1),
             "abort":      Out(1),
             "unlock":     Out(1),
+            "hold":       Out(1),
+            "resume":     Out(1),
+            "override":   Out(1),
+            "feed_override":  Out(9),
+            "rapid_override": Out(2),
             "error":      Out(stream.Signature(8)),
         })
 
@@ -235,6 +273,20 @@ class FrameDecoder(wiring.Component):
         crc = Signal(16)
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
+        # An OVERRIDE's payload: the last three payload bytes taken, shifted in as they pass.
+        values = Signal(24)
+        feed_factor = values[:16]
+        rapid_percent = values[16:]
+        in_range = Signal()
+        m.d.comb += [
+            in_range.eq((feed_factor >= FEED_OVERRIDE_RANGE[0]) &
+                        (feed_factor <= FEED_OVERRIDE_RANGE[1]) &
+                        ((rapid_percent == RAPID_PERCENT[0]) | (rapid_percent == RAPID_PERCENT[1])
+                         | (rapid_percent == RAPID_PERCENT[2]))),
+            self.feed_override.eq(feed_factor),
+            self.rapid_override.eq(Mux(rapid_percent == RAPID_PERCENT[0], 0,
+                                       Mux(rapid_percent == RAPID_PERCENT[1], 1, 2))),
+        ]
         take = self.i.valid & self.i.ready
         m.d.comb += self.q.data.eq(byte)
 
@@ -287,6 +339,8 @@ class FrameDecoder(wiring.Component):
                 with m.Elif(self.i.valid):          # (ready here)
                     m.d.comb += self.q.en.eq(queued)
                     m.d.sync += [index.eq(index + 1), crc.eq(crc_next)]
+                    if OVERRIDE in self._lengths:
+                        m.d.sync += values.eq(Cat(values[8:], byte))
             with m.State("CRC high"):
                 with m.If(take):
                     m.d.sync += received.eq(byte)
@@ -295,12 +349,17 @@ class FrameDecoder(wiring.Component):
                 with m.If(take):
                     with m.If(Cat(byte, received) != crc):
                         drop(1, rollback=True)
+                    with m.Elif((kind == OVERRIDE) & ~in_range):
+                        drop(6, rollback=False)
                     with m.Else():
                         m.d.comb += [
                             self.q.commit.eq(queued),
                             self.query.eq(kind == QUERY),
                             self.abort.eq(kind == ABORT),
                             self.unlock.eq(kind == UNLOCK),
+                            self.hold.eq(kind == HOLD),
+                            self.resume.eq(kind == RESUME),
+                            self.override.eq(kind == OVERRIDE),
                         ]
                         m.next = "Hunt"
         # Every byte is taken at once, but in the clock between a payload and its CRC.

@@ -15,12 +15,14 @@ import binascii
 import struct
 from dataclasses import dataclass
 
-from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED, LENGTHS, LINE,
-                             OUTCOME, PROFILE, QUERY, STATES, STATUS, STOP, SYNC, UNLOCK,
-                             host_lengths, profile_bytes)
+from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED,
+                                    FEED_OVERRIDE_RANGE, HOLD, LENGTHS, LINE, OUTCOME, OVERRIDE,
+                                    PROFILE, QUERY, RAPID_PERCENT, RESUME, STATES, STATUS, STOP,
+                                    SYNC, UNLOCK, host_lengths, profile_bytes)
 
 __all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "profile",
-           "profile_layout", "query", "abort", "unlock", "Reply", "ReplyParser", "CommandParser", "crc"]
+           "profile_layout", "query", "abort", "unlock", "hold", "resume", "override",
+           "feed_factor", "FEED_PERCENT", "Reply", "ReplyParser", "CommandParser", "crc"]
 
 
 def crc(body):
@@ -60,11 +62,12 @@ def _unsigned(name, value, bits):
     return value.to_bytes(bits // 8, "little")
 
 
-def feed(cruise, exit, decelerate):
+def feed(cruise, exit, decelerate, *, rapid=False):
     """A FEED frame for the next move: its cruise and exit rates in steps a clock (Q0.24
-    integers) and the steps it makes before ramping down to the exit rate."""
+    integers), the steps it makes before ramping down to the exit rate, and whether it is a
+    rapid (G0: the rapid override applies to it, not the feed override)."""
     return frame(FEED, _unsigned("FEED cruise", cruise, 24) + _unsigned("FEED exit", exit, 24)
-                 + _unsigned("FEED decelerate", decelerate, 24))
+                 + _unsigned("FEED decelerate", decelerate, 24) + bytes([int(bool(rapid))]))
 
 
 def config(accel):
@@ -122,6 +125,38 @@ def unlock():
     return frame(UNLOCK)
 
 
+def hold():
+    return frame(HOLD)
+
+
+def resume():
+    return frame(RESUME)
+
+
+#: The feed override a host may ask for, percent (OVERRIDE's factor range).
+FEED_PERCENT = (10, 200)
+
+
+def feed_factor(percent):
+    """OVERRIDE's feed factor (Q2.7, 128 is 100 %) nearest ``percent`` (a whole number
+    from 10 to 200)."""
+    if isinstance(percent, bool) or not isinstance(percent, int) or \
+            not FEED_PERCENT[0] <= percent <= FEED_PERCENT[1]:
+        raise ValueError(f"The feed override must be a whole percentage from "
+                         f"{FEED_PERCENT[0]} to {FEED_PERCENT[1]}, not {percent!r}")
+    factor = (percent * 128 + 50) // 100
+    assert FEED_OVERRIDE_RANGE[0] <= factor <= FEED_OVERRIDE_RANGE[1]
+    return factor
+
+
+def override(feed=100, rapid=100):
+    """An OVERRIDE frame: the feed override (percent, 10 to 200, sent as its factor:
+    :func:`feed_factor`) and the rapid override (percent: 100, 50 or 25)."""
+    if rapid not in RAPID_PERCENT or isinstance(rapid, bool):
+        raise ValueError(f"The rapid override must be 100, 50 or 25 %, not {rapid!r}")
+    return frame(OVERRIDE, feed_factor(feed).to_bytes(2, "little") + bytes([rapid]))
+
+
 #: The bits of STATUS's inputs byte and alarm byte (:data:`kontur.hdl.motion.inputs.INPUTS`).
 INPUT_NAMES = ("estop", "limit_x", "limit_y", "probe", "cycle_start", "feed_hold")
 
@@ -134,7 +169,7 @@ def input_names(bits):
 @dataclass(frozen=True)
 class Reply:
     """A reply from the machine: ``kind`` (OUTCOME, STATUS, ERROR) and its fields (a STATUS's:
-    ``x, y, free, flags, state, alarm, inputs``)."""
+    ``x, y, free, flags, state, alarm, inputs, rate, feed, rapid``)."""
     kind: int
     fields: tuple
 
@@ -150,8 +185,10 @@ class Reply:
             number, outcome = self.fields
             return f"frame {number}: {('done', 'refused', 'aborted')[outcome]}"
         if self.kind == STATUS:
-            x, y, free, flags, _, alarm, inputs = self.fields
+            x, y, free, flags, _, alarm, inputs, rate, feed, rapid = self.fields
             text = f"{self.state} at ({x}, {y}), {free} queue slots free, flags {flags:#04x}"
+            text += f", rate {rate / (1 << 24):.6f} steps/clock, feed {feed * 100 / 128:.0f} %" \
+                    f", rapid {rapid} %"
             if alarm:
                 text += f", tripped: {', '.join(input_names(alarm))}"
             if inputs:
@@ -167,7 +204,7 @@ class ReplyParser:
     so a reply stream joined in the middle resynchronises at the next good frame.
     """
 
-    FORMATS = {OUTCOME: "<BB", STATUS: "<iiBBBBB", ERROR: "<B"}
+    FORMATS = {OUTCOME: "<BB", STATUS: "<iiBBBBBIHB", ERROR: "<B"}
 
     def __init__(self):
         self.buffer = bytearray()
@@ -208,8 +245,9 @@ class CommandParser:
     """The machine's frame decoder (:class:`kontur.hdl.motion.link.FrameDecoder`), byte for byte.
 
     :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
-    queued frame, ``("query",)``, ``("abort",)``, ``("unlock",)``, ``("error", code)`` for a
-    dropped frame. Like
+    queued frame, ``("query",)``, ``("abort",)``, ``("unlock",)``, ``("hold",)``,
+    ``("resume",)``, ``("override", factor, rapid percent)``, ``("error", code)`` for a
+    dropped frame (code 6 for an OVERRIDE out of range). Like
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
     the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
@@ -260,11 +298,20 @@ class CommandParser:
             self.state = "hunt"
             if (self.high << 8 | byte) != crc(self.body):
                 return ("error", 1)
+            if self.kind == OVERRIDE:
+                factor, rapid = int.from_bytes(self.body[2:4], "little"), self.body[4]
+                if not FEED_OVERRIDE_RANGE[0] <= factor <= FEED_OVERRIDE_RANGE[1] or \
+                        rapid not in RAPID_PERCENT:
+                    return ("error", 6)
             if self.kind == QUERY:
                 return ("query",)
             if self.kind == ABORT:
                 return ("abort",)
             if self.kind == UNLOCK:
                 return ("unlock",)
+            if self.kind in (HOLD, RESUME):
+                return ("hold",) if self.kind == HOLD else ("resume",)
+            if self.kind == OVERRIDE:
+                return ("override", int.from_bytes(self.body[2:4], "little"), self.body[4])
             return ("frame", self.kind, bytes(self.body[2:]))
         return None

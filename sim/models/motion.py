@@ -3,7 +3,7 @@
 from kontur.hdl.spec import ONE, SQRT2
 
 __all__ = ["FeedGeneratorModel", "INPUTS", "STATES", "InputFilterModel", "StepDirModel",
-           "AlarmModel", "EVENTS", "safety_run"]
+           "AlarmModel", "EVENTS", "FRAME_EVENTS", "event_kind", "safety_run"]
 
 
 class FeedGeneratorModel:
@@ -220,42 +220,106 @@ EVENTS = {"estop": ("estop", True), "estop-release": ("estop", False),
           "limit-y": ("limit_y", True), "limit-y-release": ("limit_y", False),
           "unlock": (None, None)}
 
+#: The events that are the host's frames besides UNLOCK: feed hold and resume (HOLD,
+#: RESUME), and the overrides (OVERRIDE): ``feed=PCT`` (10 to 200 %) and ``rapid=PCT`` (100,
+#: 50 or 25 %).
+FRAME_EVENTS = ("hold", "resume", "feed=PCT", "rapid=PCT")
 
-def safety_run(times, events):
+#: The overrides an event may set.
+FEED_PERCENT, RAPID_PERCENT = (10, 200), (100, 50, 25)
+
+
+def event_kind(name):
+    """What the ``--event`` name ``name`` does: ``("pins", input, pressed)``, ``("unlock",)``,
+    ``("hold",)``, ``("resume",)``, ``("feed", percent)`` or ``("rapid", percent)``.
+
+    Raises :exc:`ValueError` (one line) for any other name or an override out of range."""
+    if name in EVENTS:
+        switch, press = EVENTS[name]
+        return ("unlock",) if switch is None else ("pins", switch, press)
+    if name in ("hold", "resume"):
+        return (name,)
+    what, equals, value = name.partition("=")
+    if equals and what in ("feed", "rapid"):
+        percent = int(value) if value.isdigit() else None
+        if what == "feed" and percent is not None and \
+                FEED_PERCENT[0] <= percent <= FEED_PERCENT[1]:
+            return ("feed", percent)
+        if what == "rapid" and percent in RAPID_PERCENT:
+            return ("rapid", percent)
+        allowed = "10 to 200" if what == "feed" else "100, 50 or 25"
+        raise ValueError(f"Event {name}: the {what} override must be {allowed} %, "
+                         f"not {value!r}")
+    raise ValueError(f"Event must be one of {', '.join(list(EVENTS) + list(FRAME_EVENTS))}, "
+                     f"not {name!r}")
+
+
+def safety_run(times, events, *, braking=None):
     """What a run does with scripted events, at the level of a program's steps: ``times`` the
     time (s of machining from the first step) of each step of the uninterrupted run, in
-    order, ``events`` ``(seconds, name)`` pairs (:data:`EVENTS`).
+    order, ``events`` ``(seconds, name)`` pairs (:func:`event_kind`); ``braking(t)`` the
+    steps a hold at time ``t`` of the uninterrupted run still makes before it stands still
+    (default none).
 
     The events are taken in time order (two at one time in the order given). The e-stop trips
     while pressed, a limit switch when pressed: the first trip stops the program (the steps
-    up to then are made, no later one: the host sends no more of it) and enters ALARM; UNLOCK
-    leaves ALARM unless the e-stop is pressed. Returns a dict: ``steps`` (how many are made),
-    ``stopped`` (the first trip's time, or ``None``), ``state`` (the final state: ``ALARM``,
-    or ``IDLE``), ``alarm`` (the inputs that tripped since ALARM began), ``events`` (each
-    taken: ``{"at", "event", "alarm"}``, whether the controller is in ALARM after it)."""
-    for at, name in events:
-        if name not in EVENTS:
-            raise ValueError(f"Event must be one of {', '.join(EVENTS)}, not {name!r}")
+    up to then are made, no later one: the host sends no more of it) and enters ALARM, which
+    ends a hold; UNLOCK leaves ALARM unless the e-stop is pressed. A hold stops the program
+    after its braking until a resume, which delays every later step by the hold's length (the
+    braking and the ramp back are not timed); the overrides change only the timing, which
+    this model does not follow. Returns a dict: ``steps`` (how many are made), ``times``
+    (theirs, holds' delays added), ``stopped`` (the first trip's time, or ``None``),
+    ``state`` (the final state: ``ALARM``, ``HOLD`` or ``IDLE``), ``alarm`` (the inputs that
+    tripped since ALARM began), ``events`` (each taken: ``{"at", "event", "alarm",
+    "hold"}``, whether the controller is in ALARM and whether the feed is held after it)."""
+    kinds = [event_kind(name) for _, name in events]
+    for at, _ in events:
         if not at >= 0:
             raise ValueError(f"An event's time must be at least 0 s, not {at!r}")
+    braking = braking or (lambda t: 0)
     pressed, alarm, cause, stopped = set(), False, [], None
+    held = None                            # (time taken, steps made by its standstill)
+    shift, delays = 0.0, []                # delays: (plan time, seconds) of each resumed hold
+    limit = len(times)                     # the steps made at most
     taken = []
-    for at, name in sorted(events, key=lambda item: item[0]):
-        switch, press = EVENTS[name]
-        if switch is None:
+    order = sorted(range(len(events)), key=lambda i: events[i][0])
+    for i in order:
+        at, name = events[i]
+        kind = kinds[i]
+        if kind[0] == "unlock":
             if alarm and "estop" not in pressed:
                 alarm, cause = False, []
-        elif press:
-            if switch == "estop" or switch not in pressed:
-                alarm = True
-                if switch not in cause:
-                    cause.append(switch)
-                if stopped is None:
-                    stopped = at
-            pressed.add(switch)
-        else:
-            pressed.discard(switch)
-        taken.append({"at": at, "event": name, "alarm": alarm})
-    made = len(times) if stopped is None else sum(1 for t in times if t <= stopped)
-    return {"steps": made, "stopped": stopped, "state": "ALARM" if alarm else "IDLE",
+        elif kind[0] == "pins":
+            _, switch, press = kind
+            if press:
+                if switch == "estop" or switch not in pressed:
+                    alarm = True
+                    if switch not in cause:
+                        cause.append(switch)
+                    if stopped is None:
+                        stopped = at
+                        plan = at - shift
+                        made = sum(1 for t in times if t <= plan)
+                        limit = min(limit, made if held is None else held[1])
+                    held = None
+                pressed.add(switch)
+            else:
+                pressed.discard(switch)
+        elif kind[0] == "hold":
+            if held is None:
+                plan = at - shift
+                held = (at, min(len(times), sum(1 for t in times if t <= plan) + braking(plan)))
+        elif kind[0] == "resume":
+            if held is not None:
+                delays.append((held[0] - shift, at - held[0]))
+                shift += at - held[0]
+                held = None
+        taken.append({"at": at, "event": name, "alarm": alarm, "hold": held is not None})
+    if held is not None:
+        limit = min(limit, held[1])
+    shifted = []
+    for t in times[:limit]:
+        shifted.append(t + sum(d for plan, d in delays if t > plan))
+    return {"steps": limit, "times": shifted, "stopped": stopped,
+            "state": "ALARM" if alarm else "HOLD" if held is not None else "IDLE",
             "alarm": [name for name in INPUTS if name in cause], "events": taken}

@@ -11,14 +11,15 @@ is over (:attr:`HostLink.done`) when every frame is sent and answered and the li
 quiet for 64 bit times.
 
 Its record is the one ``fastrun`` writes (:class:`Run`, :func:`parse_events`): ``S clock step
-dir`` at each rising step edge, ``R clock type payload`` for each reply, ``A clock P word`` or
-``A clock U`` for each scheduled event applied, ``E clock`` at the end.
+dir`` at each rising step edge, ``R clock type payload`` for each reply, ``A clock P word``,
+``A clock U`` or ``A clock F hex`` for each scheduled event applied, ``E clock`` at the end.
 
 **Scheduled events** (``schedule``, :func:`write_schedule`): the switch pins and UNLOCK frames
 at given clocks after the first step (machining time: the first rising step edge is its
-zero; if before any step every frame sent is answered and a QUERY is next, that clock is). ``("pins", word)`` sets the
-controller's :py:`inputs` to ``word`` in that clock (sampled at its end); ``("unlock",)``
-sends an UNLOCK then (after the bytes being sent). With a schedule the host behaves as a host
+zero; if before any step every frame sent is answered and a QUERY is next, that clock is).
+``("pins", word)`` sets the controller's :py:`inputs` to ``word`` in that clock (sampled at
+its end); ``("unlock",)`` sends an UNLOCK then (after the bytes being sent), ``("frame",
+bytes)`` any immediate frame (HOLD, RESUME, OVERRIDE, QUERY, ABORT) so. With a schedule the host behaves as a host
 that stops a stream the machine has stopped: after an outcome other than ``DONE`` or an
 ``ERROR`` it sends no more queued frames (those in flight are answered ``ABORTED``, or
 ``REFUSED`` when they reach the machine in ALARM), and a
@@ -57,8 +58,7 @@ def parse_events(text, applied=None):
     for line in text.splitlines():
         kind, *fields = line.split()
         if kind == "A" and applied is not None:
-            applied.append((int(fields[0]), ("pins", int(fields[2])) if fields[1] == "P"
-                            else ("unlock",)))
+            applied.append((int(fields[0]), _event(fields[1:])))
         elif kind == "S":
             steps.append(tuple(int(f) for f in fields))
         elif kind == "R":
@@ -71,24 +71,40 @@ def parse_events(text, applied=None):
     return steps, replies, clocks
 
 
+def _event(fields):
+    """A scheduled event from its fields in a file: ``P word``, ``U``, ``F hex``."""
+    if fields[0] == "P":
+        return ("pins", int(fields[1]))
+    if fields[0] == "F":
+        return ("frame", bytes.fromhex(fields[1]))
+    return ("unlock",)
+
+
+def _event_text(event):
+    if event[0] == "pins":
+        return f"P {event[1]}"
+    if event[0] == "frame":
+        return f"F {bytes(event[1]).hex()}"
+    return "U"
+
+
 def format_events(run):
     """The text of an events file for ``run`` (the inverse of :func:`parse_events`)."""
     lines = [f"S {clock} {step} {direction}" for clock, step, direction in run.steps]
     lines += [f"R {clock} {reply.kind:02x}" + "".join(
                   f" {b:02x}" for b in struct.pack(ReplyParser.FORMATS[reply.kind], *reply.fields))
               for clock, reply in run.replies]
-    lines += [f"A {clock} P {event[1]}" if event[0] == "pins" else f"A {clock} U"
-              for clock, event in run.applied]
+    lines += [f"A {clock} {_event_text(event)}" for clock, event in run.applied]
     lines.append(f"E {run.clocks}")
     return "\n".join(lines) + "\n"
 
 
 def write_schedule(path, schedule, idle):
     """Write a schedule (``(offset, event)`` pairs) as ``fastrun`` reads it: ``I word`` (the
-    pins before any event), then ``offset P word`` or ``offset U`` a line."""
+    pins before any event), then ``offset P word``, ``offset U`` or ``offset F hex`` (a
+    frame's bytes) a line."""
     from pathlib import Path
-    lines = [f"I {idle}"] + [f"{offset} P {event[1]}" if event[0] == "pins" else f"{offset} U"
-                             for offset, event in schedule]
+    lines = [f"I {idle}"] + [f"{offset} {_event_text(event)}" for offset, event in schedule]
     Path(path).write_text("\n".join(lines) + "\n")
 
 
@@ -101,8 +117,7 @@ def read_schedule(path):
         if fields[0] == "I":
             idle = int(fields[1])
         else:
-            schedule.append((int(fields[0]), ("pins", int(fields[2])) if fields[1] == "P"
-                             else ("unlock",)))
+            schedule.append((int(fields[0]), _event(fields[1:])))
     return schedule, idle
 
 
@@ -208,6 +223,8 @@ class HostLink:
             self.applied.append((self.clock, event))
             if event[0] == "pins":
                 self.pins = event[1]
+            elif event[0] == "frame":
+                self._levels += self._bits(event[1])
             else:
                 self._levels += self._bits(unlock())
         # ---- host to machine: the next frame once the window allows it -----------------
@@ -241,12 +258,13 @@ class HostLink:
 
 
 def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None, vcd=None,
-                 levels=None, progress=None, schedule=()):
+                 levels=None, progress=None, schedule=(), each=None):
     """Run ``frames`` through ``controller`` (a
     :class:`~kontur.hdl.motion.controller.MotionController`) in Amaranth's simulator with a
     :class:`HostLink`; return the :class:`Run`. With ``levels`` (a list), every clock's
     ``(step, dir)`` is appended to it. ``schedule``: events on the switch pins
-    (:class:`HostLink`), from the controller's idle pins.
+    (:class:`HostLink`), from the controller's idle pins. ``each``, if given, is called
+    ``each(ctx, clock)`` in every clock before the edge (to compare insides with a model).
 
     Raises :exc:`kontur.sim.processes.SimulatorError` if the run does not end within ``max_clocks``.
     """
@@ -268,6 +286,8 @@ def run_amaranth(controller, frames, *, divisor, window, max_clocks, inject=None
             ctx.set(controller.rx, host.cycle(tx=ctx.get(controller.tx), step=step,
                                               direction=direction))
             ctx.set(controller.inputs, host.pins)
+            if each is not None:
+                each(ctx, clock)
             if host.done:
                 return
             await ctx.tick()
