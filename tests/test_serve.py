@@ -179,6 +179,25 @@ def stream(port, text):
 
 # ---- streams ------------------------------------------------------------------------------
 
+def test_the_welcome_outlives_the_flush_of_an_open(server):
+    """A sender's serial library empties the port's input once it has set it up (pyserial's
+    open does, 50 ms here after the open): the welcome line comes after that, as a Grbl board
+    boots after the DTR reset, not into the flush."""
+    import os
+    import termios
+    link, _, _ = server
+    fd = os.open(link, os.O_RDWR | os.O_NOCTTY)
+    try:
+        time.sleep(0.05)
+        termios.tcflush(fd, termios.TCIFLUSH)
+        ready, _, _ = select.select([fd], [], [], LINE_WAIT)
+        assert ready, "no welcome line after the flush"
+        time.sleep(0.05)
+        assert WELCOME.match(os.read(fd, 200).decode().strip())
+    finally:
+        os.close(fd)
+
+
 def test_grbl_streamer_runs_the_bracket(server):
     """grbl-streamer (PyPI), character counting and status polling: the bracket ends Idle at
     its end with kontur run's steps.

@@ -5,12 +5,12 @@ and the TCP clients, hands them to the :class:`~kontur.grbl.session.Session` (re
 are acted on as they are read, a status report written back in the same turn), lets the
 session take its lines and move its clock, and writes what it says to every endpoint. The
 pseudo-terminal is raw (no echo, no line-end translation); opening it is a connection, and the
-welcome line is sent to it then, as a Grbl board's reset on the serial port's DTR does (the
-machine itself is not reset). After every run of motion, and at the end, the steps made since
-the start are written to ``--out DIR`` as ``kontur run`` writes them (``steps.txt``,
-``summary.json``). With ``--engine verilator`` every run of motion is also run, once the
-machine rests, on the controller's RTL under Verilator (:class:`RTLCheck`), whose steps must
-be the model's.
+welcome line is sent to it :data:`BOOT` seconds later, as a Grbl board boots after the reset by
+the serial port's DTR (the machine itself is not reset). After every run of motion, and at the
+end, the steps made since the start are written to ``--out DIR`` as ``kontur run`` writes them
+(``steps.txt``, ``summary.json``). With ``--engine verilator`` every run of motion is also run,
+once the machine rests, on the controller's RTL under Verilator (:class:`RTLCheck`), whose
+steps must be the model's.
 """
 
 import contextlib
@@ -18,6 +18,7 @@ import errno
 import os
 import select
 import socket
+import time
 import sys
 import threading
 import tty
@@ -247,17 +248,26 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
             Path(link).unlink()
 
 
+#: Seconds from a sender's open of the pseudo-terminal to the welcome line, as a Grbl board
+#: boots after the open's DTR reset: a sender's serial library empties its input once the port
+#: is set up (pyserial's open does), and a welcome written before that would be lost.
+BOOT = 0.25
+
+
 def _loop(session, pty, server, clients, connected, outputs):
     from kontur.grbl.protocol import WELCOME
     hangup = select.poll()
     hangup.register(pty.fd, select.POLLIN)
+    welcome = None                  # when the welcome line is due (a connection's boot)
     while True:
         now = not any(event & select.POLLHUP for _, event in hangup.poll(0))
         if now != connected[0]:
             connected[0] = now
             pty.outbox.clear()
-            if now:
-                pty.outbox += WELCOME.encode() + b"\r\n"
+            welcome = time.monotonic() + BOOT if now else None
+        if welcome is not None and time.monotonic() >= welcome:
+            welcome = None
+            pty.outbox += WELCOME.encode() + b"\r\n"
         waiting = select.poll()
         if connected[0]:
             waiting.register(pty.fd, select.POLLIN | (select.POLLOUT if pty.outbox else 0))
