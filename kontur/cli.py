@@ -415,6 +415,9 @@ def _run(args, out):
     if args.vcd and args.engine == "model":
         raise UsageError("--vcd needs an RTL engine (amaranth, icarus, verilator)")
     events = _events(args.event)
+    if any(name.startswith(("feed=", "rapid=")) for _, name in events):
+        _check_overrides(args.board, "--event " + next(
+            name for _, name in events if name.startswith(("feed=", "rapid="))))
     job = _job(args)
     if args.compress is not None:
         check_compress(job, args.compress)
@@ -437,6 +440,17 @@ def _run(args, out):
         shutil.rmtree(staging, ignore_errors=True)      # gone already when moved into place
     out.write(summary_text(data, out_dir))
     return 0
+
+
+def _check_overrides(board_name, what):
+    """Refuse (status 2) an override on a board whose controller is built without them."""
+    from kontur.trace import UsageError
+    item = registry.board(board_name)
+    if not item.overrides:
+        others = [b.name for b in registry.BOARDS.values() if b.overrides]
+        raise UsageError(f"{what}: the {item.name}'s controller is built without the feed and "
+                         f"rapid overrides (no room for them on the {item.help}); boards with "
+                         f"them: {', '.join(others)}")
 
 
 def _events(texts):
@@ -473,10 +487,12 @@ class _keys:
     (Grbl's): ``!`` or ``h`` feed hold, ``~`` or ``r`` resume, ``+`` and ``-`` the feed
     override up and down by 10 % (10 to 200). The terminal is in cbreak mode meanwhile
     (Ctrl-C still stops the machine), restored on the way out; the context gives the
-    ``controls`` callable of :func:`kontur.send.send` (``None`` without a terminal)."""
+    ``controls`` callable of :func:`kontur.send.send` (``None`` without a terminal). On a
+    board built without the overrides (``overrides`` false) ``+`` and ``-`` do nothing."""
 
-    def __init__(self, feed):
+    def __init__(self, feed, overrides=True):
         self.feed = feed
+        self.overrides = overrides
         self.saved = None
 
     def __enter__(self):
@@ -486,7 +502,8 @@ class _keys:
         import tty
         self.saved = termios.tcgetattr(sys.stdin)
         tty.setcbreak(sys.stdin)
-        sys.stderr.write("keys: ! or h hold, ~ or r resume, + and - feed override by 10 %\n")
+        sys.stderr.write("keys: ! or h hold, ~ or r resume" + (
+            ", + and - feed override by 10 %\n" if self.overrides else "\n"))
         return self.poll
 
     def poll(self):
@@ -499,7 +516,7 @@ class _keys:
                 commands.append("hold")
             elif key in "~r":
                 commands.append("resume")
-            elif key in "+-":
+            elif key in "+-" and self.overrides:
                 self.feed = min(200, max(10, self.feed + (10 if key == "+" else -10)))
                 commands.append(("feed", self.feed))
         return commands
@@ -523,6 +540,8 @@ def _send(args, out):
         override(args.feed, args.rapid)
     except ValueError as error:
         raise UsageError(f"--feed {args.feed} --rapid {args.rapid}: {error}") from None
+    if (args.feed, args.rapid) != (100, 100):
+        _check_overrides(args.board, f"--feed {args.feed} --rapid {args.rapid}")
     job = _job(args)
     from kontur.send import unhonoured
     from kontur.planner import ProgramError
@@ -538,7 +557,7 @@ def _send(args, out):
     try:
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
         with Stop() as stop, port, _progress(len(frames), "frames") as bar, \
-                _keys(args.feed) as controls:
+                _keys(args.feed, registry.board(args.board).overrides) as controls:
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
                        timeout=args.timeout, stop=stop, unlock=args.unlock, feed=args.feed,
                        rapid=args.rapid, controls=controls)

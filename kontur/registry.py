@@ -117,7 +117,8 @@ class Board:
     divided by ``divide`` (see :class:`kontur.hdl.top.ControllerTop`), ``line`` and ``arc`` the
     ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
     (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
-    (see :func:`make_controller`)."""
+    (see :func:`make_controller`); ``overrides`` whether its feed generator has the feed and
+    rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`)."""
     name: str
     help: str
     platform: object
@@ -127,6 +128,7 @@ class Board:
     arc: tuple = ("fast", 24)
     divide: int = 1
     profile: tuple = None
+    overrides: bool = True
 
 
 KINDS = {}
@@ -239,7 +241,7 @@ def make_controller(board_name, machine):
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width, input_filter=machine.input_filter,
-                            polarity=machine.polarity)
+                            polarity=machine.polarity, overrides=item.overrides)
 
 
 def check(kind_name, payload, width):
@@ -403,8 +405,10 @@ BOARD_TABLE = (
     # 90 % of the UP5K (4753 LC, since issue 8 made the arc engine smaller; before, only a
     # 16-bit one fitted). Its longest path (the turn queue's read into the feed generator's
     # rate) closes at 11.58 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
+    # With the safety inputs and feed hold it is 97 % full; the feed and rapid overrides (their
+    # multiplier and look-ahead, about 315 LUT4) do not fit beside them (5452 of 5280 LC).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
-          clock_hz=6e6, arc=("fast", 24), divide=2),
+          clock_hz=6e6, arc=("fast", 24), divide=2, overrides=False),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the

@@ -313,14 +313,15 @@ class EventsTestCase(unittest.TestCase):
         # Checked inside execute against the model (every step, every frame DONE, the end and
         # the state); and here: the run is longer by about the hold, the state reported.
         from kontur.machining import execute, prepare
+        # (The iCEBreaker's controller has no overrides: the overrides on the RTL are the
+        # ULX3S's, test_compensated_contour_held_on_verilator.)
         job = prepare(TINY, machine=machine(), name="tiny.ngc")
         half = job.seconds / 2
-        events = [(0.0, "rapid=50"), (half, "hold"), (half + 0.2, "resume"),
-                  (half + 0.25, "feed=200")]
+        events = [(0.0, "estop-release"), (half, "hold"), (half + 0.2, "resume")]
         rtl = execute(job, "amaranth", events=events)
         self.assertEqual(rtl.steps, job.steps)
         self.assertEqual((rtl.final_state, rtl.end), ("IDLE", job.end))
-        self.assertEqual([e["hold"] for e in rtl.events], [False, True, False, False])
+        self.assertEqual([e["hold"] for e in rtl.events], [False, True, False])
         plain = execute(job, "model")
         self.assertGreater(rtl.times[-1], plain.times[-1] + 0.1)
 
@@ -388,7 +389,8 @@ class EventsTestCase(unittest.TestCase):
             program.write_text(TINY)
             out = Path(folder) / "out"
             self.assertEqual(main(["run", str(program), "--out", str(out), "--steps-per-mm",
-                                   "10", "--event", "hold@0.1", "--event", "feed=120@0.05"]), 0)
+                                   "10", "--event", "hold@0.1", "--event", "feed=120@0.05",
+                                   "--board", "ulx3s"]), 0)
             data = json.loads((out / "summary.json").read_text())
             self.assertEqual(data["final_state"], "HOLD")
             self.assertEqual([(e["event"], e["at"], e["hold"]) for e in data["events"]],
@@ -399,3 +401,14 @@ class EventsTestCase(unittest.TestCase):
                 with self.subTest(bad=bad):
                     self.assertEqual(main(["run", str(program), "--out", str(out),
                                            "--event", bad]), 2)
+            # The iCEBreaker's controller is built without the overrides: refused, one line.
+            import contextlib
+            import io
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                self.assertEqual(main(["run", str(program), "--out", str(out), "--event",
+                                       "feed=120@0.05"]), 2)
+            self.assertEqual(err.getvalue().splitlines(), [
+                "kontur: --event feed=120: the icebreaker's controller is built without the "
+                "feed and rapid overrides (no room for them on the iCEBreaker (iCE40UP5K-SG48)); "
+                "boards with them: ulx3s"])
