@@ -182,18 +182,22 @@ def test_duty_changes_at_a_boundary():
 # --- the gateware against the model ------------------------------------------------------
 
 def random_clocks(rng, period, s_max, count):
-    clocks, laser, cruise = [], 0, 1 << 20
-    rate = 0
+    """Commands a few periods apart (S up to the field's top, above s_max too), the laser mode
+    switched now and then, a cruise (0 and 1 among them) and a rate wandering up to a quarter
+    above it, a halt now and then."""
+    clocks, laser, cruise, rate = [], 1, 1 << 20, 0
     while len(clocks) < count:
         if rng.random() < 0.2:
-            laser = rng.randint(0, 1)
+            laser = int(rng.random() < 0.7)
         if rng.random() < 0.3:
-            cruise = rng.choice([0, 1, rng.randint(1, (1 << 24) - 1)])
-        cmd = command(rng.choice([OFF, CW, CCW, CCW]), rng.randint(0, (1 << s_max.bit_length()) - 1),
+            cruise = rng.choice([0, 1, rng.randint(1, (1 << 24) - 1), rng.randint(1, 1 << 12)])
+        cmd = command(rng.choice([OFF, CW, CCW, CCW, CCW]),
+                      rng.randint(0, (1 << s_max.bit_length()) - 1),
                       rng.randint(0, 1), rng.randint(0, 1))
         clocks.append({"cmd": cmd, "laser": laser})
         for _ in range(rng.randint(0, 5 * period)):
-            rate = max(0, min((1 << 24) - 1, rate + rng.randint(-1 << 18, 1 << 18)))
+            if rng.random() < 0.02:
+                rate = rng.randint(0, min((1 << 24) - 1, cruise * 5 // 4))
             clocks.append({"laser": laser, "rate": rate, "cruise": cruise,
                            "halt": int(rng.random() < 0.002)})
     return clocks[:count]
@@ -202,7 +206,7 @@ def random_clocks(rng, period, s_max, count):
 @pytest.mark.parametrize("s_max, period, seed", [(100, 64, 1), (1000, 97, 2),
                                                  ((1 << 24) - 1, 200, 3)])
 def test_rtl_equals_model(s_max, period, seed):
-    clocks = random_clocks(random.Random(seed), period, s_max, 24 * period)
+    clocks = random_clocks(random.Random(seed), period, s_max, 40 * period)
     model = run_model(ToolOutputsModel(s_max=s_max, period=period), clocks)
     rtl = run_rtl(ToolOutputs(s_max=s_max, period=period), clocks)
     for k, (got, want) in enumerate(zip(rtl, model)):
@@ -219,6 +223,19 @@ def test_rtl_duty_and_halt():
     assert [high(w) for w in periods(outputs, period)[2:4]] == [19, 19]
     assert outputs[4 * period + 4]["pwm"] == 1 and outputs[4 * period + 4]["mist"] == 1
     assert not any(outputs[4 * period + 5].values()) and not any(outputs[-1].values())
+
+
+def test_rtl_laser():
+    """The gateware in laser mode, M4 S80 of 100: a cruise of 0 (between moves) is dark
+    whatever the rate, half the cruise is 80/100 × 1/2 × 64 = 25.6, 26 clocks; the model
+    the same clock for clock."""
+    period, cruise = 64, (1 << 24) - 2
+    clocks = ([{"cmd": command(CCW, 80), "laser": 1, "rate": 5}]
+              + [{"laser": 1, "rate": 5}] * (3 * period - 1)
+              + [{"laser": 1, "rate": cruise // 2, "cruise": cruise}] * (3 * period))
+    outputs = run_rtl(ToolOutputs(s_max=100, period=period), clocks)
+    assert outputs == run_model(ToolOutputsModel(s_max=100, period=period), clocks)
+    assert [high(w) for w in periods(outputs, period)] == [0, 0, 0, 0, 26, 26]
 
 
 def test_parameters():

@@ -206,13 +206,12 @@ class ToolOutputs(wiring.Component):
                     with m.If(left == 0):
                         # The pass ends (its last step's q is the one above, one later).
                         m.d.sync += [busy.eq(feed), feed.eq(0)]
-        # The S pass after the rate pass: its multiplier is the rate pass's result.
+        # The S pass after the rate pass: its multiplier is the rate pass's result (its last
+        # clock subtracts nothing: the rounding step's r is below c after one subtraction).
         done = Signal()
         m.d.comb += done.eq(busy & (phase == 2) & (left == 0) & ~first)
-        q_next = Signal(bits)
-        m.d.comb += q_next.eq(Mux(ge, q + 1, q))
         with m.If(done & feed):
-            m.d.sync += [a.eq(q_next), b.eq(s), c.eq(self._s_max), r.eq(0), q.eq(0),
+            m.d.sync += [a.eq(q), b.eq(s), c.eq(self._s_max), r.eq(0), q.eq(0),
                          left.eq(bits)]
 
         with m.If(off):

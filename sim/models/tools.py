@@ -81,7 +81,7 @@ class ToolOutputsModel:
                 else:
                     self.phase += 1
             if done and feed:           # the S pass, its multiplier the rate pass's result
-                self.a, self.b, self.c, self.r, self.q = q_next, s, self.s_max, 0, 0
+                self.a, self.b, self.c, self.r, self.q = self.q, s, self.s_max, 0, 0
                 self.left = self.bits
         if off:
             self.fresh = 0
