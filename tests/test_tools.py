@@ -247,3 +247,26 @@ def test_parameters():
         ToolOutputs(s_max=0, period=1000)
     with pytest.raises(ValueError, match="above 0 Hz"):
         pwm_period(12e6, 0)
+
+
+def test_machine_file_parameters():
+    """The machine file's s_max and pwm_hz: the machine takes what the gateware takes."""
+    from kontur.machine import Machine, MachineError
+    clock = 12e6
+    assert Machine(clock_hz=clock).pwm_period == 12000                  # 1 kHz: 12 000 clocks
+    for hz in (1, 1000, 20_000, clock / 44, clock / 43.4, clock / 30, clock):
+        machine = Machine(clock_hz=clock, pwm_hz=hz)
+        try:
+            ToolOutputs(s_max=machine.s_max, period=pwm_period(clock, hz))
+        except ValueError:
+            with pytest.raises(MachineError, match="pwm_hz"):
+                machine.check()
+        else:
+            assert machine.check().pwm_period == round(clock / hz)
+    assert Machine(clock_hz=clock, pwm_hz=clock / 44).pwm_period == 44
+    with pytest.raises(MachineError, match="pwm_hz"):
+        Machine(clock_hz=clock, pwm_hz=clock / 43).check()
+    for s_max in (0, 1.5, 1 << 24, True):
+        with pytest.raises(MachineError, match="s_max"):
+            Machine(clock_hz=clock, s_max=s_max)
+    assert Machine(clock_hz=clock, s_max=255.0).s_max == 255

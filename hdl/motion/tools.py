@@ -94,9 +94,8 @@ class ToolOutputs(wiring.Component):
         if isinstance(s_max, bool) or not isinstance(s_max, int) or not 1 <= s_max < 1 << 24:
             raise TypeError(f"S of full power must be an integer from 1 to 2**24 - 1, not "
                             f"{s_max!r}")
-        if isinstance(period, bool) or not isinstance(period, int) or period < 2:
-            raise TypeError(f"PWM period must be an integer of at least 2 clocks, not "
-                            f"{period!r}")
+        if isinstance(period, bool) or not isinstance(period, int):
+            raise TypeError(f"PWM period must be an integer (clocks), not {period!r}")
         if period < min_period(period):
             raise ValueError(f"PWM period must be at least {min_period(period)} clocks (its "
                              f"duty's computation), not {period}")
