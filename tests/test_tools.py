@@ -16,7 +16,7 @@ from amaranth.sim import Simulator
 from kontur.hdl.motion.tools import Spindle, ToolOutputs, min_period, pwm_period
 from kontur.sim.models.tools import CCW, CW, OFF, ToolOutputsModel
 
-OUTPUTS = ("enable", "direction", "pwm", "mist", "flood")
+PINS = ("enable", "direction", "pwm", "mist", "flood")
 
 
 def command(spindle=OFF, s=0, mist=0, flood=0):
@@ -41,7 +41,8 @@ def run_rtl(dut, clocks):
                 ctx.set(dut.cmd.payload, {**cmd, "spindle": Spindle(cmd["spindle"])})
             for name in ("laser", "rate", "cruise", "halt"):
                 ctx.set(getattr(dut, name), clock.get(name, 0))
-            outputs.append({name: ctx.get(getattr(dut, name)) for name in OUTPUTS})
+            outputs.append({name: ctx.get(getattr(dut, name)) for name in PINS}
+                           | {"ready": ctx.get(dut.cmd.ready)})
             await ctx.tick()
 
     sim = Simulator(dut)
@@ -138,7 +139,7 @@ def test_laser_duty_within_one_count():
 
 def test_halt_within_one_clock():
     """Halt drops every output in its own clock; they stay off (a command under halt is not
-    taken) until a command after it; the PWM then starts again at a period's start."""
+    taken: ``ready`` is low) until a command after it; the PWM then starts again at a period's start."""
     period = 64
     clocks = ([{"cmd": command(CCW, 50, mist=1, flood=1)}] + [{}] * (3 * period + 9)
               + [{"halt": 1}] + [{"halt": 1, "cmd": command(CW, 90, 1, 1)}]
@@ -147,9 +148,10 @@ def test_halt_within_one_clock():
     outputs = run_model(ToolOutputsModel(s_max=100, period=period), clocks)
     halt = 1 + 3 * period + 9
     before = outputs[halt - 1]
-    assert before == {"enable": 1, "direction": 1, "pwm": 1, "mist": 1, "flood": 1}
+    assert before == {"enable": 1, "direction": 1, "pwm": 1, "mist": 1, "flood": 1, "ready": 1}
+    assert [o["ready"] for o in outputs[halt - 1:halt + 3]] == [1, 0, 0, 1]
     for o in outputs[halt:halt + 2 * period + 2]:
-        assert not any(o.values())
+        assert not any(o[p] for p in PINS)
     resume = halt + 2 * period + 2
     after = outputs[resume + 1]
     assert (after["enable"], after["direction"], after["mist"], after["flood"]) == (1, 0, 0, 1)
@@ -222,7 +224,8 @@ def test_rtl_duty_and_halt():
     outputs = run_rtl(ToolOutputs(s_max=100, period=period), clocks)
     assert [high(w) for w in periods(outputs, period)[2:4]] == [19, 19]
     assert outputs[4 * period + 4]["pwm"] == 1 and outputs[4 * period + 4]["mist"] == 1
-    assert not any(outputs[4 * period + 5].values()) and not any(outputs[-1].values())
+    assert not any(outputs[4 * period + 5][p] for p in PINS)
+    assert not any(outputs[-1][p] for p in PINS)
 
 
 def test_rtl_laser():

@@ -18,7 +18,7 @@ from kontur.sim.models.tools import ToolOutputsModel
 from kontur.sim.runners import CocotbBuild
 
 from .conftest import cocotb_build_root, selected_simulators
-from .test_tools import OUTPUTS, random_clocks
+from .test_tools import PINS, random_clocks
 
 S_MAX, PERIOD = 1000, 97
 
@@ -48,7 +48,8 @@ async def random_tool_commands(dut):
         for name in ("laser", "rate", "cruise", "halt"):
             getattr(dut, name).value = clock.get(name, 0)
         await ReadOnly()
-        got = {name: int(getattr(dut, name).value) for name in OUTPUTS}
+        got = {name: int(getattr(dut, name).value) for name in PINS}
+        got["ready"] = int(dut.cmd__ready.value)
         want = model.cycle(**clock)
         assert got == want, f"clock {k}: {got} != {want}"
         high += got["pwm"]

@@ -79,7 +79,7 @@ class ToolOutputs(wiring.Component):
     Members
     -------
     cmd : :py:`In(stream.Signature(ToolCommand(s_max)))`
-        A command, taken in any clock (``ready`` is always high) except under :py:`halt`.
+        A command, taken in any clock but those of :py:`halt` (``ready`` is its inverse).
     laser : :py:`In(1)`
         Laser mode (Grbl's ``$32``).
     rate, cruise : :py:`In(24)`
@@ -133,7 +133,7 @@ class ToolOutputs(wiring.Component):
         # The state: a command sets it whole; halt clears it.
         off = Signal()                          # the spindle turns off in this clock
         c = self.cmd.payload
-        m.d.comb += self.cmd.ready.eq(1)
+        m.d.comb += self.cmd.ready.eq(~self.halt)
         with m.If(self.halt):
             m.d.sync += [enable.eq(0), direction.eq(0), mist.eq(0), flood.eq(0)]
             m.d.comb += off.eq(1)

@@ -12,7 +12,7 @@ class ToolOutputsModel:
     :meth:`cycle` takes this clock's inputs: ``cmd`` (``None``, or a dict of ``spindle``,
     ``s``, ``mist``, ``flood``), ``laser``, ``rate``, ``cruise`` and ``halt``; returns the
     dict of this clock's outputs (``enable``, ``direction``, ``pwm``, ``mist``, ``flood``),
-    then advances. The multiply-divide is kept register by register, as the gateware has it.
+    then advances; ``ready``, the command stream's, too. The multiply-divide is kept register by register, as the gateware has it.
     """
 
     def __init__(self, *, s_max, period):
@@ -27,7 +27,7 @@ class ToolOutputsModel:
         on = not halt
         out = {"enable": int(self.enable and on), "direction": int(self.direction and on),
                "mist": int(self.mist and on), "flood": int(self.flood and on),
-               "pwm": int(self.enable and on and self.count < self.duty)}
+               "pwm": int(self.enable and on and self.count < self.duty), "ready": int(on)}
         first, last = self.count == 0, self.count == self.period - 1
         enable, direction, s = self.enable, self.direction, self.s
         off = bool(halt)
