@@ -60,7 +60,7 @@ class ToolOutputs(wiring.Component):
     ``b ≤ c``, by one sequential datapath, a bit of ``a`` (high first) every three clocks:
     ``r ← 2r + bit·b`` (``q ← 2q``), then twice ``r ← r - c`` (``q ← q + 1``) where
     ``r ≥ c``; a last step ``r ← 2r``, ``q ← q + 1`` where ``r ≥ c``, rounds. A 26-bit
-    remainder, an adder and a subtractor: no multiplier and no divider in one clock (a
+    remainder and one adder: no multiplier and no divider in one clock (a
     24 × 24 product and its quotient would be hundreds of cells and a long path), and the
     result exact, where a fractional rate/cruise or a PWM compare against rate-scaled
     counters would need the same product at every clock.
@@ -173,9 +173,14 @@ class ToolOutputs(wiring.Component):
         left = Signal(range(bits + 1))          # bits of a to take; 0: the rounding step
         busy, feed, fresh = Signal(), Signal(), Signal()   # feed: the rate pass runs
 
-        diff = Signal(27)
-        m.d.comb += diff.eq(r - c)
-        ge = ~diff[26]
+        # One adder: 2r + bit·b in phase 0, r - c (r + ~c + 1) in phases 1 and 2, where its
+        # carry out is r ≥ c.
+        first_phase = phase == 0
+        total = Signal(28)
+        m.d.comb += total.eq(Mux(first_phase, r << 1, r)
+                             + Mux(first_phase, Mux(a[-1], b, 0), c ^ C((1 << 27) - 1, 27))
+                             + ~first_phase)
+        ge = total[27]
 
         cruise = Signal(24)                     # 0 taken as 1 (the rate is then taken as 0)
         m.d.comb += cruise.eq(Cat(self.cruise[0] | (self.cruise == 0), self.cruise[1:]))
@@ -190,20 +195,17 @@ class ToolOutputs(wiring.Component):
             ]
         with m.Elif(busy):
             with m.If(phase == 0):
+                # In the rounding step a is all shifted out: r ← 2r.
+                m.d.sync += [r.eq(total), a.eq(a << 1), phase.eq(1)]
                 with m.If(left != 0):
-                    m.d.sync += [r.eq((r << 1) + Mux(a[-1], b, 0)), q.eq(q << 1),
-                                 a.eq(a << 1)]
-                with m.Else():
-                    m.d.sync += r.eq(r << 1)
-                m.d.sync += phase.eq(1)
+                    m.d.sync += q.eq(q << 1)
             with m.Else():
                 with m.If(ge):
-                    m.d.sync += [r.eq(diff), q.eq(q + 1)]
+                    m.d.sync += [r.eq(total), q.eq(q + 1)]
                 m.d.sync += phase.eq(Mux(phase == 2, 0, phase + 1))
                 with m.If(phase == 2):
                     m.d.sync += left.eq(left - 1)
-                    with m.If(left == 0):
-                        # The pass ends (its last step's q is the one above, one later).
+                    with m.If(left == 0):           # the pass ends
                         m.d.sync += [busy.eq(feed), feed.eq(0)]
         # The S pass after the rate pass: its multiplier is the rate pass's result (its last
         # clock subtracts nothing: the rounding step's r is below c after one subtraction).

@@ -62,13 +62,11 @@ class ToolOutputsModel:
         elif self.busy:
             done, feed = self.phase == 2 and self.left == 0, self.feed
             q_next = (self.q + 1) % top if ge else self.q
-            if self.phase == 0:
+            if self.phase == 0:         # in the rounding step a is all shifted out
+                self.r = 2 * self.r + (self.b if self.a >> (self.bits - 1) & 1 else 0)
+                self.a = 2 * self.a % top
                 if self.left:
-                    self.r = 2 * self.r + (self.b if self.a >> (self.bits - 1) & 1 else 0)
                     self.q = 2 * self.q % top
-                    self.a = 2 * self.a % top
-                else:
-                    self.r = 2 * self.r
                 self.phase = 1
             else:
                 if ge:
