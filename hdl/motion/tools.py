@@ -50,14 +50,16 @@ class ToolOutputs(wiring.Component):
     a period, from the state at its first clock, and taken at its last: so a duty changes
     only at a period's boundary, and a pulse always begins at one (no partial pulse when the
     spindle turns on: the first full period after a computation begun with the spindle on).
-    Turning off (M5, :py:`halt`) is at once.
+    Turning off is at once: M5 from the clock after it, :py:`halt` in its own clock.
 
     **Duty.** ``round(S × period / s_max)``; in laser mode (:py:`laser`) with M4
     ``round(round(period × min(rate, cruise) / cruise) × S / s_max)``, within one count of
     the exact S/s_max × rate/cruise × period (each rounding is half a count at most, the first
     scaled by S/s_max ≤ 1); 0 at a standstill (rate 0). The rate is taken at the period's
     first clock and its duty used in the next period. Both are ``round(a × b / c)`` with
-    ``b ≤ c``, by one sequential datapath, a bit of ``a`` (high first) every three clocks:
+    ``b ≤ c`` (a rate at or above the cruise is found by the first bit's first subtraction,
+    ``rate ≥ cruise``, and the rate pass's result is then the period), by one sequential
+    datapath, a bit of ``a`` (high first) every three clocks:
     ``r ← 2r + bit·b`` (``q ← 2q``), then twice ``r ← r - c`` (``q ← q + 1``) where
     ``r ≥ c``; a last step ``r ← 2r``, ``q ← q + 1`` where ``r ≥ c``, rounds. A 26-bit
     remainder and one adder: no multiplier and no divider in one clock (a
@@ -182,9 +184,16 @@ class ToolOutputs(wiring.Component):
                              + ~first_phase)
         ge = total[27]
 
-        cruise = Signal(24)                     # 0 taken as 1 (the rate is then taken as 0)
-        m.d.comb += cruise.eq(Cat(self.cruise[0] | (self.cruise == 0), self.cruise[1:]))
-        rate = Mux(self.rate < self.cruise, self.rate, self.cruise)
+        # A cruise of 0 is taken as 1, its rate as 0. A rate above the cruise is not clamped
+        # here (a 24-bit compare): the first bit's first subtraction is r = rate ≥ c, and
+        # ``full`` then makes the rate pass's result the period, whatever its quotient.
+        zero = Signal()
+        m.d.comb += zero.eq(self.cruise == 0)
+        cruise = Cat(self.cruise[0] | zero, self.cruise[1:])
+        rate = Mux(zero, 0, self.rate)
+        full = Signal()
+        with m.If(busy & feed & (phase == 1) & (left == bits)):
+            m.d.sync += full.eq(ge)
 
         with m.If(first):
             laser = self.laser & enable & direction
@@ -212,8 +221,8 @@ class ToolOutputs(wiring.Component):
         done = Signal()
         m.d.comb += done.eq(busy & (phase == 2) & (left == 0) & ~first)
         with m.If(done & feed):
-            m.d.sync += [a.eq(q), b.eq(s), c.eq(self._s_max), r.eq(0), q.eq(0),
-                         left.eq(bits)]
+            m.d.sync += [a.eq(Mux(full, period, q)), b.eq(s), c.eq(self._s_max), r.eq(0),
+                         q.eq(0), left.eq(bits)]
 
         with m.If(off):
             m.d.sync += fresh.eq(0)
