@@ -139,7 +139,8 @@ def test_laser_duty_within_one_count():
 
 def test_halt_within_one_clock():
     """Halt drops every output in its own clock; they stay off (a command under halt is not
-    taken: ``ready`` is low) until a command after it; the PWM then starts again at a period's start."""
+    taken: ``ready`` is low) until a command after it; the PWM then starts again at a
+    period's start."""
     period = 64
     clocks = ([{"cmd": command(CCW, 50, mist=1, flood=1)}] + [{}] * (3 * period + 9)
               + [{"halt": 1}] + [{"halt": 1, "cmd": command(CW, 90, 1, 1)}]

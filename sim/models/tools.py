@@ -11,8 +11,11 @@ class ToolOutputsModel:
 
     :meth:`cycle` takes this clock's inputs: ``cmd`` (``None``, or a dict of ``spindle``,
     ``s``, ``mist``, ``flood``), ``laser``, ``rate``, ``cruise`` and ``halt``; returns the
-    dict of this clock's outputs (``enable``, ``direction``, ``pwm``, ``mist``, ``flood``),
-    then advances; ``ready``, the command stream's, too. The multiply-divide is kept register by register, as the gateware has it.
+    dict of this clock's outputs (``enable``, ``direction``, ``pwm``, ``mist``, ``flood``, and
+    the command stream's ``ready``), then advances. The multiply-divide is kept register by
+    register, as the gateware has it, but for a rate above the cruise: clamped here to the
+    cruise, found by the gateware in the rate pass's first subtraction (its result is then the
+    period, as the clamp's).
     """
 
     def __init__(self, *, s_max, period):
