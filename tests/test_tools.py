@@ -99,6 +99,38 @@ def test_laser_follows_rate_through_a_ramp():
     assert [high(w) for w in waves] == [0] + [15 * k for k in ramp[:-1]]
 
 
+def test_laser_through_a_corner():
+    """The feed generator's model (``FeedGeneratorModel``) takes a move at a quarter step a
+    clock down to a quarter of that at a corner, and the next back up: the laser's power
+    (M4 S800 of 1000, period 200) in every period is within one count of 0.8 × rate/cruise ×
+    200 at the rate of the period before's first clock; at cruise 160 clocks, at the corner
+    40."""
+    from kontur.sim.models.motion import FeedGeneratorModel
+    period, cruise, exit = 200, 1 << 22, 1 << 20
+    feed = FeedGeneratorModel()
+    accel = (cruise << 16) // 4000                 # Q0.40: the cruise in 4000 clocks
+    moves = [({"cruise": cruise, "exit": exit, "decelerate": 1000}, 1500),
+             ({"cruise": cruise, "exit": 0, "decelerate": 1 << 23}, 1000)]
+    tools = ToolOutputsModel(s_max=1000, period=period)
+    rates, pwm = [], []
+    for number, (profile, length) in enumerate(moves):
+        steps, start = 0, 1
+        while steps < length:
+            rate = feed.rate >> 16                 # the generator's rate output, this clock
+            rates.append(rate)
+            cmd = command(CCW, 800) if len(rates) == 1 else None
+            pwm.append(tools.cycle(cmd, laser=1, rate=rate, cruise=profile["cruise"])["pwm"])
+            steps += feed.cycle(profile=profile, accel=accel, start=start, due=1)
+            start = 0
+    counts = [high(w) for w in periods([{"pwm": p} for p in pwm], period)]
+    for n in range(2, len(counts)):
+        exact = Fraction(800, 1000) * Fraction(rates[(n - 1) * period], cruise) * period
+        assert abs(counts[n] - exact) <= 1, n
+    assert max(counts) == 160
+    corner = min(range(20, len(counts)), key=lambda n: counts[n])
+    assert abs(counts[corner] - 40) <= 1 and counts[-1] == 160
+
+
 def test_laser_modes():
     """Laser mode: M3 is constant power whatever the rate; in M4 a standstill is dark (the
     spindle enable stays on) and a rate above the cruise (an override) is full S; without
