@@ -238,12 +238,14 @@ def random_clocks(rng, period, s_max, count):
     return clocks[:count]
 
 
-@pytest.mark.parametrize("s_max, period, seed", [(100, 64, 1), (1000, 97, 2),
-                                                 ((1 << 24) - 1, 200, 3)])
-def test_rtl_equals_model(s_max, period, seed):
+@pytest.mark.parametrize("s_max, period, seed, laser_mode", [
+    (100, 64, 1, True), (1000, 97, 2, True), ((1 << 24) - 1, 200, 3, True),
+    (1000, 97, 4, False), (1, 50, 5, False)])
+def test_rtl_equals_model(s_max, period, seed, laser_mode):
     clocks = random_clocks(random.Random(seed), period, s_max, 40 * period)
-    model = run_model(ToolOutputsModel(s_max=s_max, period=period), clocks)
-    rtl = run_rtl(ToolOutputs(s_max=s_max, period=period), clocks)
+    model = run_model(ToolOutputsModel(s_max=s_max, period=period, laser_mode=laser_mode),
+                      clocks)
+    rtl = run_rtl(ToolOutputs(s_max=s_max, period=period, laser_mode=laser_mode), clocks)
     for k, (got, want) in enumerate(zip(rtl, model)):
         assert got == want, f"clock {k}: {got} != {want}"
     assert sum(o["pwm"] for o in model) > 0 and any(c.get("halt") for c in clocks)
@@ -274,6 +276,17 @@ def test_rtl_laser():
     assert [high(w) for w in periods(outputs, period)] == [0, 0, 0, 0, 26, 26]
 
 
+def test_without_laser_mode():
+    """Built without laser mode, M4 in laser mode is S alone: 60 of 120 clocks at S 500 of
+    1000 at any rate, a standstill too."""
+    period = 120
+    for rate in (0, 1 << 10):
+        inputs = {"laser": 1, "rate": rate, "cruise": 1 << 20}
+        clocks = [{"cmd": command(CCW, 500), **inputs}] + [inputs] * (3 * period - 1)
+        outputs = run_rtl(ToolOutputs(s_max=1000, period=period, laser_mode=False), clocks)
+        assert high(periods(outputs, period)[2]) == 60
+
+
 def test_parameters():
     assert pwm_period(12e6, 1000) == 12000 and pwm_period(12e6, 7e3) == 1714
     assert min_period(64) == 50
@@ -281,6 +294,8 @@ def test_parameters():
         ToolOutputs(s_max=100, period=40)
     with pytest.raises(TypeError, match="S of full power"):
         ToolOutputs(s_max=0, period=1000)
+    with pytest.raises(TypeError, match="Laser mode"):
+        ToolOutputs(s_max=100, period=1000, laser_mode=1)
     with pytest.raises(ValueError, match="above 0 Hz"):
         pwm_period(12e6, 0)
 

@@ -77,6 +77,10 @@ class ToolOutputs(wiring.Component):
     period : :class:`int`
         The PWM period in clocks (:func:`pwm_period` of the clock and the machine file's
         ``pwm_hz``), at least :func:`min_period`.
+    laser_mode : :class:`bool`
+        With ``False`` the laser mode is not built: :py:`laser`, :py:`rate` and :py:`cruise`
+        are ignored (M4 is S alone), and the datapath is as wide as ``s_max``, not 24 bits (for
+        a device too small for it).
 
     Members
     -------
@@ -92,7 +96,7 @@ class ToolOutputs(wiring.Component):
         The pins: spindle on, M4, PWM, coolant mist (M7), flood (M8).
     """
 
-    def __init__(self, *, s_max, period):
+    def __init__(self, *, s_max, period, laser_mode=True):
         if isinstance(s_max, bool) or not isinstance(s_max, int) or not 1 <= s_max < 1 << 24:
             raise TypeError(f"S of full power must be an integer from 1 to 2**24 - 1, not "
                             f"{s_max!r}")
@@ -101,7 +105,9 @@ class ToolOutputs(wiring.Component):
         if period < min_period(period):
             raise ValueError(f"PWM period must be at least {min_period(period)} clocks (its "
                              f"duty's computation), not {period}")
-        self._s_max, self._period = s_max, period
+        if not isinstance(laser_mode, bool):
+            raise TypeError(f"Laser mode must be True or False, not {laser_mode!r}")
+        self._s_max, self._period, self._laser_mode = s_max, period, laser_mode
         super().__init__({
             "cmd":       In(stream.Signature(ToolCommand(s_max))),
             "laser":     In(1),
@@ -122,6 +128,10 @@ class ToolOutputs(wiring.Component):
     @property
     def period(self):
         return self._period
+
+    @property
+    def laser_mode(self):
+        return self._laser_mode
 
     def elaborate(self, platform):
         m = Module()
@@ -167,9 +177,12 @@ class ToolOutputs(wiring.Component):
         returns it and whether it is valid (the spindle on at that clock and not off since)."""
         period = self._period
         bits = period.bit_length()
+        width = 24 if self._laser_mode else self._s_max.bit_length()     # of b and c
         a = Signal(bits)                        # the multiplier, shifted out high bit first
-        b, c = Signal(24), Signal(24)
-        r = Signal(26)                          # remainder, below 3c
+        b = Signal(width)
+        # c: the cruise or s_max (without laser mode s_max alone, a constant).
+        c = Signal(width) if self._laser_mode else C(self._s_max, width)
+        r = Signal(width + 2)                   # remainder, below 3c
         q = Signal(bits)                        # quotient
         phase = Signal(range(3))
         left = Signal(range(bits + 1))          # bits of a to take; 0: the rounding step
@@ -178,11 +191,12 @@ class ToolOutputs(wiring.Component):
         # One adder: 2r + bit·b in phase 0, r - c (r + ~c + 1) in phases 1 and 2, where its
         # carry out is r ≥ c.
         first_phase = phase == 0
-        total = Signal(28)
+        total = Signal(width + 4)
         m.d.comb += total.eq(Mux(first_phase, r << 1, r)
-                             + Mux(first_phase, Mux(a[-1], b, 0), c ^ C((1 << 27) - 1, 27))
+                             + Mux(first_phase, Mux(a[-1], b, 0),
+                                   c ^ C((1 << (width + 3)) - 1, width + 3))
                              + ~first_phase)
-        ge = total[27]
+        ge = total[width + 3]
 
         # A cruise of 0 is taken as 1, its rate as 0. A rate above the cruise is not clamped
         # here (a 24-bit compare): the first bit's first subtraction is r = rate ≥ c, and
@@ -196,12 +210,13 @@ class ToolOutputs(wiring.Component):
             m.d.sync += full.eq(ge)
 
         with m.If(first):
-            laser = self.laser & enable & direction
+            laser = (self.laser if self._laser_mode else C(0)) & enable & direction
             m.d.sync += [
                 busy.eq(1), feed.eq(laser), a.eq(period), r.eq(0), q.eq(0), phase.eq(0),
-                left.eq(bits),
-                b.eq(Mux(laser, rate, s)), c.eq(Mux(laser, cruise, self._s_max)),
+                left.eq(bits), b.eq(Mux(laser, rate, s)),
             ]
+            if self._laser_mode:
+                m.d.sync += c.eq(Mux(laser, cruise, self._s_max))
         with m.Elif(busy):
             with m.If(phase == 0):
                 # In the rounding step a is all shifted out: r ← 2r.
@@ -221,8 +236,10 @@ class ToolOutputs(wiring.Component):
         done = Signal()
         m.d.comb += done.eq(busy & (phase == 2) & (left == 0) & ~first)
         with m.If(done & feed):
-            m.d.sync += [a.eq(Mux(full, period, q)), b.eq(s), c.eq(self._s_max), r.eq(0),
-                         q.eq(0), left.eq(bits)]
+            m.d.sync += [a.eq(Mux(full, period, q)), b.eq(s), r.eq(0), q.eq(0),
+                         left.eq(bits)]
+            if self._laser_mode:
+                m.d.sync += c.eq(self._s_max)
 
         with m.If(off):
             m.d.sync += fresh.eq(0)

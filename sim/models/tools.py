@@ -15,11 +15,12 @@ class ToolOutputsModel:
     the command stream's ``ready``), then advances. The multiply-divide is kept register by
     register, as the gateware has it, but for a rate above the cruise: clamped here to the
     cruise, found by the gateware in the rate pass's first subtraction (its result is then the
-    period, as the clamp's).
+    period, as the clamp's). ``laser_mode=False``: the gateware built without it (``laser``,
+    ``rate`` and ``cruise`` ignored).
     """
 
-    def __init__(self, *, s_max, period):
-        self.s_max, self.period = s_max, period
+    def __init__(self, *, s_max, period, laser_mode=True):
+        self.s_max, self.period, self.laser_mode = s_max, period, laser_mode
         self.bits = period.bit_length()
         self.enable = self.direction = self.mist = self.flood = self.s = 0
         self.count = self.duty = 0
@@ -57,7 +58,7 @@ class ToolOutputsModel:
         top = 1 << self.bits
         ge = self.r >= self.c
         if first:
-            feed = int(bool(laser and enable and direction))
+            feed = int(bool(self.laser_mode and laser and enable and direction))
             self.busy, self.feed, self.a, self.r, self.q = 1, feed, self.period, 0, 0
             self.phase, self.left = 0, self.bits
             self.b = min(rate, cruise) if feed else s
