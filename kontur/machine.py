@@ -23,6 +23,8 @@ g28_position = [0, 0]      # mm, machine coordinates: where G28 goes (X Y, or X 
 g30_position = [0, 0]      # mm: where G30 goes (LinuxCNC's parameters 5161-5163, 5181-5183)
 travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no default: unchecked)
 travel_y = [0, 200]
+s_max = 1000               # the S of full spindle (laser) power (Grbl's $30), an integer
+pwm_hz = 1000              # the spindle (laser) PWM's frequency
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -48,6 +50,9 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
    that axis). A program whose steps would take the machine outside them is refused before
    anything moves (:func:`kontur.machining.check_travel`), as LinuxCNC's and Grbl's soft
    limits refuse it.
+7. ``s_max``: an integer from 1 to 2**24 - 1; ``pwm_hz``: its period at the clock, rounded to
+   whole clocks (:attr:`Machine.pwm_period`), at least the clocks the tool outputs take to
+   work a duty out (:func:`kontur.hdl.motion.tools.min_period`).
 """
 
 import math
@@ -92,6 +97,8 @@ class Machine:
     g30_position: tuple = (0.0, 0.0)  # mm: G30's
     travel_x: tuple = None            # mm, machine coordinates: (min, max), None: unchecked
     travel_y: tuple = None
+    s_max: int = 1000                 # the S of full power (Grbl's $30)
+    pwm_hz: float = 1000.0            # the spindle (laser) PWM's frequency
 
     def __post_init__(self):
         for name in SWITCHES:
@@ -131,13 +138,16 @@ class Machine:
                 raise MachineError(f"{item.name} must be a number, not {value!r}")
             if not math.isfinite(value) or value <= 0:
                 raise MachineError(f"{item.name} must be positive, not {value!r}")
-        for name in ("baud", "queue_frames"):
+        for name in ("baud", "queue_frames", "s_max"):
             if int(getattr(self, name)) != getattr(self, name):
                 raise MachineError(f"{name} must be an integer, not {getattr(self, name)!r}")
             object.__setattr__(self, name, int(getattr(self, name)))
         if self.input_filter_us > MAX_INPUT_FILTER_US:
             raise MachineError(f"input_filter_us must be at most {MAX_INPUT_FILTER_US} (10 ms), "
                                f"not {self.input_filter_us!r}")
+        if not self.s_max < 1 << 24:
+            raise MachineError(f"s_max must be an integer from 1 to {(1 << 24) - 1}, not "
+                               f"{self.s_max!r}")
         if not 2 <= self.queue_frames <= 255:
             raise MachineError(f"queue_frames must be an integer from 2 to 255 (STATUS reports "
                                f"the free slots in a byte), not {self.queue_frames!r}")
@@ -215,6 +225,7 @@ class Machine:
         once the clock is known to be the board's; return the machine."""
         self.check_baud()
         self.accel_q40                                  # noqa: B018 (raises if out of range)
+        self.pwm_period                                 # noqa: B018 (raises if out of range)
         return self
 
     def check_baud(self):
@@ -230,6 +241,20 @@ class Machine:
                 f"the bit time ({self.clock_hz / self.baud:.2f} clocks) must round to at least "
                 f"4 whole clocks and give a rate within 2 % of the baud (at most "
                 f"{self.clock_hz / 4 / 0.98:.0f} baud)") from None
+
+    @property
+    def pwm_period(self):
+        """The tool outputs' PWM period in clocks (:func:`kontur.hdl.motion.tools.pwm_period`):
+        ``clock_hz / pwm_hz`` rounded; at least :func:`~kontur.hdl.motion.tools.min_period`."""
+        from kontur.hdl.motion.tools import min_period, pwm_period
+        period = pwm_period(self.clock_hz, self.pwm_hz)
+        if period < min_period(period):
+            shortest = next(p for p in range(2, 1 << 10) if p >= min_period(p))
+            raise MachineError(
+                f"pwm_hz {self.pwm_hz:g} is a PWM period of {period} clocks at "
+                f"{self.clock_hz / 1e6:g} MHz; the tool outputs need at least {shortest} (at "
+                f"most {self.clock_hz / (shortest - 0.5):.0f} Hz)")
+        return period
 
     @property
     def max_rate(self):

@@ -1,0 +1,248 @@
+"""Tool outputs: spindle (laser, torch) enable, direction and PWM, coolant (issue 28).
+
+:class:`ToolOutputs` holds the tool state the controller hands it between moves (M3/M4/M5 with
+S, M7/M8/M9) and drives the pins: ``enable``, ``direction`` (M4), ``pwm`` (duty S/s_max at a
+fixed period), ``mist``, ``flood``. In Grbl's laser mode (``$32``, :py:`laser`) with M4 the
+duty follows the feed: S/s_max × rate/cruise, worked out once a PWM period by a sequential
+multiply-divide (:class:`ToolOutputs`' notes), so that a corner where the feed drops does not
+burn. Not yet wired into the controller (docs/tools.md).
+"""
+
+from amaranth import *
+from amaranth.lib import data, enum, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+__all__ = ["Spindle", "ToolCommand", "ToolOutputs", "pwm_period", "min_period"]
+
+
+class Spindle(enum.Enum, shape=2):
+    """The spindle's (laser's, torch's) command: M5, M3, M4."""
+    OFF = 0
+    CW = 1          # M3: clockwise; in laser mode constant power
+    CCW = 2         # M4: counter-clockwise; in laser mode power following the feed
+
+
+def ToolCommand(s_max):
+    """The tool state one command sets, whole: spindle, S (0 to ``s_max``; above it is taken as
+    ``s_max``, as Grbl clamps it), mist (M7) and flood (M8); M9 is both off."""
+    return data.StructLayout({"spindle": Spindle, "s": range(s_max + 1), "mist": 1,
+                              "flood": 1})
+
+
+def pwm_period(clock_hz, pwm_hz):
+    """The PWM period in clocks, ``clock_hz / pwm_hz`` rounded."""
+    if not pwm_hz > 0:
+        raise ValueError(f"PWM frequency must be above 0 Hz, not {pwm_hz!r}")
+    return round(clock_hz / pwm_hz)
+
+
+def min_period(period):
+    """The shortest PWM period the sequential multiply-divide fits in: two passes of
+    ``3 × (bits + 1)`` clocks, ``bits`` the period's bit length, and two clocks of margin."""
+    return 6 * (period.bit_length() + 1) + 2
+
+
+class ToolOutputs(wiring.Component):
+    """The tool outputs, set by commands between moves.
+
+    **PWM.** A counter runs through ``period`` clocks again and again; :py:`pwm` is high in the
+    first ``duty`` clocks of a period, while the spindle is on. The duty is worked out during
+    a period, from the state at its first clock, and taken at its last: so a duty changes
+    only at a period's boundary, and a pulse always begins at one (no partial pulse when the
+    spindle turns on: the first full period after a computation begun with the spindle on).
+    Turning off is at once: M5 from the clock after it, :py:`halt` in its own clock.
+
+    **Duty.** ``round(S × period / s_max)``; in laser mode (:py:`laser`) with M4
+    ``round(round(period × min(rate, cruise) / cruise) × S / s_max)``, within one count of
+    the exact S/s_max × rate/cruise × period (each rounding is half a count at most, the first
+    scaled by S/s_max ≤ 1); 0 at a standstill (rate 0). The rate is taken at the period's
+    first clock and its duty used in the next period. Both are ``round(a × b / c)`` with
+    ``b ≤ c`` (a rate at or above the cruise is found by the first bit's first subtraction,
+    ``rate ≥ cruise``, and the rate pass's result is then the period), by one sequential
+    datapath, a bit of ``a`` (high first) every three clocks:
+    ``r ← 2r + bit·b`` (``q ← 2q``), then twice ``r ← r - c`` (``q ← q + 1``) where
+    ``r ≥ c``; a last step ``r ← 2r``, ``q ← q + 1`` where ``r ≥ c``, rounds. A 26-bit
+    remainder and one adder: no multiplier and no divider in one clock (a
+    24 × 24 product and its quotient would be hundreds of cells and a long path), and the
+    result exact, where a fractional rate/cruise or a PWM compare against rate-scaled
+    counters would need the same product at every clock.
+
+    **Halt.** :py:`halt` drops every output in its own clock and clears the state: the
+    outputs stay off until the next command.
+
+    Parameters
+    ----------
+    s_max : :class:`int`
+        The S of full power (the machine file's ``s_max``, Grbl's ``$30``), 1 to 2**24 - 1.
+    period : :class:`int`
+        The PWM period in clocks (:func:`pwm_period` of the clock and the machine file's
+        ``pwm_hz``), at least :func:`min_period`.
+    laser_mode : :class:`bool`
+        With ``False`` the laser mode is not built: :py:`laser`, :py:`rate` and :py:`cruise`
+        are ignored (M4 is S alone), and the datapath is as wide as ``s_max``, not 24 bits (for
+        a device too small for it).
+
+    Members
+    -------
+    cmd : :py:`In(stream.Signature(ToolCommand(s_max)))`
+        A command, taken in any clock but those of :py:`halt` (``ready`` is its inverse).
+    laser : :py:`In(1)`
+        Laser mode (Grbl's ``$32``).
+    rate, cruise : :py:`In(24)`
+        The feed generator's rate and the running move's cruise rate, Q0.24.
+    halt : :py:`In(1)`
+        E-stop or alarm: every output off in this clock, the state cleared.
+    enable, direction, pwm, mist, flood : :py:`Out(1)`
+        The pins: spindle on, M4, PWM, coolant mist (M7), flood (M8).
+    """
+
+    def __init__(self, *, s_max, period, laser_mode=True):
+        if isinstance(s_max, bool) or not isinstance(s_max, int) or not 1 <= s_max < 1 << 24:
+            raise TypeError(f"S of full power must be an integer from 1 to 2**24 - 1, not "
+                            f"{s_max!r}")
+        if isinstance(period, bool) or not isinstance(period, int):
+            raise TypeError(f"PWM period must be an integer (clocks), not {period!r}")
+        if period < min_period(period):
+            raise ValueError(f"PWM period must be at least {min_period(period)} clocks (its "
+                             f"duty's computation), not {period}")
+        if not isinstance(laser_mode, bool):
+            raise TypeError(f"Laser mode must be True or False, not {laser_mode!r}")
+        self._s_max, self._period, self._laser_mode = s_max, period, laser_mode
+        super().__init__({
+            "cmd":       In(stream.Signature(ToolCommand(s_max))),
+            "laser":     In(1),
+            "rate":      In(24),
+            "cruise":    In(24),
+            "halt":      In(1),
+            "enable":    Out(1),
+            "direction": Out(1),
+            "pwm":       Out(1),
+            "mist":      Out(1),
+            "flood":     Out(1),
+        })
+
+    @property
+    def s_max(self):
+        return self._s_max
+
+    @property
+    def period(self):
+        return self._period
+
+    @property
+    def laser_mode(self):
+        return self._laser_mode
+
+    def elaborate(self, platform):
+        m = Module()
+        enable, direction, mist, flood = Signal(), Signal(), Signal(), Signal()
+        s = Signal(range(self._s_max + 1))
+        count = Signal(range(self._period))
+        duty = Signal(range(self._period + 1))
+        first, last = count == 0, count == self._period - 1
+        m.d.sync += count.eq(Mux(last, 0, count + 1))
+
+        # The state: a command sets it whole; halt clears it.
+        off = Signal()                          # the spindle turns off in this clock
+        c = self.cmd.payload
+        m.d.comb += self.cmd.ready.eq(~self.halt)
+        with m.If(self.halt):
+            m.d.sync += [enable.eq(0), direction.eq(0), mist.eq(0), flood.eq(0)]
+            m.d.comb += off.eq(1)
+        with m.Elif(self.cmd.valid):
+            m.d.sync += [
+                enable.eq(c.spindle != Spindle.OFF),
+                direction.eq(c.spindle == Spindle.CCW),
+                s.eq(Mux(c.s > self._s_max, self._s_max, c.s)),
+                mist.eq(c.mist), flood.eq(c.flood),
+            ]
+            m.d.comb += off.eq(c.spindle == Spindle.OFF)
+
+        result, fresh = self._duty(m, first, off, enable, direction, s)
+        with m.If(off):
+            m.d.sync += duty.eq(0)
+        with m.Elif(last):
+            m.d.sync += duty.eq(Mux(fresh, result, 0))
+
+        on = ~self.halt
+        m.d.comb += [
+            self.enable.eq(enable & on), self.direction.eq(direction & on),
+            self.mist.eq(mist & on), self.flood.eq(flood & on),
+            self.pwm.eq(enable & on & (count < duty)),
+        ]
+        return m
+
+    def _duty(self, m, first, off, enable, direction, s):
+        """The next period's duty, worked out from the period's first clock (module notes);
+        returns it and whether it is valid (the spindle on at that clock and not off since)."""
+        period = self._period
+        bits = period.bit_length()
+        width = 24 if self._laser_mode else self._s_max.bit_length()     # of b and c
+        a = Signal(bits)                        # the multiplier, shifted out high bit first
+        b = Signal(width)
+        # c: the cruise or s_max (without laser mode s_max alone, a constant).
+        c = Signal(width) if self._laser_mode else C(self._s_max, width)
+        r = Signal(width + 2)                   # remainder, below 3c
+        q = Signal(bits)                        # quotient
+        phase = Signal(range(3))
+        left = Signal(range(bits + 1))          # bits of a to take; 0: the rounding step
+        busy, feed, fresh = Signal(), Signal(), Signal()   # feed: the rate pass runs
+
+        # One adder: 2r + bit·b in phase 0, r - c (r + ~c + 1) in phases 1 and 2, where its
+        # carry out is r ≥ c.
+        first_phase = phase == 0
+        total = Signal(width + 4)
+        m.d.comb += total.eq(Mux(first_phase, r << 1, r)
+                             + Mux(first_phase, Mux(a[-1], b, 0),
+                                   c ^ C((1 << (width + 3)) - 1, width + 3))
+                             + ~first_phase)
+        ge = total[width + 3]
+
+        # A cruise of 0 is taken as 1, its rate as 0. A rate above the cruise is not clamped
+        # here (a 24-bit compare): the first bit's first subtraction is r = rate ≥ c, and
+        # ``full`` then makes the rate pass's result the period, whatever its quotient.
+        zero = Signal()
+        m.d.comb += zero.eq(self.cruise == 0)
+        cruise = Cat(self.cruise[0] | zero, self.cruise[1:])
+        rate = Mux(zero, 0, self.rate)
+        full = Signal()
+        with m.If(busy & feed & (phase == 1) & (left == bits)):
+            m.d.sync += full.eq(ge)
+
+        with m.If(first):
+            laser = (self.laser if self._laser_mode else C(0)) & enable & direction
+            m.d.sync += [
+                busy.eq(1), feed.eq(laser), a.eq(period), r.eq(0), q.eq(0), phase.eq(0),
+                left.eq(bits), b.eq(Mux(laser, rate, s)),
+            ]
+            if self._laser_mode:
+                m.d.sync += c.eq(Mux(laser, cruise, self._s_max))
+        with m.Elif(busy):
+            with m.If(phase == 0):
+                # In the rounding step a is all shifted out: r ← 2r.
+                m.d.sync += [r.eq(total), a.eq(a << 1), phase.eq(1)]
+                with m.If(left != 0):
+                    m.d.sync += q.eq(q << 1)
+            with m.Else():
+                with m.If(ge):
+                    m.d.sync += [r.eq(total), q.eq(q + 1)]
+                m.d.sync += phase.eq(Mux(phase == 2, 0, phase + 1))
+                with m.If(phase == 2):
+                    m.d.sync += left.eq(left - 1)
+                    with m.If(left == 0):           # the pass ends
+                        m.d.sync += [busy.eq(feed), feed.eq(0)]
+        # The S pass after the rate pass: its multiplier is the rate pass's result (its last
+        # clock subtracts nothing: the rounding step's r is below c after one subtraction).
+        done = Signal()
+        m.d.comb += done.eq(busy & (phase == 2) & (left == 0) & ~first)
+        with m.If(done & feed):
+            m.d.sync += [a.eq(Mux(full, period, q)), b.eq(s), r.eq(0), q.eq(0),
+                         left.eq(bits)]
+            if self._laser_mode:
+                m.d.sync += c.eq(self._s_max)
+
+        with m.If(off):
+            m.d.sync += fresh.eq(0)
+        with m.Elif(first):
+            m.d.sync += fresh.eq(enable)
+        return q, fresh
