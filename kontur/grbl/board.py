@@ -1,0 +1,207 @@
+"""``kontur serve --port DEVICE``: the served moves made by a board, over ``kontur send``'s
+protocol.
+
+:class:`PortMotion` is the session's :class:`~kontur.grbl.motion.Motion` (the virtual clock
+still paces the planner: which lines are taken, when ``ok`` comes) whose segments are also
+framed and sent to the board by :class:`kontur.send.Feeder` (the handshake, flow control and
+checks of ``kontur send``). The frames of a run of motion are those of :func:`kontur.planner.
+frames` (``CONFIG``, a ``FEED`` and a move for each segment, ``STOP``), planned with the
+same look-ahead as ``kontur run``: segments are held back while later lines may still change
+their plan (:data:`LOOKAHEAD` of them), each batch sent planned together with the segments of
+the run before it (:data:`CONTEXT`), and the run ends (the rest and ``STOP``) once no line has
+come for :data:`SETTLE` s and the board has at most one frame left. A program that arrives
+whole is thus sent exactly as ``kontur send`` sends it.
+
+What a status report says is the board's: its position (``STATUS``, asked for every
+:data:`POLL` s while the board has frames, and at every ``?``), and ``Run`` while it has frames
+unanswered or says it moves. A board in ALARM (its e-stop, a limit) is Grbl's ``ALARM:10``
+(e-stop, as grblHAL numbers it) or ``ALARM:1`` (hard limit); a board that fails the protocol
+(:class:`kontur.send.SendError`) is ``ALARM:3`` with the reason in a ``[MSG:...]``. A soft
+reset sends ``ABORT`` and takes the position where the board stopped. Feed hold, resume and
+the overrides are not the board's yet: on ``--port`` they are refused with a message.
+"""
+
+import time
+import types
+
+from kontur.grbl.motion import Motion
+from kontur.planner import frames as program_frames, plan
+from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
+
+__all__ = ["PortMotion", "LOOKAHEAD", "CONTEXT", "SETTLE", "POLL"]
+
+#: Segments held back while lines still come: their plan may change with the lines after them.
+LOOKAHEAD = 8
+#: Segments already sent that a batch is planned with (the look-ahead's reach backwards).
+CONTEXT = 32
+#: Seconds with no new line before the run's last segments and its STOP are sent.
+SETTLE = 0.1
+#: Seconds between two QUERYs while the board has frames.
+POLL = 0.1
+
+#: The board's STATE byte for ALARM, and its inputs' bits (:data:`kontur.hdl.motion.protocol.
+#: INPUT_NAMES`): the e-stop's, the limits'.
+ALARM_STATE, ESTOP, LIMITS = 4, 1, 6
+
+
+class PortMotion(Motion):
+    """The virtual machine's motion, every segment also made by the board on ``port`` (an
+    open pyserial port); ``say`` takes a line for the sender, ``alarm(code)`` puts the
+    session in ALARM."""
+
+    def __init__(self, machine, board, port, *, speed=1.0, timeout=10.0, clock=time.monotonic):
+        self.feeder = Feeder(machine, port, timeout=timeout)
+        self.feeder.handshake()
+        super().__init__(machine, board, speed=speed, position=self.feeder.status[:2],
+                         clock=clock)
+        self.say = self.alarm = lambda *args: None
+        self.pending = []                   # segments not yet sent
+        self.context = []                   # the run's segments sent (the last CONTEXT)
+        self.running = False                # CONFIG sent, STOP not yet
+        self.added = clock()
+        self.asked = 0.0
+        self.failed = None                  # the SendError that stopped the board
+        self.alarmed = False
+        self.settled = None                 # the STATUS count to pass once all is answered
+
+    @property
+    def reported(self):
+        """Where the board says it is (steps)."""
+        status = self.feeder.status
+        return tuple(status[:2]) if status is not None and self.failed is None \
+            else self.position
+
+    @property
+    def busy(self):
+        if self.failed is not None:
+            return super().busy
+        feeder = self.feeder
+        return super().busy or bool(self.pending) or feeder.in_flight > 0 or \
+            (self.settled is not None and feeder.reports <= self.settled) or \
+            bool(feeder.status is not None and feeder.status[3] & 1)
+
+    def add(self, block):
+        if self.failed is not None or not block.left:
+            return
+        super().add(block)
+        self.pending += block.segments
+        self.added = self.clock()
+
+    def tick(self):
+        super().tick()
+        if self.failed is not None:
+            return
+        try:
+            self._drive()
+        except SendError as error:
+            self._fail(error)
+
+    def _drive(self):
+        now = self.clock()
+        if len(self.pending) > LOOKAHEAD:
+            self._send(len(self.pending) - LOOKAHEAD, end=False)
+        if self.pending and now - self.added >= SETTLE and self.feeder.in_flight <= 1:
+            self._send(len(self.pending), end=True)
+        feeder = self.feeder
+        feeder.pump()
+        if feeder.in_flight:
+            self.settled = -1               # a STATUS after the last answer is awaited
+            if now - self.asked >= POLL:
+                self.ask()
+        elif self.settled == -1:            # every frame answered: where did it end?
+            self.settled = feeder.reports
+            self.ask()
+        elif self.settled is not None and feeder.reports > self.settled:
+            self.settled = None
+            if feeder.status[3] & 1:        # still moving: ask again
+                self.settled = -1
+        self._check_alarm()
+
+    def ask(self):
+        """A QUERY (its STATUS read at the next turns)."""
+        if self.failed is None:
+            try:
+                self.feeder.query()
+            except SendError as error:
+                self._fail(error)
+            self.asked = self.clock()
+
+    def _send(self, count, *, end):
+        """The frames of the first ``count`` pending segments (with ``end``, the run's STOP
+        after them), planned with the run's segments before and the pending ones after."""
+        window = self.context + self.pending
+        items = plan(window, self.machine)[len(self.context):]
+        batch, self.pending = self.pending[:count], self.pending[count:]
+        frames, lines = program_frames(batch, items[:count], self.machine)
+        times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
+                                                 seconds=0.0), len(frames))
+        first = 0 if not self.running else 1
+        last = len(frames) if end else len(frames) - 1
+        self.feeder.extend(frames[first:last], lines[first:last], times[first:last])
+        self.running = not end
+        self.context = [] if end else (self.context + batch)[-CONTEXT:]
+
+    def _check_alarm(self):
+        status = self.feeder.status
+        if status is None or status[4] != ALARM_STATE or self.alarmed:
+            return
+        self.alarmed = True
+        tripped = status[5]
+        self._stop_board()
+        self.alarm(10 if tripped & ESTOP or not tripped & LIMITS else 1)
+
+    def _fail(self, error):
+        self.failed = error
+        self.say(f"[MSG:the board: {error}]")
+        self.alarm(3)
+        super().cancel()
+
+    def _stop_board(self):
+        """ABORT, then wait (:data:`ABORT_WAIT` s at most) for the outcomes of the frames in
+        flight and the STATUS of where the board stopped; the model is put there."""
+        feeder = self.feeder
+        try:
+            feeder.reset()
+            deadline = time.monotonic() + ABORT_WAIT
+            while feeder.in_flight and time.monotonic() < deadline:
+                feeder.pump()
+            feeder.status = None
+            feeder.query()
+            while feeder.status is None and time.monotonic() < deadline:
+                feeder.pump()
+        except SendError as error:
+            self._fail(error)
+            return
+        self.pending, self.context, self.running = [], [], False
+        super().cancel()
+        if feeder.status is not None:
+            self.position = tuple(feeder.status[:2])
+
+    def cancel(self):
+        """A soft reset or a jog cancel: the board ABORTs, the machine is where it stopped."""
+        if self.failed is None:
+            self._stop_board()
+        else:
+            super().cancel()
+
+    def unlock(self):
+        """``$X``: the alarm left, the board's by an UNLOCK (not while its e-stop is pressed:
+        its STATUS in ALARM again is a new alarm)."""
+        self.alarmed = False
+        status = self.feeder.status
+        if self.failed is None and status is not None and status[4] == ALARM_STATE:
+            try:
+                self.feeder.query(unlock=True)
+            except SendError as error:
+                self._fail(error)
+
+    # ---- not the board's yet ----------------------------------------------------------
+
+    def hold(self):
+        self.say("[MSG:feed hold is not supported with --port yet: ctrl-X stops the board]")
+
+    def resume(self):
+        return None
+
+    def override(self, index, percent):
+        self.say("[MSG:overrides are not supported with --port yet]")

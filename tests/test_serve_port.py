@@ -1,0 +1,99 @@
+# amaranth: UnusedElaboratable=no
+"""``kontur serve --port DEVICE``: Grbl 1.1 to a sender, the moves made by a board over
+``kontur send``'s protocol, here the fake board of ``tests/test_send.py`` (the protocol's
+reference decoder behind a pseudo-terminal). The frames it gets for a streamed program are
+the ones ``kontur send`` sends for the same program; the status reports are the board's."""
+
+import select
+import sys
+import time
+
+from kontur.hdl.motion import protocol
+from kontur.machining import prepare
+from kontur.send import send
+from kontur.sim import processes
+
+from .test_send import FakeMachine, PtyBoard, within
+from .test_serve import LONG, SHORT, SPEED, WELCOME, Port, program_end, read_steps, run_steps, \
+    stream, wait_for_outputs
+
+#: The default machine's queue (frames).
+WINDOW = 32
+
+
+class Recording(FakeMachine):
+    """A :class:`FakeMachine` that keeps every frame it is sent: ``(type, payload)``."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.received = []
+        self.recorder = protocol.CommandParser()
+
+    def write(self, data):
+        for event in self.recorder.feed(data):
+            if event[0] == "frame":
+                self.received.append(tuple(event[1:]))
+        super().write(data)
+
+
+def _serve(tmp_path, board):
+    link, out = tmp_path / "grbl", tmp_path / "out"
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--link", str(link), "--out",
+            str(out), "--speed", str(SPEED), "--port", board.path, "--timeout", "5"]
+    return processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path), link, out
+
+
+def _connect(process, link):
+    ready, _, _ = select.select([process.stdout], [], [], 30)
+    assert ready, "kontur serve printed no pseudo-terminal"
+    assert process.stdout.readline().decode().startswith("/dev/pts/")
+    port = Port(link)
+    assert WELCOME.match(port.line())
+    return port
+
+
+def test_streamed_program_runs_on_the_board(tmp_path):
+    """The plain character-counting client streams a program: every line ok, Idle at the
+    program's end (the board's STATUS), the board got kontur send's frames for the program
+    and moved to its end; the steps written are kontur run's."""
+    job = prepare(SHORT, board="icebreaker")
+    reference = Recording(WINDOW)
+    within(10, send, job, reference, timeout=1)
+    board = PtyBoard(Recording(WINDOW))
+    child, link, out = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        answers, _ = stream(port, SHORT)
+        assert answers == ["ok"] * len(SHORT.splitlines())
+        assert port.wait_idle(30) == (*program_end(SHORT), 0.0)
+        port.close()
+        assert board.machine.received == reference.received
+        assert tuple(board.machine.position) == tuple(job.end)
+        expected = run_steps(SHORT)
+        wait_for_outputs(out, len(expected), timeout=30)
+        assert read_steps(out) == expected
+        process.stdout.close()
+
+
+def test_soft_reset_aborts_the_board(tmp_path):
+    """ctrl-X while the board moves (an answer every 0.3 s): the board gets ABORT, ALARM:3 and
+    the welcome come back, the position reported is where the board stopped."""
+    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command(LONG.strip()) == ["ok"]
+        time.sleep(0.4)
+        port.serial.write(b"\x18")
+        assert port.line() == "ALARM:3"
+        assert WELCOME.match(port.line())
+        assert port.line() == "[MSG:'$H'|'$X' to unlock]"
+        state, stopped, _ = port.status()
+        assert state == "Alarm" and board.machine.aborted
+        x, y = board.machine.position
+        assert stopped == (x / 80, y / 80, 0.0)
+        assert (x, y) != (8000, 4000)                  # LONG's end (100, 50 mm): not reached
+        assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+        assert port.status()[0] == "Idle"
+        port.close()
+        process.stdout.close()
