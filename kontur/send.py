@@ -494,6 +494,15 @@ class Feeder(_Sender):
         self.status = fields
         self.reports += 1
 
+    def read(self):
+        """As :meth:`_Sender.read`, but never waiting: nothing when the port has nothing (the
+        caller's loop has senders to serve)."""
+        try:
+            waiting = getattr(self.port, "in_waiting", 1)
+        except OSError as error:
+            raise _LinkDown(f"reading from the port failed ({error})") from None
+        return super().read() if waiting else []
+
     def extend(self, frames, lines, durations):
         self.frames += frames
         self.lines += lines

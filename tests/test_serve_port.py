@@ -8,13 +8,15 @@ import select
 import sys
 import time
 
+import pytest
+
 from kontur.hdl.motion import protocol
 from kontur.machining import prepare
 from kontur.send import send
 from kontur.sim import processes
 
 from .test_send import FakeMachine, PtyBoard, within
-from .test_serve import LONG, SHORT, SPEED, WELCOME, Port, program_end, read_steps, run_steps, \
+from .test_serve import BRACKET, LONG, SHORT, SPEED, WELCOME, Port, program_end, read_steps, run_steps, \
     stream, wait_for_outputs
 
 #: The default machine's queue (frames).
@@ -52,24 +54,26 @@ def _connect(process, link):
     return port
 
 
-def test_streamed_program_runs_on_the_board(tmp_path):
+@pytest.mark.parametrize("text", [SHORT, BRACKET.read_text()], ids=["short", "bracket"])
+def test_streamed_program_runs_on_the_board(tmp_path, text):
     """The plain character-counting client streams a program: every line ok, Idle at the
     program's end (the board's STATUS), the board got kontur send's frames for the program
-    and moved to its end; the steps written are kontur run's."""
-    job = prepare(SHORT, board="icebreaker")
+    and moved to its end; the steps written are kontur run's. The bracket (17 segments) is
+    sent in batches while it streams (more segments than the look-ahead holds back)."""
+    job = prepare(text, board="icebreaker")
     reference = Recording(WINDOW)
     within(10, send, job, reference, timeout=1)
     board = PtyBoard(Recording(WINDOW))
     child, link, out = _serve(tmp_path, board)
     with board, child as process:
         port = _connect(process, link)
-        answers, _ = stream(port, SHORT)
-        assert answers == ["ok"] * len(SHORT.splitlines())
-        assert port.wait_idle(30) == (*program_end(SHORT), 0.0)
+        answers, _ = stream(port, text)
+        assert answers == ["ok"] * len(text.splitlines())
+        assert port.wait_idle(30) == (*program_end(text), 0.0)
         port.close()
         assert board.machine.received == reference.received
         assert tuple(board.machine.position) == tuple(job.end)
-        expected = run_steps(SHORT)
+        expected = run_steps(text)
         wait_for_outputs(out, len(expected), timeout=30)
         assert read_steps(out) == expected
         process.stdout.close()
@@ -95,5 +99,27 @@ def test_soft_reset_aborts_the_board(tmp_path):
         assert (x, y) != (8000, 4000)                  # LONG's end (100, 50 mm): not reached
         assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
         assert port.status()[0] == "Idle"
+        port.close()
+        process.stdout.close()
+
+
+def test_board_alarm_and_unlock(tmp_path):
+    """A limit trips on the board while it moves (its STATUS in ALARM, limit_x): Grbl's
+    ALARM:1 (hard limit), the board ABORTed, Alarm in the status reports; $X sends the board
+    UNLOCK, which leaves its ALARM (the e-stop is not pressed): Idle again."""
+    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command(LONG.strip()) == ["ok"]
+        board.machine.state, board.machine.alarm, board.machine.inputs = 4, 2, 2
+        assert port.line() == "ALARM:1"
+        assert port.status()[0] == "Alarm" and board.machine.aborted
+        assert port.command("G1 X0 Y0 F1000") == ["error:9"]
+        assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+        deadline = time.monotonic() + 10
+        while port.status()[0] != "Idle":
+            assert time.monotonic() < deadline, "the board never left ALARM"
+        assert board.machine.unlocks == 1
         port.close()
         process.stdout.close()

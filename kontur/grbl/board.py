@@ -6,14 +6,14 @@ still paces the planner: which lines are taken, when ``ok`` comes) whose segment
 framed and sent to the board by :class:`kontur.send.Feeder` (the handshake, flow control and
 checks of ``kontur send``). The frames of a run of motion are those of :func:`kontur.planner.
 frames` (``CONFIG``, a ``FEED`` and a move for each segment, ``STOP``), planned with the
-same look-ahead as ``kontur run``: segments are held back while later lines may still change
-their plan (:data:`LOOKAHEAD` of them), each batch sent planned together with the segments of
-the run before it (:data:`CONTEXT`), and the run ends (the rest and ``STOP``) once no line has
-come for :data:`SETTLE` s and the board has at most one frame left. A program that arrives
-whole is thus sent exactly as ``kontur send`` sends it.
+same look-ahead as ``kontur run``: a segment is sent once the known path after it is long
+enough to stop in (:func:`reach`: no later line can change its plan), planned together with
+the run's segments sent within that distance before it; the run ends (the rest and ``STOP``)
+once no line has come for :data:`SETTLE` s and the session has none waiting. A program that
+streams without a pause is thus sent as ``kontur send`` sends it, frame for frame.
 
 What a status report says is the board's: its position (``STATUS``, asked for every
-:data:`POLL` s while the board has frames, and at every ``?``), and ``Run`` while it has frames
+:data:`POLL` s, and once more after the last frame's answer), and ``Run`` while it has frames
 unanswered or says it moves. A board in ALARM (its e-stop, a limit) is Grbl's ``ALARM:10``
 (e-stop, as grblHAL numbers it) or ``ALARM:1`` (hard limit); a board that fails the protocol
 (:class:`kontur.send.SendError`) is ``ALARM:3`` with the reason in a ``[MSG:...]``. A soft
@@ -28,20 +28,31 @@ from kontur.grbl.motion import Motion
 from kontur.planner import frames as program_frames, plan
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
-__all__ = ["PortMotion", "LOOKAHEAD", "CONTEXT", "SETTLE", "POLL"]
+__all__ = ["PortMotion", "reach", "SETTLE", "POLL"]
 
-#: Segments held back while lines still come: their plan may change with the lines after them.
-LOOKAHEAD = 8
-#: Segments already sent that a batch is planned with (the look-ahead's reach backwards).
-CONTEXT = 32
-#: Seconds with no new line before the run's last segments and its STOP are sent.
-SETTLE = 0.1
+#: Seconds with no new line (and none waiting) before the run's last segments and its STOP
+#: are sent.
+SETTLE = 0.25
 #: Seconds between two QUERYs while the board has frames.
 POLL = 0.1
 
 #: The board's STATE byte for ALARM, and its inputs' bits (:data:`kontur.hdl.motion.protocol.
 #: INPUT_NAMES`): the e-stop's, the limits'.
 ALARM_STATE, ESTOP, LIMITS = 4, 1, 6
+
+
+def reach(machine):
+    """How far (mm) a plan's look-ahead reaches: the distance to stop from twice the machine's
+    maximum feed (:attr:`Motion._fastest`, above any planned speed) at its acceleration. A
+    segment followed by this much known path has its final plan (no later line can lower its
+    exit: the machine could stop in time whatever comes), and a segment this far past the
+    start of a batch's window is planned as if the run before the window were known."""
+    fastest = machine.max_feed / 60 * 2
+    return fastest ** 2 / (2 * machine.accel)
+
+
+def _length(segment, spm):
+    return sum(2 ** 0.5 if dx and dy else 1.0 for dx, dy in segment.steps) / spm
 
 
 class PortMotion(Motion):
@@ -55,13 +66,15 @@ class PortMotion(Motion):
         super().__init__(machine, board, speed=speed, position=self.feeder.status[:2],
                          clock=clock)
         self.say = self.alarm = lambda *args: None
-        self.pending = []                   # segments not yet sent
-        self.context = []                   # the run's segments sent (the last CONTEXT)
+        self.more = lambda: False           # the session has lines it will take
+        self.pending = []                   # (segment, length mm) not yet sent
+        self.context = []                   # the run's last ones sent, within reach
         self.running = False                # CONFIG sent, STOP not yet
         self.added = clock()
         self.asked = 0.0
         self.failed = None                  # the SendError that stopped the board
         self.alarmed = False
+        self.unlocked = -1                  # the STATUS count when UNLOCK was sent
         self.settled = None                 # the STATUS count to pass once all is answered
 
     @property
@@ -84,7 +97,8 @@ class PortMotion(Motion):
         if self.failed is not None or not block.left:
             return
         super().add(block)
-        self.pending += block.segments
+        spm = self.machine.steps_per_mm
+        self.pending += [(segment, _length(segment, spm)) for segment in block.segments]
         self.added = self.clock()
 
     def tick(self):
@@ -98,16 +112,21 @@ class PortMotion(Motion):
 
     def _drive(self):
         now = self.clock()
-        if len(self.pending) > LOOKAHEAD:
-            self._send(len(self.pending) - LOOKAHEAD, end=False)
-        if self.pending and now - self.added >= SETTLE and self.feeder.in_flight <= 1:
+        final, ahead = len(self.pending), 0.0        # the segments whose plan is final
+        limit = reach(self.machine)
+        while final and ahead < limit:
+            final -= 1
+            ahead += self.pending[final][1]
+        if final:
+            self._send(final, end=False)
+        if self.pending and now - self.added >= SETTLE and not self.more():
             self._send(len(self.pending), end=True)
         feeder = self.feeder
         feeder.pump()
+        if now - self.asked >= POLL:        # at rest too: an e-stop is an alarm at once
+            self.ask()
         if feeder.in_flight:
             self.settled = -1               # a STATUS after the last answer is awaited
-            if now - self.asked >= POLL:
-                self.ask()
         elif self.settled == -1:            # every frame answered: where did it end?
             self.settled = feeder.reports
             self.ask()
@@ -129,9 +148,10 @@ class PortMotion(Motion):
     def _send(self, count, *, end):
         """The frames of the first ``count`` pending segments (with ``end``, the run's STOP
         after them), planned with the run's segments before and the pending ones after."""
-        window = self.context + self.pending
+        window = [segment for segment, _ in self.context + self.pending]
         items = plan(window, self.machine)[len(self.context):]
-        batch, self.pending = self.pending[:count], self.pending[count:]
+        sent, self.pending = self.pending[:count], self.pending[count:]
+        batch = [segment for segment, _ in sent]
         frames, lines = program_frames(batch, items[:count], self.machine)
         times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
                                                  seconds=0.0), len(frames))
@@ -139,11 +159,18 @@ class PortMotion(Motion):
         last = len(frames) if end else len(frames) - 1
         self.feeder.extend(frames[first:last], lines[first:last], times[first:last])
         self.running = not end
-        self.context = [] if end else (self.context + batch)[-CONTEXT:]
+        self.context = [] if end else self.context + sent
+        behind, limit = 0.0, reach(self.machine)
+        for index in range(len(self.context) - 1, -1, -1):
+            behind += self.context[index][1]
+            if behind >= limit:             # what is before this one changes nothing here
+                del self.context[:index]
+                break
 
     def _check_alarm(self):
         status = self.feeder.status
-        if status is None or status[4] != ALARM_STATE or self.alarmed:
+        if status is None or status[4] != ALARM_STATE or self.alarmed or \
+                self.feeder.reports <= self.unlocked:      # the STATUS before the UNLOCK's
             return
         self.alarmed = True
         tripped = status[5]
@@ -173,6 +200,7 @@ class PortMotion(Motion):
             self._fail(error)
             return
         self.pending, self.context, self.running = [], [], False
+        self.settled = None if feeder.status is not None and not feeder.in_flight else -1
         super().cancel()
         if feeder.status is not None:
             self.position = tuple(feeder.status[:2])
@@ -192,6 +220,7 @@ class PortMotion(Motion):
         if self.failed is None and status is not None and status[4] == ALARM_STATE:
             try:
                 self.feeder.query(unlock=True)
+                self.unlocked = self.feeder.reports
             except SendError as error:
                 self._fail(error)
 

@@ -235,7 +235,7 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
     session = Session(machine, board, send, speed=speed, machine_file=machine_file,
                       motion=motion)
     if motion is not None:
-        motion.say, motion.alarm = send, session.board_alarm
+        motion.say, motion.alarm, motion.more = send, session.board_alarm, session.lines_ahead
     outputs = Outputs(session, out_dir, engine=engine) \
         if out_dir is not None or engine != "model" else None
     out.write(f"{name}\n")

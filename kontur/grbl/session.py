@@ -69,6 +69,11 @@ class Session:
     def machine(self):
         return self.settings.machine
 
+    def lines_ahead(self):
+        """Complete lines are in the receive buffer, to be taken without waiting for the
+        motion's end (a full planner takes them as it empties)."""
+        return self._waiting is None and (b"\n" in self.rx or b"\r" in self.rx)
+
     def board_alarm(self, code):
         """The machine behind stopped itself (a board's e-stop, limit, or failure): Grbl's
         ``ALARM:code``, and the alarm lock until ``$X``."""
