@@ -485,7 +485,9 @@ class Feeder(_Sender):
 
     def check_board(self, fields):
         self.job.start = tuple(fields[:2])      # wherever it is: the session starts there
-        super().check_board(fields)
+        self.check_flags(fields, abort=False)
+        if STATES[fields[4]] != "ALARM":        # in ALARM: the caller's to say (and unlock)
+            super().check_board(fields)
         self.status = fields
         self.reports += 1
 
@@ -513,8 +515,21 @@ class Feeder(_Sender):
         """Frames sent or to send and not yet answered."""
         return len(self.frames) - self.answered
 
+    def _link(self, method, *args):
+        """``method(*args)``, a failed port a :class:`SendError` (as :func:`send` says it)."""
+        try:
+            return method(*args)
+        except _LinkDown as error:
+            raise SendError(f"{error}{self.abort()}") from None
+
+    def handshake(self, unlock=False):
+        return self._link(super().handshake, unlock)
+
+    def pump(self):
+        return self._link(super().pump)
+
     def query(self, unlock=False):
-        self.write(protocol.unlock() if unlock else protocol.query())
+        self._link(self.write, protocol.unlock() if unlock else protocol.query())
 
     def outcome(self, number, code, dropped=0):
         if not self.aborting:
@@ -526,6 +541,6 @@ class Feeder(_Sender):
 
     def reset(self):
         """``ABORT``: the board stops, the frames not yet sent are dropped."""
-        self.write(protocol.abort())
+        self._link(self.write, protocol.abort())
         del self.frames[self.sent:], self.lines[self.sent:], self.durations[self.sent:]
         self.aborting = self.answered < self.sent

@@ -123,3 +123,34 @@ def test_board_alarm_and_unlock(tmp_path):
         assert board.machine.unlocks == 1
         port.close()
         process.stdout.close()
+
+
+def test_a_board_that_does_not_answer_ends_the_server(tmp_path):
+    """kontur send's handshake first: a board that never answers QUERY is one line and status
+    1, before any pseudo-terminal is offered."""
+    board = PtyBoard(Recording(WINDOW, mute=True))
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--port", board.path,
+            "--timeout", "0.3"]
+    with board:
+        run = processes.run(args, timeout=30, stdout=processes.subprocess.PIPE,
+                            stderr=processes.subprocess.PIPE, cwd=tmp_path)
+    assert run.returncode == 1 and run.stdout == b""
+    assert run.stderr.decode() == ("kontur: SendError: no answer from the board at 115200 "
+                                   "baud in 0.3 s (is the baud of the bitstream's machine "
+                                   "file the same?)\n")
+    assert board.machine.count == 0
+
+
+def test_server_end_stops_the_board(tmp_path):
+    """The server ended (SIGTERM) while the board has frames: it gets ABORT first."""
+    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    child, link, _ = _serve(tmp_path, board)
+    with board:
+        with child as process:
+            port = _connect(process, link)
+            assert port.command(LONG.strip()) == ["ok"]
+            time.sleep(0.4)
+            assert not board.machine.aborted
+            port.close()
+            process.stdout.close()
+        assert board.machine.aborted

@@ -158,6 +158,7 @@ class PortMotion(Motion):
         first = 0 if not self.running else 1
         last = len(frames) if end else len(frames) - 1
         self.feeder.extend(frames[first:last], lines[first:last], times[first:last])
+        self.settled = -1                   # a STATUS after their answers is awaited
         self.running = not end
         self.context = [] if end else self.context + sent
         behind, limit = 0.0, reach(self.machine)
@@ -223,6 +224,14 @@ class PortMotion(Motion):
                 self.unlocked = self.feeder.reports
             except SendError as error:
                 self._fail(error)
+
+    def close(self):
+        """The server ends: a board with frames still to make is stopped (ABORT)."""
+        if self.failed is None and (self.feeder.in_flight or self.pending):
+            try:
+                self.feeder.reset()
+            except SendError:
+                pass                        # the port is gone: nothing more to do
 
     # ---- not the board's yet ----------------------------------------------------------
 

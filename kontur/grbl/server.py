@@ -245,6 +245,8 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
     try:
         _loop(session, pty, server, clients, connected, outputs)
     finally:
+        if motion is not None:
+            motion.close()
         if outputs is not None:
             outputs.close()
         for client in clients.values():
