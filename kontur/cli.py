@@ -298,9 +298,9 @@ def _add_serve(commands):
                       "kontur's virtual machine",
         description="Present a Grbl 1.1-compatible device on a pseudo-terminal (its path "
                     "the first line of standard output) and, with --tcp, on a localhost TCP "
-                    "port; run what a sender streams on the virtual machine in real time, "
-                    "its steps written to --out DIR as kontur run writes them. See "
-                    "docs/grbl.md.",
+                    "port; run what a sender streams on the virtual machine in real time "
+                    "(and, with --port, on a board over kontur send's protocol), its steps "
+                    "written to --out DIR as kontur run writes them. See docs/grbl.md.",
         epilog="Runs until SIGINT, SIGTERM or SIGHUP (status 128 + the signal, the outputs "
                "written first); 2 for an option refused.")
     serve.add_argument("--link", metavar="PATH", default=None,
