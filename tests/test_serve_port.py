@@ -143,7 +143,7 @@ def test_a_board_that_does_not_answer_ends_the_server(tmp_path):
 
 def test_server_end_stops_the_board(tmp_path):
     """The server ended (SIGTERM) while the board has frames: it gets ABORT first."""
-    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    board = PtyBoard(Recording(WINDOW), pace=0.5)
     child, link, _ = _serve(tmp_path, board)
     with board:
         with child as process:
@@ -154,3 +154,23 @@ def test_server_end_stops_the_board(tmp_path):
             port.close()
             process.stdout.close()
         assert board.machine.aborted
+
+
+def test_a_refused_frame_is_an_alarm(tmp_path):
+    """The board refuses the first move (its OUTCOME REFUSED): kontur send's message, in the
+    program's lines as the session numbers them, then ALARM:3 and the alarm lock."""
+    board = PtyBoard(Recording(WINDOW, outcome={2: 1}))      # CONFIG, FEED, then the move
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command("G0 X5 Y2") == ["ok"]
+        assert port.line() == "[MSG:the board: line 1: the machine refused this move]"
+        assert port.line() == "ALARM:3"
+        assert port.status()[0] == "Alarm"
+        deadline = time.monotonic() + 10              # the board's thread takes the ABORT
+        while not board.machine.aborted:
+            assert time.monotonic() < deadline, "no ABORT reached the board"
+            time.sleep(0.01)
+        assert port.command("G1 X0 Y0 F1000") == ["error:9"]
+        port.close()
+        process.stdout.close()
