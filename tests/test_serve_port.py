@@ -174,3 +174,26 @@ def test_a_refused_frame_is_an_alarm(tmp_path):
         assert port.command("G1 X0 Y0 F1000") == ["error:9"]
         port.close()
         process.stdout.close()
+
+
+#: Short moves, all of them together shorter than the distance to stop from the fastest feed:
+#: the planner fills before the look-ahead covers it.
+TINY = "G21 G90 F600\n" + "".join(f"G1 X{i / 10:.1f} Y{i % 2 / 10:.1f}\n"
+                                  for i in range(1, 61)) + "M30\n"
+
+
+def test_a_full_planner_of_short_moves(tmp_path):
+    """60 moves of 0.14 mm: the segments are sent as the planner fills (no deadlock between a
+    full planner and a look-ahead not yet covered); Idle at the end, the board there."""
+    job = prepare(TINY, board="icebreaker")
+    assert sum(len(s.steps) for s in job.segments) / 80 < 10            # below the reach
+    board = PtyBoard(Recording(WINDOW))
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        answers, _ = stream(port, TINY)
+        assert answers == ["ok"] * len(TINY.splitlines())
+        assert port.wait_idle(30) == (*program_end(TINY), 0.0)
+        assert tuple(board.machine.position) == tuple(job.end)
+        port.close()
+        process.stdout.close()

@@ -10,7 +10,10 @@ same look-ahead as ``kontur run``: a segment is sent once the known path after i
 enough to stop in (:func:`reach`: no later line can change its plan), planned together with
 the run's segments sent within that distance before it; the run ends (the rest and ``STOP``)
 once no line has come for :data:`SETTLE` s and the session has none waiting. A program that
-streams without a pause is thus sent as ``kontur send`` sends it, frame for frame.
+streams without a pause is thus sent as ``kontur send`` sends it, frame for frame (unless the
+planner fills with segments shorter together than that distance: they are sent then, planned
+to stop at the last, as Grbl's full planner slows the machine). The board's backlog counts in
+the planner's blocks (:attr:`PortMotion.planned`): a sender is held back by a board behind.
 
 What a status report says is the board's: its position (``STATUS``, asked for every
 :data:`POLL` s, and once more after the last frame's answer), and ``Run`` while it has frames
@@ -25,6 +28,7 @@ import time
 import types
 
 from kontur.grbl.motion import Motion
+from kontur.grbl.protocol import PLANNER_BLOCKS
 from kontur.planner import frames as program_frames, plan
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
@@ -93,6 +97,13 @@ class PortMotion(Motion):
             (self.settled is not None and feeder.reports <= self.settled) or \
             bool(feeder.status is not None and feeder.status[3] & 1)
 
+    @property
+    def planned(self):
+        """The blocks in the planner: the virtual machine's, or the segments the board has
+        still to make when it is behind (a sender is held back by the board then, as Grbl's
+        planner holds it back)."""
+        return max(super().planned, len(self.pending) + self.feeder.in_flight // 2)
+
     def add(self, block):
         if self.failed is not None or not block.left:
             return
@@ -117,6 +128,8 @@ class PortMotion(Motion):
         while final and ahead < limit:
             final -= 1
             ahead += self.pending[final][1]
+        if len(self.pending) + self.feeder.in_flight // 2 >= PLANNER_BLOCKS - 1:
+            final = len(self.pending)       # the planner full: no more look-ahead will come
         if final:
             self._send(final, end=False)
         if self.pending and now - self.added >= SETTLE and not self.more():

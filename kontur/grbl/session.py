@@ -157,7 +157,7 @@ class Session:
                     self.send(line)
                 self._waiting = None
             ends = [i for i in (self.rx.find(b"\n"), self.rx.find(b"\r")) if i >= 0]
-            if not ends or len(self.motion.blocks) >= p.PLANNER_BLOCKS - 1:
+            if not ends or self.motion.planned >= p.PLANNER_BLOCKS - 1:
                 return
             end = min(ends)
             raw = self.rx[:end].decode("latin-1")
@@ -230,7 +230,7 @@ class Session:
         position = (x / spm, y / spm, z)
         if not mask & 1:
             position = tuple(c - o for c, o in zip(position, offset))
-        buffer = (max(p.PLANNER_BLOCKS - 1 - len(motion.blocks), 0),
+        buffer = (max(p.PLANNER_BLOCKS - 1 - motion.planned, 0),
                   max(p.RX_BUFFER - len(self.rx), 0)) if mask & 2 else None
         offset = offset if self._reports % 10 == 0 else None
         self._reports += 1
