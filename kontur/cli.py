@@ -306,9 +306,9 @@ def _add_serve(commands):
                       "kontur's virtual machine",
         description="Present a Grbl 1.1-compatible device on a pseudo-terminal (its path "
                     "the first line of standard output) and, with --tcp, on a localhost TCP "
-                    "port; run what a sender streams on the virtual machine in real time, "
-                    "its steps written to --out DIR as kontur run writes them. See "
-                    "docs/grbl.md.",
+                    "port; run what a sender streams on the virtual machine in real time "
+                    "(and, with --port, on a board over kontur send's protocol), its steps "
+                    "written to --out DIR as kontur run writes them. See docs/grbl.md.",
         epilog="Runs until SIGINT, SIGTERM or SIGHUP (status 128 + the signal, the outputs "
                "written first); 2 for an option refused.")
     serve.add_argument("--link", metavar="PATH", default=None,
@@ -322,7 +322,13 @@ def _add_serve(commands):
                             "verilator: the models in real time, and every run of motion "
                             "run again, once the machine rests, on the controller's RTL under "
                             "Verilator, its steps checked against the model's (summary.json's "
-                            "rtl_check). A board behind it (--port) is issue 29's next slice")
+                            "rtl_check)")
+    serve.add_argument("--port", metavar="DEVICE", default=None,
+                       help="a board's serial port (or pyserial URL): the moves are also made "
+                            "by its controller, over kontur send's protocol and handshake; "
+                            "status reports give the board's position and state")
+    serve.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
+                       help="with --port: as kontur send's (default 10)")
     serve.add_argument("--out", metavar="DIR", default=None,
                        help="write steps.txt and summary.json of the steps made since the "
                             "start to DIR after every run of motion and at the end")
@@ -353,8 +359,24 @@ def _serve(args, out):
     if args.engine == "verilator":
         from kontur.sim.runners import ensure_simulator
         ensure_simulator("verilator")          # before any sender connects: status 1
-    serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
-          speed=args.speed, engine=args.engine, machine_file=args.machine, out=out)
+    port = None
+    if args.port is not None:
+        if not (math.isfinite(args.timeout) and args.timeout > 0):
+            raise UsageError(f"--timeout must be a positive number of seconds, not "
+                             f"{args.timeout:g}")
+        from kontur.send import open_port
+        try:
+            port = open_port(args.port, machine.baud, write_timeout=args.timeout)
+        except Exception as error:                 # pyserial: SerialException, ValueError
+            sys.stderr.write(f"kontur: cannot open {args.port}: {error}\n")
+            return 1
+    try:
+        serve(machine, args.board, link=args.link, tcp=args.tcp, out_dir=args.out,
+              speed=args.speed, engine=args.engine, machine_file=args.machine, out=out,
+              port=port, timeout=args.timeout)
+    finally:
+        if port is not None:
+            port.close()
     return 0
 
 

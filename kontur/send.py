@@ -29,6 +29,7 @@ frames in flight and reads where the machine stopped.
 import math
 import signal
 import time
+import types
 
 from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATES, STATUS
 
@@ -36,7 +37,7 @@ from kontur.hdl.motion import protocol
 from kontur.sim import processes
 
 __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT",
-           "unhonoured", "UNHONOURED"]
+           "unhonoured", "UNHONOURED", "Feeder"]
 
 OUTCOMES = ("done", "refused", "aborted")
 DONE, REFUSED, ABORTED = range(3)
@@ -359,25 +360,31 @@ class _Sender:
         while self.answered < count:
             self.check_interrupt()
             self.control()
-            while self.sent < count and self.sent - self.answered < self.window:
-                self.write(self.frames[self.sent])
-                self.sent_at.append(time.monotonic())
-                self.sent += 1
-            for reply, dropped in self.read():
-                if reply.kind == OUTCOME:
-                    self.outcome(*reply.fields, dropped)
-                elif reply.kind == ERROR:
-                    self.error(*reply.fields)
-                else:
-                    self.check_status(reply.fields)
-                    self.statuses += 1
-            if self.answered < count and time.monotonic() > self.deadline():
-                index = self.answered
-                waited = time.monotonic() - max(self.heard, self.sent_at[index])
-                self.fail(f"no answer in {waited:.1f} s to {self.sent - index} frames, the "
-                          f"first from {_where(self.lines, index)} (planned to take "
-                          f"{self.durations[index]:.2f} s): the machine sent "
-                          f"{self.heard_else()}")
+            self.pump()
+
+    def pump(self):
+        """One turn of the stream: frames sent while the window has room, the replies there
+        are read, the oldest unanswered frame's deadline checked."""
+        count = len(self.frames)
+        while self.sent < count and self.sent - self.answered < self.window:
+            self.write(self.frames[self.sent])
+            self.sent_at.append(time.monotonic())
+            self.sent += 1
+        for reply, dropped in self.read():
+            if reply.kind == OUTCOME:
+                self.outcome(*reply.fields, dropped)
+            elif reply.kind == ERROR:
+                self.error(*reply.fields)
+            else:
+                self.check_status(reply.fields)
+                self.statuses += 1
+        if self.answered < count and time.monotonic() > self.deadline():
+            index = self.answered
+            waited = time.monotonic() - max(self.heard, self.sent_at[index])
+            self.fail(f"no answer in {waited:.1f} s to {self.sent - index} frames, the "
+                      f"first from {_where(self.lines, index)} (planned to take "
+                      f"{self.durations[index]:.2f} s): the machine sent "
+                      f"{self.heard_else()}")
 
     def finish(self):
         self.write(protocol.query())
@@ -495,3 +502,83 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
         where = (f" with {unanswered} frames unanswered (the first from "
                  f"{_where(sender.lines, sender.answered)})" if unanswered else "")
         raise SendError(f"{error}{where}{sender.abort()}") from None
+
+
+class Feeder(_Sender):
+    """The frames of a program that is still being written, sent as they come (``kontur
+    serve --port``): the same handshake, flow control, checks of every reply and deadlines as
+    :func:`send`, one turn at a time (:meth:`pump`, from the caller's loop). :meth:`extend`
+    adds frames (with their program lines and planned seconds); :attr:`status` is the last
+    ``STATUS`` fields; :meth:`query` asks for another; :meth:`reset` sends ``ABORT`` and drops
+    the frames not yet sent. The board may be anywhere at the handshake (:attr:`status`
+    says where). A failure raises :class:`SendError` (an ``ABORT`` sent)."""
+
+    def __init__(self, machine, port, *, timeout=10.0):
+        job = types.SimpleNamespace(machine=machine, start=None, end=None, segments=[],
+                                    items=[], seconds=0.0, frames=lambda: ([], []))
+        super().__init__(job, port, progress=None, timeout=timeout, out=None, stop=None)
+        self.status = None
+        self.reports = 0                        # STATUS replies taken
+        self.aborting = False
+
+    def check_board(self, fields):
+        self.job.start = tuple(fields[:2])      # wherever it is: the session starts there
+        self.check_flags(fields, abort=False)
+        if STATES[fields[4]] != "ALARM":        # in ALARM: the caller's to say (and unlock)
+            super().check_board(fields)
+        self.status = fields
+        self.reports += 1
+
+    def check_status(self, fields):
+        super().check_status(fields)
+        self.status = fields
+        self.reports += 1
+
+    def read(self):
+        """As :meth:`_Sender.read`, but never waiting: nothing when the port has nothing (the
+        caller's loop has senders to serve)."""
+        try:
+            waiting = getattr(self.port, "in_waiting", 1)
+        except OSError as error:
+            raise _LinkDown(f"reading from the port failed ({error})") from None
+        return super().read() if waiting else []
+
+    def extend(self, frames, lines, durations):
+        self.frames += frames
+        self.lines += lines
+        self.durations += durations
+
+    @property
+    def in_flight(self):
+        """Frames sent or to send and not yet answered."""
+        return len(self.frames) - self.answered
+
+    def _link(self, method, *args):
+        """``method(*args)``, a failed port a :class:`SendError` (as :func:`send` says it)."""
+        try:
+            return method(*args)
+        except _LinkDown as error:
+            raise SendError(f"{error}{self.abort()}") from None
+
+    def handshake(self, unlock=False):
+        return self._link(super().handshake, unlock)
+
+    def pump(self):
+        return self._link(super().pump)
+
+    def query(self, unlock=False):
+        self._link(self.write, protocol.unlock() if unlock else protocol.query())
+
+    def outcome(self, number, code, dropped=0):
+        if not self.aborting:
+            return super().outcome(number, code, dropped)
+        self.answered += 1                      # after an ABORT: every outcome is expected
+        self.heard = time.monotonic()
+        self.aborting = self.answered < self.sent
+        return None
+
+    def reset(self):
+        """``ABORT``: the board stops, the frames not yet sent are dropped."""
+        self._link(self.write, protocol.abort())
+        del self.frames[self.sent:], self.lines[self.sent:], self.durations[self.sent:]
+        self.aborting = self.answered < self.sent

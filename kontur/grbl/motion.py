@@ -104,6 +104,16 @@ class Motion:
             self._ramp_down()
 
     @property
+    def planned(self):
+        """The blocks in the planner (Grbl's: the moves not yet finished)."""
+        return len(self.blocks)
+
+    @property
+    def reported(self):
+        """Where a status report says the machine is (steps): here, :attr:`position`."""
+        return self.position
+
+    @property
     def busy(self):
         """Steps are queued (the machine runs, or would but for a hold)."""
         return bool(self._times) or self._replan_from is not None

@@ -210,10 +210,16 @@ def _listener(port):
 
 
 def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engine="model",
-          machine_file=None, out=sys.stdout):
+          machine_file=None, out=sys.stdout, port=None, timeout=10.0):
     """Serve until a signal ends the process (``KeyboardInterrupt``): the outputs are written
     and the link removed on the way out. ``engine`` ``"verilator"`` checks every run of motion
-    on the RTL (:class:`RTLCheck`; with ``out_dir``, where its record is written)."""
+    on the RTL (:class:`RTLCheck`; with ``out_dir``, where its record is written). ``port``:
+    an open serial port to a board that makes the moves (:class:`kontur.grbl.board.
+    PortMotion`, after ``kontur send``'s handshake, ``timeout`` its)."""
+    motion = None
+    if port is not None:
+        from kontur.grbl.board import PortMotion
+        motion = PortMotion(machine, board, port, speed=speed, timeout=timeout)
     master, name = _pty(link)
     server = _listener(tcp) if tcp is not None else None
     pty = _Endpoint(master)
@@ -227,7 +233,10 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
         for client in clients.values():
             client.outbox += data
 
-    session = Session(machine, board, send, speed=speed, machine_file=machine_file)
+    session = Session(machine, board, send, speed=speed, machine_file=machine_file,
+                      motion=motion)
+    if motion is not None:
+        motion.say, motion.alarm, motion.more = send, session.board_alarm, session.lines_ahead
     outputs = Outputs(session, out_dir, engine=engine) \
         if out_dir is not None or engine != "model" else None
     out.write(f"{name}\n")
@@ -237,6 +246,8 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
     try:
         _loop(session, pty, server, clients, connected, outputs)
     finally:
+        if motion is not None:
+            motion.close()
         if outputs is not None:
             outputs.close()
         for client in clients.values():

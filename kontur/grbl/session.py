@@ -38,13 +38,15 @@ class LineError(Exception):
 class Session:
     """Grbl on ``machine`` (a :class:`kontur.machine.Machine`, read from ``machine_file`` if
     given: its settings' writes are kept there) and ``board``; the virtual clock runs
-    ``speed`` times real time; ``send`` takes each line said (no line end)."""
+    ``speed`` times real time; ``send`` takes each line said (no line end). ``motion``: the
+    machine's motion when not the virtual one (:class:`kontur.grbl.board.PortMotion`)."""
 
-    def __init__(self, machine, board, send, *, speed=1.0, clock=None, machine_file=None):
+    def __init__(self, machine, board, send, *, speed=1.0, clock=None, machine_file=None,
+                 motion=None):
         self.board, self.send = board, send
         self.settings = Settings(machine, machine_file)
         options = {} if clock is None else {"clock": clock}
-        self.motion = Motion(machine, board, speed=speed, **options)
+        self.motion = motion or Motion(machine, board, speed=speed, **options)
         self.rx = bytearray()
         self.alarm = self.check = False
         self.number = 0                        # lines received
@@ -66,6 +68,19 @@ class Session:
     @property
     def machine(self):
         return self.settings.machine
+
+    def lines_ahead(self):
+        """Complete lines are in the receive buffer, to be taken without waiting for the
+        motion's end (a full planner takes them as it empties)."""
+        return self._waiting is None and (b"\n" in self.rx or b"\r" in self.rx)
+
+    def board_alarm(self, code):
+        """The machine behind stopped itself (a board's e-stop, limit, or failure): Grbl's
+        ``ALARM:code``, and the alarm lock until ``$X``."""
+        self.rx.clear()
+        self._waiting = None
+        self.alarm = True
+        self.send(f"ALARM:{code}")
 
     # ---- bytes in -----------------------------------------------------------------------
 
@@ -142,7 +157,7 @@ class Session:
                     self.send(line)
                 self._waiting = None
             ends = [i for i in (self.rx.find(b"\n"), self.rx.find(b"\r")) if i >= 0]
-            if not ends or len(self.motion.blocks) >= p.PLANNER_BLOCKS - 1:
+            if not ends or self.motion.planned >= p.PLANNER_BLOCKS - 1:
                 return
             end = min(ends)
             raw = self.rx[:end].decode("latin-1")
@@ -211,10 +226,11 @@ class Session:
         mask = self.settings.value(10)
         offset = tuple(float(c) for c in self.reader.modes()["offset"])
         z = float(self.z) if self.z is not None else 0.0
-        position = (motion.position[0] / spm, motion.position[1] / spm, z)
+        x, y = motion.reported
+        position = (x / spm, y / spm, z)
         if not mask & 1:
             position = tuple(c - o for c, o in zip(position, offset))
-        buffer = (max(p.PLANNER_BLOCKS - 1 - len(motion.blocks), 0),
+        buffer = (max(p.PLANNER_BLOCKS - 1 - motion.planned, 0),
                   max(p.RX_BUFFER - len(self.rx), 0)) if mask & 2 else None
         offset = offset if self._reports % 10 == 0 else None
         self._reports += 1
@@ -453,6 +469,8 @@ class Session:
             return ["[MSG:Enabled]"]
         if self.alarm:                             # X
             self.alarm = False
+            if hasattr(motion, "unlock"):          # a board's own alarm (--port)
+                motion.unlock()
             return ["[MSG:Caution: Unlocked]"]
         return None
 

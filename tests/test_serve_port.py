@@ -1,0 +1,199 @@
+# amaranth: UnusedElaboratable=no
+"""``kontur serve --port DEVICE``: Grbl 1.1 to a sender, the moves made by a board over
+``kontur send``'s protocol, here the fake board of ``tests/test_send.py`` (the protocol's
+reference decoder behind a pseudo-terminal). The frames it gets for a streamed program are
+the ones ``kontur send`` sends for the same program; the status reports are the board's."""
+
+import select
+import sys
+import time
+
+import pytest
+
+from kontur.hdl.motion import protocol
+from kontur.machining import prepare
+from kontur.send import send
+from kontur.sim import processes
+
+from .test_send import FakeMachine, PtyBoard, within
+from .test_serve import BRACKET, LONG, SHORT, SPEED, WELCOME, Port, program_end, read_steps, run_steps, \
+    stream, wait_for_outputs
+
+#: The default machine's queue (frames).
+WINDOW = 32
+
+
+class Recording(FakeMachine):
+    """A :class:`FakeMachine` that keeps every frame it is sent: ``(type, payload)``."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.received = []
+        self.recorder = protocol.CommandParser()
+
+    def write(self, data):
+        for event in self.recorder.feed(data):
+            if event[0] == "frame":
+                self.received.append(tuple(event[1:]))
+        super().write(data)
+
+
+def _serve(tmp_path, board):
+    link, out = tmp_path / "grbl", tmp_path / "out"
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--link", str(link), "--out",
+            str(out), "--speed", str(SPEED), "--port", board.path, "--timeout", "5"]
+    return processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path), link, out
+
+
+def _connect(process, link):
+    ready, _, _ = select.select([process.stdout], [], [], 30)
+    assert ready, "kontur serve printed no pseudo-terminal"
+    assert process.stdout.readline().decode().startswith("/dev/pts/")
+    port = Port(link)
+    assert WELCOME.match(port.line())
+    return port
+
+
+@pytest.mark.parametrize("text", [SHORT, BRACKET.read_text()], ids=["short", "bracket"])
+def test_streamed_program_runs_on_the_board(tmp_path, text):
+    """The plain character-counting client streams a program: every line ok, Idle at the
+    program's end (the board's STATUS), the board got kontur send's frames for the program
+    and moved to its end; the steps written are kontur run's. The bracket (17 segments) is
+    sent in batches while it streams (more segments than the look-ahead holds back)."""
+    job = prepare(text, board="icebreaker")
+    reference = Recording(WINDOW)
+    within(10, send, job, reference, timeout=1)
+    board = PtyBoard(Recording(WINDOW))
+    child, link, out = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        answers, _ = stream(port, text)
+        assert answers == ["ok"] * len(text.splitlines())
+        assert port.wait_idle(30) == (*program_end(text), 0.0)
+        port.close()
+        assert board.machine.received == reference.received
+        assert tuple(board.machine.position) == tuple(job.end)
+        expected = run_steps(text)
+        wait_for_outputs(out, len(expected), timeout=30)
+        assert read_steps(out) == expected
+        process.stdout.close()
+
+
+def test_soft_reset_aborts_the_board(tmp_path):
+    """ctrl-X while the board moves (an answer every 0.3 s): the board gets ABORT, ALARM:3 and
+    the welcome come back, the position reported is where the board stopped."""
+    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command(LONG.strip()) == ["ok"]
+        time.sleep(0.4)
+        port.serial.write(b"\x18")
+        assert port.line() == "ALARM:3"
+        assert WELCOME.match(port.line())
+        assert port.line() == "[MSG:'$H'|'$X' to unlock]"
+        state, stopped, _ = port.status()
+        assert state == "Alarm" and board.machine.aborted
+        x, y = board.machine.position
+        assert stopped == (x / 80, y / 80, 0.0)
+        assert (x, y) != (8000, 4000)                  # LONG's end (100, 50 mm): not reached
+        assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+        assert port.status()[0] == "Idle"
+        port.close()
+        process.stdout.close()
+
+
+def test_board_alarm_and_unlock(tmp_path):
+    """A limit trips on the board while it moves (its STATUS in ALARM, limit_x): Grbl's
+    ALARM:1 (hard limit), the board ABORTed, Alarm in the status reports; $X sends the board
+    UNLOCK, which leaves its ALARM (the e-stop is not pressed): Idle again."""
+    board = PtyBoard(Recording(WINDOW), pace=0.3)
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command(LONG.strip()) == ["ok"]
+        board.machine.state, board.machine.alarm, board.machine.inputs = 4, 2, 2
+        assert port.line() == "ALARM:1"
+        assert port.status()[0] == "Alarm" and board.machine.aborted
+        assert port.command("G1 X0 Y0 F1000") == ["error:9"]
+        assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+        deadline = time.monotonic() + 10
+        while port.status()[0] != "Idle":
+            assert time.monotonic() < deadline, "the board never left ALARM"
+        assert board.machine.unlocks == 1
+        port.close()
+        process.stdout.close()
+
+
+def test_a_board_that_does_not_answer_ends_the_server(tmp_path):
+    """kontur send's handshake first: a board that never answers QUERY is one line and status
+    1, before any pseudo-terminal is offered."""
+    board = PtyBoard(Recording(WINDOW, mute=True))
+    args = [sys.executable, "-m", "kontur.cli", "serve", "--port", board.path,
+            "--timeout", "0.3"]
+    with board:
+        run = processes.run(args, timeout=30, stdout=processes.subprocess.PIPE,
+                            stderr=processes.subprocess.PIPE, cwd=tmp_path)
+    assert run.returncode == 1 and run.stdout == b""
+    assert run.stderr.decode() == ("kontur: SendError: no answer from the board at 115200 "
+                                   "baud in 0.3 s (is the baud of the bitstream's machine "
+                                   "file the same?)\n")
+    assert board.machine.count == 0
+
+
+def test_server_end_stops_the_board(tmp_path):
+    """The server ended (SIGTERM) while the board has frames: it gets ABORT first."""
+    board = PtyBoard(Recording(WINDOW), pace=0.5)
+    child, link, _ = _serve(tmp_path, board)
+    with board:
+        with child as process:
+            port = _connect(process, link)
+            assert port.command(LONG.strip()) == ["ok"]
+            time.sleep(0.4)
+            assert not board.machine.aborted
+            port.close()
+            process.stdout.close()
+        assert board.machine.aborted
+
+
+def test_a_refused_frame_is_an_alarm(tmp_path):
+    """The board refuses the first move (its OUTCOME REFUSED): kontur send's message, in the
+    program's lines as the session numbers them, then ALARM:3 and the alarm lock."""
+    board = PtyBoard(Recording(WINDOW, outcome={2: 1}))      # CONFIG, FEED, then the move
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command("G0 X5 Y2") == ["ok"]
+        assert port.line() == "[MSG:the board: line 1: the machine refused this move]"
+        assert port.line() == "ALARM:3"
+        assert port.status()[0] == "Alarm"
+        deadline = time.monotonic() + 10              # the board's thread takes the ABORT
+        while not board.machine.aborted:
+            assert time.monotonic() < deadline, "no ABORT reached the board"
+            time.sleep(0.01)
+        assert port.command("G1 X0 Y0 F1000") == ["error:9"]
+        port.close()
+        process.stdout.close()
+
+
+#: Short moves, all of them together shorter than the distance to stop from the fastest feed:
+#: the planner fills before the look-ahead covers it.
+TINY = "G21 G90 F600\n" + "".join(f"G1 X{i / 10:.1f} Y{i % 2 / 10:.1f}\n"
+                                  for i in range(1, 61)) + "M30\n"
+
+
+def test_a_full_planner_of_short_moves(tmp_path):
+    """60 moves of 0.14 mm: the segments are sent as the planner fills (no deadlock between a
+    full planner and a look-ahead not yet covered); Idle at the end, the board there."""
+    job = prepare(TINY, board="icebreaker")
+    assert sum(len(s.steps) for s in job.segments) / 80 < 10            # below the reach
+    board = PtyBoard(Recording(WINDOW))
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        answers, _ = stream(port, TINY)
+        assert answers == ["ok"] * len(TINY.splitlines())
+        assert port.wait_idle(30) == (*program_end(TINY), 0.0)
+        assert tuple(board.machine.position) == tuple(job.end)
+        port.close()
+        process.stdout.close()
