@@ -51,6 +51,10 @@ from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, 
 __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine",
            "contour_radius"]
 
+#: How a convex corner of a contour is taken: on an arc of the cutter radius round the
+#: vertex, as LinuxCNC does (:data:`kontur.sim.models.equidistant.TREATMENTS`).
+TREATMENT = "arc"
+
 #: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
 _LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
 #: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
@@ -167,7 +171,17 @@ def _prepare(run, machine, radius, width):
              for m in moves]
     try:
         profile = equidistant.profile_from_moves(moves, tolerance=math.inf)
-        prepared = equidistant.prepare(profile, radius, formats=equidistant.Formats(width))
+        lead = moves[0].kind == "line" and len(moves) > 1
+        if lead:
+            entry = moves[0]
+            if math.dist(entry.start, entry.end) <= radius:
+                raise equidistant.ProfileError(
+                    f"line {entry.line}: the entry move (the first move with G41/G42) is not "
+                    f"longer than the cutter radius ({math.dist(entry.start, entry.end):.4g} "
+                    f"steps, radius {radius}): LinuxCNC refuses it too")
+            profile = replace(profile, lead=True)
+        prepared = equidistant.prepare(profile, radius, treatment=TREATMENT,
+                                       formats=equidistant.Formats(width))
     except equidistant.ProfileError as error:
         raise _profile_error(error, origin, machine) from None
     return prepared, origin

@@ -120,10 +120,19 @@ class Profile:
     and whether it is closed (its last element ends where its first begins)."""
     segments: tuple
     side: str
+    #: The first segment is an entry move (LinuxCNC's rule, :mod:`kontur.compensation`): the
+    #: cutter's centre starts where its equidistant ends (its corner with the next element),
+    #: it is not part of the part, and the profile is open.
+    lead: bool = False
 
     @property
     def closed(self):
-        return self.segments[-1].end == self.segments[0].start
+        return not self.lead and self.segments[-1].end == self.segments[0].start
+
+    @property
+    def part(self):
+        """The segments of the part (the entry move's not)."""
+        return self.segments[1:] if self.lead else self.segments
 
     @property
     def sign(self):
@@ -300,10 +309,27 @@ def _dist2(a, b):
     return _dot(d, d)
 
 
-def _corner_kind(seg1, seg2, side):
-    """``"smooth"``, ``"concave"`` or ``"convex"`` at the joint of ``seg1`` and ``seg2``."""
+#: A joint is taken as smooth (tangent) when its turn is at most this sine (LinuxCNC's
+#: TOLERANCE_CONCAVE_CORNER, 0.05 rad, below which it makes no corner either) and the
+#: equidistants' ends at the vertex are at most :data:`SMOOTH_GAP` steps apart at the radius:
+#: the tangent joints of a program in millimetres are tangent only up to the rounding of its
+#: points and centres to the lattice.
+SMOOTH_SINE = Fraction(1, 20)
+#: (steps) the largest gap ``r·sin(turn)`` between the equidistants' ends at a joint taken as
+#: smooth.
+SMOOTH_GAP = Fraction(1, 2)
+
+
+def _corner_kind(seg1, seg2, side, radius=None):
+    """``"smooth"``, ``"concave"`` or ``"convex"`` at the joint of ``seg1`` and ``seg2``; with
+    a ``radius`` a joint that is tangent up to the lattice's rounding (:data:`SMOOTH_SINE`,
+    :data:`SMOOTH_GAP`) is smooth."""
     t1, t2 = seg1.tangent(seg1.end), seg2.tangent(seg2.start)
     turn = _cross(t1, t2)
+    if turn and radius is not None and _dot(t1, t2) > 0:
+        sine2 = Fraction(turn * turn, _dot(t1, t1) * _dot(t2, t2))
+        if sine2 <= SMOOTH_SINE ** 2 and radius * radius * sine2 <= SMOOTH_GAP ** 2:
+            return "smooth"
     if turn == 0:
         if _dot(t1, t2) < 0:
             raise ProfileError(f"line {seg2.line}: the path reverses at {seg2.start}: the "
@@ -405,7 +431,7 @@ def _corner(s1, s2, side, r, radius, treatment):
     """The joint of ``s1`` and ``s2``: where ``s1``'s equidistant ends (``finish``), where
     ``s2``'s begins (``begin``), the pieces between, and how the piece before ``s2``'s ends."""
     v = s1.end
-    kind = _corner_kind(s1, s2, side)
+    kind = _corner_kind(s1, s2, side, radius)
     n1, n2 = _offset_point(s1, v, side, r), _offset_point(s2, v, side, r)
     t1, t2 = s1.tangent(v), s2.tangent(v)
     if kind == "smooth":

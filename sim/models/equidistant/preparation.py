@@ -88,7 +88,7 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
                 raise ProfileError(f"line {seg.line}: the cutter's path would leave the "
                                    f"{formats.width}-bit registers (at most {limit}) here")
     pieces = offset_path(profile, radius, treatment=treatment)
-    found = tuple(elements(profile, treatment=treatment, detection=detection))
+    found = tuple(elements(profile, treatment=treatment, detection=detection, radius=radius))
     body = [element_frame(e, formats) for e in found]
 
     def made(start):
@@ -99,7 +99,9 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
         return Prepared(profile, radius, treatment, detection, formats, found, start,
                         tuple(pieces), tuple(frames))
 
-    start = tuple(_round(c) for c in pieces[0].start)
+    # The start: where the equidistant begins, or with an entry move (``profile.lead``) where
+    # its equidistant ends, at its corner with the first element of the part.
+    start = tuple(_round(c) for c in (pieces[0].end if profile.lead else pieces[0].start))
     prepared = made(start)
     # A closed profile starts where its last element ends (the corner it closes on), so that
     # the return to the start is empty: found by running the step level from the nearest
@@ -138,7 +140,7 @@ def _verify(prepared):
                                    f"cannot follow this corner")
             near = distance_to_profile(point, prepared.profile)
             if near < r - PATH_BOUND:
-                seg = min(prepared.profile.segments, key=lambda g: distance_to_profile(
+                seg = min(prepared.profile.part, key=lambda g: distance_to_profile(
                     point, Profile((g,), prepared.profile.side)))
                 raise ProfileError(f"line {line}: the cutter (radius {r}) would cut "
                                    f"{float(r - near):.3g} steps into the part at line "
