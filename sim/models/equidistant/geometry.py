@@ -317,7 +317,7 @@ def _dist2(a, b):
 SMOOTH_SINE = Fraction(1, 20)
 #: (steps) the largest gap ``r·sin(turn)`` between the equidistants' ends at a joint taken as
 #: smooth.
-SMOOTH_GAP = Fraction(1, 2)
+SMOOTH_GAP = Fraction(1)
 
 
 def _corner_kind(seg1, seg2, side, radius=None):

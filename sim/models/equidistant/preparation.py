@@ -11,10 +11,10 @@ from kontur.hdl.spec import Formats
 from .distances import distance_to_path, distance_to_profile, path_points
 from .elements import elements
 from .functions import KIND, _round, element_frame
-from .geometry import Profile, ProfileError, _sqrt, offset_path
+from .geometry import SMOOTH_GAP, Profile, ProfileError, _sqrt, offset_path
 from .steps import trace_elements
 
-__all__ = ["Prepared", "program_frames", "prepare", "PATH_BOUND"]
+__all__ = ["Prepared", "program_frames", "prepare", "PATH_BOUND", "NEAR_BOUND"]
 
 _START_ROUNDS = 4                  # rounds of the search for a closed profile's start
 
@@ -57,7 +57,7 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
     would visit is measured against the exact geometry: farther than :data:`PATH_BOUND` from
     the equidistant, or nearer the profile than ``radius - PATH_BOUND`` (where the
     equidistant of one part of the profile comes too near another: a slot narrower than the
-    cutter), and the profile is refused before anything moves.
+    cutter; :data:`NEAR_BOUND`), and the profile is refused before anything moves.
 
     Raises
     ------
@@ -122,6 +122,10 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
 #: Every point the cutter's centre visits lies within this distance of the exact equidistant
 #: (and no nearer the profile than the radius less it): checked on every profile prepared.
 PATH_BOUND = Fraction(17, 20)
+#: ... and no nearer the profile than the radius less this: the path's bound and the gap of a
+#: joint tangent up to the lattice's rounding (:data:`~.geometry.SMOOTH_GAP`), where the
+#: equidistant of one element runs up to that gap nearer the next than r.
+NEAR_BOUND = PATH_BOUND + SMOOTH_GAP
 
 
 def _verify(prepared):
@@ -139,7 +143,7 @@ def _verify(prepared):
                                    f" steps from the equidistant at {point}: the interpolator "
                                    f"cannot follow this corner")
             near = distance_to_profile(point, prepared.profile)
-            if near < r - PATH_BOUND:
+            if near < r - NEAR_BOUND:
                 seg = min(prepared.profile.part, key=lambda g: distance_to_profile(
                     point, Profile((g,), prepared.profile.side)))
                 raise ProfileError(f"line {line}: the cutter (radius {r}) would cut "

@@ -81,6 +81,11 @@ def kinked(size, kink, reverse):
                   (a[1] + b[1]) / 2 + d[0] * -rad * math.cos(k))
         pts.append(("arc", b, centre, True))
     pts.append(("line", start))
+    # Begun half way along a chamfer line (a lead-in meets a line, away from the corners).
+    last = pts[-2][1]
+    middle = ((last[0] + start[0]) / 2, (last[1] + start[1]) / 2)
+    pts = [("line", start)] + pts[:-1] + [("line", middle)]
+    start = middle
     return _reversed(start, pts) if reverse else (start, pts)
 
 
