@@ -234,6 +234,46 @@ def _controllers_main(argv, out):
     return 0
 
 
+def compensation(out, *, engine="model", steps_per_mm=80, names=None):
+    """The compensation corpus (``tests/programs/comp/*.ngc``) through ``kontur run --board
+    ulx3s`` on ``engine`` and through rs274 (:func:`kontur.rs274.check_program`): a row per
+    program, refusals and the largest distances (steps) both ways between the paths."""
+    from kontur.rs274 import check_program
+    paths = sorted((ROOT / "tests" / "programs" / "comp").glob("*.ngc"))
+    rows = []
+    out.write(f"{'program':16} {'rs274':8} {'kontur':8} {'out':>6} {'back':>6}  reason\n")
+    for path in paths:
+        if names and path.stem not in names:
+            continue
+        row = check_program(path.read_text(), name=path.stem, engine=engine,
+                            steps_per_mm=steps_per_mm)
+        rows.append(row)
+        reason = row["rs274"] or row["kontur"] or ""
+        out.write(f"{path.stem:16} {'refuses' if row['rs274'] else 'ok':8} "
+                  f"{'refuses' if row['kontur'] else 'ok':8} {row.get('out', 0):6.2f} "
+                  f"{row.get('back', 0):6.2f}  {reason[:90]}\n")
+        out.flush()
+    ran = [r for r in rows if "out" in r]
+    out.write(f"{len(rows)} programs, rs274 refuses {sum(bool(r['rs274']) for r in rows)}, "
+              f"kontur refuses {sum(bool(r['kontur']) for r in rows)}; largest distance "
+              f"{max([max(r['out'], r['back']) for r in ran], default=0):.2f} steps "
+              f"({engine}, {steps_per_mm} steps/mm)\n")
+    return rows
+
+
+def _compensation_main(argv, out):
+    import argparse
+    parser = argparse.ArgumentParser(prog="python -m kontur.bench compensation")
+    parser.add_argument("--engine", default="model",
+                        choices=("model", "amaranth", "icarus", "verilator"))
+    parser.add_argument("--steps-per-mm", type=int, default=80)
+    parser.add_argument("names", nargs="*", help="programs of tests/programs/comp (all)")
+    args = parser.parse_args(argv)
+    compensation(out, engine=args.engine, steps_per_mm=args.steps_per_mm,
+                 names=set(args.names) or None)
+    return 0
+
+
 def main(argv=None, out=None):
     """``kontur bench area|speed``: print the table; ``report [--out FILE]``: write
     ``BENCHMARKS.md`` (:func:`report`); ``controllers [--boards B,B] [--seeds 1,2,3] [--out
@@ -251,6 +291,8 @@ def main(argv=None, out=None):
             return 1
         out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
         return 0
+    if argv[:1] == ["compensation"]:
+        return _compensation_main(argv[1:], out)
     if argv[:1] == ["controllers"]:
         try:
             return _controllers_main(argv[1:], out)

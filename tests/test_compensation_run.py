@@ -112,8 +112,8 @@ class ModelTestCase(unittest.TestCase):
         self.assertEqual(data["cutter_radius_mm"], 3)
         self.assertEqual(data["cutter_radius_steps"], 240)
         (contour,) = data["contours"]
-        self.assertEqual(contour["lines"], [6, 13])
-        self.assertTrue(contour["closed"])
+        self.assertEqual(contour["lines"], [6, 14])
+        self.assertFalse(contour["closed"])   # LinuxCNC's rule: entered by a move
         self.assertEqual(data["arcs"], 4)
         self.assertEqual(data["end_steps"], data["programmed_end_steps"])
 
@@ -122,7 +122,7 @@ class ModelTestCase(unittest.TestCase):
         cases = [
             (PLATE.read_text(), {}, BOARD, r"^line 6: .* needs a cutter radius: give --radius"),
             (inside, {"cutter_radius": 6}, BOARD,
-             r"^line 7: the cutter \(radius 480\) is too large for the arc of radius 400 on its "
+             r"^line 8: the cutter \(radius 480\) is too large for the arc of radius 400 on its "
              r"inside$"),
             (PLATE.read_text(), {"cutter_radius": 3}, "icebreaker",
              r"^line 6: .*equidistant engine, which the icebreaker's controller does not have.*"

@@ -309,12 +309,12 @@ def _dist2(a, b):
     return _dot(d, d)
 
 
-#: A joint is taken as smooth (tangent) when its turn is at most this sine (LinuxCNC's
-#: TOLERANCE_CONCAVE_CORNER, 0.05 rad, below which it makes no corner either) and the
-#: equidistants' ends at the vertex are at most :data:`SMOOTH_GAP` steps apart at the radius:
-#: the tangent joints of a program in millimetres are tangent only up to the rounding of its
-#: points and centres to the lattice.
-SMOOTH_SINE = Fraction(1, 20)
+#: A joint is taken as smooth (tangent) when its turn is at most this sine (0.57°; LinuxCNC
+#: makes no corner below 0.05 rad, its TOLERANCE_CONCAVE_CORNER) and the equidistants' ends
+#: at the vertex are at most :data:`SMOOTH_GAP` steps apart at the radius: the tangent joints
+#: of a program in millimetres are tangent only up to the rounding of its points and centres
+#: to the lattice (turns of up to 0.003 rad at 80 steps/mm on the corpus).
+SMOOTH_SINE = Fraction(1, 100)
 #: (steps) the largest gap ``r·sin(turn)`` between the equidistants' ends at a joint taken as
 #: smooth.
 SMOOTH_GAP = Fraction(1)

@@ -1,0 +1,61 @@
+"""kontur's compensated path against LinuxCNC's (``rs274 -g``) on the corpus of
+``tests/programs/comp/`` (tests/programs/SOURCES.md): tangent line-arc joints (rounded
+rectangles, slots), kinks, inside and outside, G41 and G42, mm and inches, each entered by a
+G41/G42 line from off the part and left by a G40 line. Expected paths are rs274's, not
+kontur's: every point the cutter's centre visits within 1.5 steps of rs274's compensated path
+and every point of rs274's path within 1.5 steps of a visited point
+(:func:`kontur.rs274.compare_steps`). A sample runs here on the model (the whole corpus, and
+on Verilator, in ``python -m kontur.bench compensation``); the refusals are LinuxCNC's own."""
+
+from pathlib import Path
+
+import pytest
+
+from kontur.rs274 import available, check_program
+
+COMP = Path(__file__).resolve().parent / "programs" / "comp"
+
+#: A sample of the corpus, one of each kind (the rest run in the bench).
+SAMPLE = ("rrect_out_g42", "rrect_in_g41", "slot_in_cw", "kink20_in", "rrect_inch_in")
+
+#: steps: the issue's bound between kontur's path and rs274's.
+BOUND = 1.5
+
+
+def test_corpus_is_there():
+    names = sorted(p.stem for p in COMP.glob("*.ngc"))
+    assert len(names) >= 18, names
+    sources = (COMP.parent / "SOURCES.md").read_text()
+    assert all(f"{name}.ngc" in sources or "comp/*.ngc" in sources for name in names)
+
+
+@pytest.mark.parametrize("name", SAMPLE)
+def test_path_is_linuxcnc_s(name):
+    assert available(), "rs274 is missing: run make setup"
+    result = check_program((COMP / f"{name}.ngc").read_text(), name=name)
+    assert result["rs274"] is None, result
+    assert result["kontur"] is None, result           # tangent joints are accepted
+    assert result["steps"] > 1000
+    assert result["out"] <= BOUND and result["back"] <= BOUND, result
+
+
+def _refused_by_both(text, rs274_reason, kontur_reason):
+    result = check_program(text)
+    assert result["rs274"] is not None and rs274_reason in result["rs274"], result
+    assert result["kontur"] is not None and kontur_reason in result["kontur"], result
+
+
+def test_cutter_too_large_for_an_inside_arc():
+    """The slot's arcs have radius 7 mm; a 16 mm cutter inside them gouges."""
+    text = (COMP / "slot_in.ngc").read_text().replace("D10", "D16")
+    _refused_by_both(text, "Tool radius not less than arc radius with comp",
+                     "is too large for the arc of radius")
+
+
+def test_entry_move_not_longer_than_the_radius():
+    """LinuxCNC's entry rule: the G41/G42 line must be longer than the cutter radius."""
+    text = ("G21 G90 F600\nG0 X0 Y-3\nG41.1 D8 G1 X0 Y0\nG1 X30\nG1 Y20\nG1 X0\nG1 Y0\n"
+            "G40 G1 X-5 Y-5\nM2\n")
+    _refused_by_both(text, "entry move is not greater than the tool radius",
+                     "the entry move (the first move with G41/G42) is not longer than the "
+                     "cutter radius")
