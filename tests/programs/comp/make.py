@@ -178,6 +178,10 @@ def main():
          (0, 0)),
         ("kink35_inch", "inward arcs (35 degrees) and chamfers, inches, inside", kinked(1.0, 35, False), "G41", inch,
          0.125, 0.9, (0.5, 0.5)),
+        ("slot_inch_in", "slot in inches, inside, G41", slot(1.0, 0.3, False), "G41", inch,
+         0.25, -0.3, (0.2, -0.1)),
+        ("rrect_inch_g41", "rounded rectangle in inches, outside, G41 [cw]",
+         rounded_rectangle(1.2, 0.8, 0.2, True), "G41", inch, 0.25, 0.6, (-0.2, 0.3)),
     ]
     for spec in specs:
         program(*spec)
