@@ -51,10 +51,6 @@ from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, 
 __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine",
            "contour_radius"]
 
-#: How a convex corner of a contour is taken: on an arc of the cutter radius round the
-#: vertex, as LinuxCNC does (:data:`kontur.sim.models.equidistant.TREATMENTS`).
-TREATMENT = "arc"
-
 #: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
 _LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
 #: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
@@ -180,7 +176,8 @@ def _prepare(run, machine, radius, width):
                     f"longer than the cutter radius ({math.dist(entry.start, entry.end):.4g} "
                     f"steps, radius {radius}): LinuxCNC refuses it too")
             profile = replace(profile, lead=True)
-        prepared = equidistant.prepare(profile, radius, treatment=TREATMENT,
+        # Convex corners: the machine's ``corner``, "arc" (LinuxCNC's) or "miter".
+        prepared = equidistant.prepare(profile, radius, treatment=machine.corner,
                                        formats=equidistant.Formats(width))
     except equidistant.ProfileError as error:
         raise _profile_error(error, origin, machine) from None

@@ -6,7 +6,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from .geometry import (DETECTIONS, TREATMENTS, ProfileError, _add, _corner_kind, _corner_normal,
-                       _cross, _dot, _left, _normal_entry, _scale, _sub, _turn)
+                       _cross, _rounds, _dot, _left, _normal_entry, _scale, _sub, _turn)
 
 __all__ = ["Element", "elements"]
 
@@ -199,7 +199,7 @@ def _corner_items(kind, s1, s2, side, treatment, detection, arc_items):
     if kind == "concave":
         both = s1.kind == "line" and s2.kind == "line"
         return [], crossing(t1, t2) if both else None, t1
-    if treatment == "arc":
+    if _rounds(treatment, t1, t2):
         if arc_items is not None:
             cw = _cross(t1, t2) < 0
             ref = _scale(_left(t1), side)

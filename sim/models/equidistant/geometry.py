@@ -13,8 +13,29 @@ __all__ = ["ProfileError", "Segment", "Profile", "TREATMENTS", "DETECTIONS", "pr
            "offset_path", "Piece"]
 
 #: Convex-corner treatments: ``extend`` the equidistants to their intersection (an arc
-#: extended along its tangent), or go round the corner on an ``arc`` of radius r.
-TREATMENTS = ("extend", "arc")
+#: extended along its tangent), go round the corner on an ``arc`` of radius r, or ``miter``:
+#: extend where the intersection is at most :data:`MITER_LIMIT` times r from the vertex, and
+#: go round on an arc where it would be farther (a sharper corner).
+TREATMENTS = ("extend", "arc", "miter")
+
+#: The ``miter`` treatment's limit: the intersection of the equidistants at most this many
+#: radii from the vertex (``1/cos(turn/2) <= 2``: turns of up to 120° are extended).
+MITER_LIMIT = 2
+
+
+def _rounds(treatment, t1, t2):
+    """Whether a convex corner with the tangents ``t1``, ``t2`` goes round on an arc under
+    ``treatment`` (``miter``: where ``1/cos(turn/2) > MITER_LIMIT``, i.e. ``cos(turn) <
+    2/MITER_LIMIT² - 1``; exact)."""
+    if treatment != "miter":
+        return treatment == "arc"
+    c = Fraction(2, MITER_LIMIT * MITER_LIMIT) - 1
+    dot, norms = _dot(t1, t2), _dot(t1, t1) * _dot(t2, t2)
+    if (dot >= 0) != (c >= 0):
+        return dot < 0                   # cos(turn) and c of opposite signs
+    if dot >= 0:
+        return dot * dot < c * c * norms     # 0 <= cos(turn) < c
+    return dot * dot > c * c * norms         # cos(turn) < c < 0
 
 #: What ends a line at a corner with a line: the ``normal`` of the line through the
 #: intersection of the equidistants, or (the ``seed``'s rule) the next line's equidistant.
@@ -444,7 +465,7 @@ def _corner(s1, s2, side, r, radius, treatment):
                                f"{s2.line}: their equidistants do not meet")
         q = min(points, key=lambda p: _dist2(p, v))
         return {"finish": q, "begin": q, "pieces": [], "entry": None}
-    if treatment == "arc":
+    if _rounds(treatment, t1, t2):
         cw = _cross(t1, t2) < 0
         ref = _scale(_left(t1), side)            # the radius to the corner arc's start
         span = _turn(ref, _scale(_left(t2), side), cw)
