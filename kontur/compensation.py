@@ -9,15 +9,22 @@ in it (its step model, :func:`kontur.registry.outcomes`), so that the look-ahead
 (:func:`~kontur.planner.plan`) gives every frame its FEED like a line's or an arc's.
 
 A contour on the lattice. Its points and arc centres are rounded to the nearest step, as every
-move's are; an arc's radius is that of its start point, and its end's radius may differ by
-the machine's ``arc_tolerance`` (more is an error naming the line, as for any arc). The end
-stays where it was rounded to, where the next element begins: the engine does not trace an arc
-to its end point but to where the next element's equidistant (or its entry line) ends it, so
-the arc's end only has to be near its circle
+move's are; an arc's radius is the mean of its start's and its end's on the lattice, which may
+differ by the machine's ``arc_tolerance`` (more is an error naming the line, as for any arc).
+The ends stay where they were rounded to, where the elements meet: the engine does not trace an
+arc from its start or to its end point but from and to where the elements' equidistants (or
+their entry lines) meet, so the arc's ends only have to be near its circle
 (:func:`kontur.sim.models.equidistant.profile_from_moves`'s ``tolerance``). The contour is then
 prepared at the cutter radius (the machine's ``cutter_radius``, rounded to the nearest step)
 by :func:`kontur.sim.models.equidistant.prepare`, which refuses impossible geometry and any contour
 whose path it cannot bound (0.85 steps from the exact equidistant), naming the line.
+
+LinuxCNC's rules (``rs274``; docs/equidistant.md): the first move of a contour, a line, is
+its *entry move* (:attr:`kontur.sim.models.equidistant.Profile.lead`): it must be longer than
+the cutter radius, and the cutter goes straight from where it is (the approach) to where the
+line's equidistant meets the first element's; the last element ends on its normal at its end
+point, where the move after G40 begins; convex corners go round on an arc of the cutter radius
+(the machine's ``corner``, ``"arc"``; ``"miter"`` extends them up to 2 radii).
 
 Coordinates. The engine's registers hold ``±(2**width - 1)``; its frames are in coordinates
 relative to the contour's *origin*, the lattice point nearest the middle of the contour's
@@ -52,7 +59,7 @@ __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine",
            "contour_radius"]
 
 #: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
-_LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
+_LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side r2")
 #: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
 _Move = namedtuple("_Move", "line kind start end centre cw feed")
 
@@ -145,7 +152,15 @@ def _prepare(run, machine, radius, width):
                                   (end[0] - centre[0], end[1] - centre[1]), machine)
             check_sweep(move, (vertex[0] - centre[0], vertex[1] - centre[1]),
                         (end[0] - centre[0], end[1] - centre[1]), rho)
-        moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side))
+        r2 = None
+        if move.kind == "arc":
+            # The mean of the radii of the start and the end on the lattice (squared, in
+            # steps), not the start's alone: the circle then misses neither end point by more
+            # than half their difference (the start's alone: the end's by all of it).
+            programmed = (math.dist(vertex, centre) + math.dist(end, centre)) / 2
+            r2 = round(programmed ** 2)
+        moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side,
+                                  r2))
         vertex = end
     # The origin: the middle of the contour's extent (arcs as whole circles: enough).
     xs, ys = [], []

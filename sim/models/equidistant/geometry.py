@@ -115,10 +115,15 @@ class Segment:
     line: int
     centre: tuple = None
     cw: bool = False
+    #: ``R²`` of an arc where it is not its start's (a program in millimetres: the radius as
+    #: programmed, which the start rounded to the lattice misses by up to a step)
+    radius2: int = None
 
     @property
     def r2(self):
-        """``R²`` of an arc."""
+        """``R²`` of an arc: ``radius2``, else its start's."""
+        if self.radius2 is not None:
+            return self.radius2
         return _dot(_sub(self.start, self.centre), _sub(self.start, self.centre))
 
     def tangent(self, point):
@@ -220,7 +225,8 @@ def profile_from_moves(moves, *, tolerance=0):
         centre = tuple(_lattice(v, a, line) for v, a in zip(move.centre, "IJ"))
         if centre == start:
             raise ProfileError(f"line {line}: an arc of radius zero (I = J = 0)")
-        seg = Segment("arc", start, end, line, centre, bool(move.cw))
+        seg = Segment("arc", start, end, line, centre, bool(move.cw),
+                      getattr(move, "r2", None))
         d2 = _dot(_sub(end, centre), _sub(end, centre))
         if d2 != seg.r2 and abs(math.sqrt(d2) - math.sqrt(seg.r2)) > tolerance:
             raise ProfileError(f"line {line}: the arc's end point {end} is not on its circle "
