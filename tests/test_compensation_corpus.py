@@ -16,7 +16,7 @@ from kontur.rs274 import available, check_program
 COMP = Path(__file__).resolve().parent / "programs" / "comp"
 
 #: A sample of the corpus, one of each kind (the rest run in the bench).
-SAMPLE = ("rrect_out_g42", "rrect_in_g41", "slot_in_cw", "kink20_in", "rrect_inch_in")
+SAMPLE = ("rrect_in_g41", "slot_in_cw", "kink20_in", "rrect_inch_in")
 
 #: steps: the issue's bound between kontur's path and rs274's.
 BOUND = 1.5
@@ -59,3 +59,17 @@ def test_entry_move_not_longer_than_the_radius():
     _refused_by_both(text, "entry move is not greater than the tool radius",
                      "the entry move (the first move with G41/G42) is not longer than the "
                      "cutter radius")
+
+
+@pytest.mark.cocotb
+def test_rrect_square_on_verilator():
+    """One corpus program through the ULX3S controller's RTL on Verilator: the run is checked
+    against the model (``execute`` raises when a step, an outcome or the position differs)
+    and its path against rs274's (the rest of the Verilator third: the bench)."""
+    from .conftest import selected_simulators
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    result = check_program((COMP / "rrect_square.ngc").read_text(), engine="verilator",
+                           steps_per_mm=40)          # (half the steps: quicker)
+    assert result["rs274"] is None and result["kontur"] is None, result
+    assert result["out"] <= BOUND and result["back"] <= BOUND, result
