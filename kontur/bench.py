@@ -235,9 +235,11 @@ def _controllers_main(argv, out):
 
 
 def compensation(out, *, engine="model", steps_per_mm=80, names=None):
-    """The compensation corpus (``tests/programs/comp/*.ngc``) through ``kontur run --board
-    ulx3s`` on ``engine`` and through rs274 (:func:`kontur.rs274.check_program`): a row per
-    program, refusals and the largest distances (steps) both ways between the paths."""
+    """The compensation corpus (``tests/programs/comp/*.ngc``, and LinuxCNC's comp311.ngc and
+    comp-g1.ngc without their Z moves, tool 4 of 6 mm and 1 inch, where installed) through
+    ``kontur run --board ulx3s`` on ``engine`` and through rs274
+    (:func:`kontur.rs274.check_program`): a row per program, refusals and the largest
+    distances (steps) both ways between the paths."""
     from kontur.rs274 import check_program
     paths = sorted((ROOT / "tests" / "programs" / "comp").glob("*.ngc"))
     rows = []
@@ -253,6 +255,21 @@ def compensation(out, *, engine="model", steps_per_mm=80, names=None):
                   f"{'refuses' if row['kontur'] else 'ok':8} {row.get('out', 0):6.2f} "
                   f"{row.get('back', 0):6.2f}  {reason[:90]}\n")
         out.flush()
+    from kontur.rs274 import LINUXCNC_COMPENSATED, LINUXCNC_EXAMPLES, LINUXCNC_TOOLS, planar_copy
+    for name in LINUXCNC_COMPENSATED:
+        path = LINUXCNC_EXAMPLES / f"{name}.ngc"
+        if names and name not in names or not path.exists():
+            continue
+        for diameter in (6, LINUXCNC_TOOLS[4]):
+            row = check_program(planar_copy(path.read_text()), tools={4: diameter},
+                                name=name, engine=engine, steps_per_mm=steps_per_mm)
+            rows.append(row)
+            reason = row["rs274"] or row["kontur"] or ""
+            label = f"{name} D{float(diameter):g}"
+            out.write(f"{label:16} {'refuses' if row['rs274'] else 'ok':8} "
+                      f"{'refuses' if row['kontur'] else 'ok':8} {row.get('out', 0):6.2f} "
+                      f"{row.get('back', 0):6.2f}  {reason[:90]}\n")
+            out.flush()
     ran = [r for r in rows if "out" in r]
     out.write(f"{len(rows)} programs, rs274 refuses {sum(bool(r['rs274']) for r in rows)}, "
               f"kontur refuses {sum(bool(r['kontur']) for r in rows)}; largest distance "

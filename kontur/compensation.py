@@ -190,7 +190,11 @@ def _prepare(run, machine, radius, width):
                     f"line {entry.line}: the entry move (the first move with G41/G42) is not "
                     f"longer than the cutter radius ({math.dist(entry.start, entry.end):.4g} "
                     f"steps, radius {radius}): LinuxCNC refuses it too")
-            profile = replace(profile, lead=True)
+            # Lead-in moves after the entry: those up to the element whose end the outline
+            # returns to (LinuxCNC's comp311.ngc: an arc onto the outline).
+            lead = next((k + 1 for k in range(1, len(moves) - 1)
+                         if moves[k].end == moves[-1].end), 1)
+            profile = replace(profile, lead=lead)
         # Convex corners: the machine's ``corner``, "arc" (LinuxCNC's) or "miter".
         prepared = equidistant.prepare(profile, radius, treatment=machine.corner,
                                        formats=equidistant.Formats(width))

@@ -220,6 +220,26 @@ def compare_steps(points, moves, start, spm):
 
 # ---- kontur's compensated path against rs274's ----------------------------------------------
 
+#: Where Debian's linuxcnc-uspace installs LinuxCNC's example programs (GPL: read, not copied).
+LINUXCNC_EXAMPLES = Path("/usr/share/linuxcnc/ncfiles")
+
+#: LinuxCNC's compensation examples that are 2D once their Z moves are dropped, and the tool
+#: table they assume (tool 4: 1 inch, comp-g1.ngc's comment).
+LINUXCNC_COMPENSATED = ("comp311", "comp-g1")
+LINUXCNC_TOOLS = {4: Fraction(254, 10)}
+
+
+def planar_copy(text):
+    """A LinuxCNC example without its Z moves: every line whose code (outside comments) has a
+    Z word is dropped (they move Z alone in the compensation examples)."""
+    out = []
+    for line in text.splitlines():
+        code = re.sub(r"\(.*?\)|;.*$", "", line)
+        if not re.search(r"(?i)z\s*[-+.\d]", code):
+            out.append(line)
+    return "\n".join(out) + "\n"
+
+
 #: The board whose controller has the equidistant engine.
 BOARD = "ulx3s"
 

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from kontur.rs274 import available, check_program
+from kontur.rs274 import (LINUXCNC_EXAMPLES, LINUXCNC_TOOLS, available, check_program,
+                          planar_copy)
 
 COMP = Path(__file__).resolve().parent / "programs" / "comp"
 
@@ -36,6 +37,19 @@ def test_path_is_linuxcnc_s(name):
     assert result["rs274"] is None, result
     assert result["kontur"] is None, result           # tangent joints are accepted
     assert result["steps"] > 1000
+    assert result["out"] <= BOUND and result["back"] <= BOUND, result
+
+
+def test_linuxcnc_comp311():
+    """LinuxCNC's comp311.ngc (its Z moves dropped), tool 4 of 1 inch: a G41 entry line, a
+    lead-in arc tangent to it and to the outline, the outline closing on the lead-in's end.
+    Refused before for every radius (the tangent joints); now LinuxCNC's path (at 20
+    steps/mm: quicker)."""
+    path = LINUXCNC_EXAMPLES / "comp311.ngc"
+    assert path.exists(), "LinuxCNC's examples (linuxcnc-uspace) are missing: run make setup"
+    result = check_program(planar_copy(path.read_text()), tools=LINUXCNC_TOOLS,
+                           steps_per_mm=20)
+    assert result["rs274"] is None and result["kontur"] is None, result
     assert result["out"] <= BOUND and result["back"] <= BOUND, result
 
 

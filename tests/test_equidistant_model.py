@@ -168,10 +168,10 @@ class GeometryTestCase(unittest.TestCase):
                                                r"not 1\.5$"):
             prepare(square, 1.5)
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "
-                                                r"'arc', not 'round'$"):
+                                                r"'arc', 'miter', not 'round'$"):
             elements(square, treatment="round")
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "
-                                                r"'arc', not 'round'$"):
+                                                r"'arc', 'miter', not 'round'$"):
             offset_path(square, 1, treatment="round")
         with self.assertRaisesRegex(ValueError, r"^Corner detection must be one of 'normal', "
                                                 r"'seed', not 'late'$"):

@@ -146,10 +146,12 @@ class Profile:
     and whether it is closed (its last element ends where its first begins)."""
     segments: tuple
     side: str
-    #: The first segment is an entry move (LinuxCNC's rule, :mod:`kontur.compensation`): the
-    #: cutter's centre starts where its equidistant ends (its corner with the next element),
-    #: it is not part of the part, and the profile is open.
-    lead: bool = False
+    #: The number of leading segments that are no part of the part: with any, the first is an
+    #: entry move (LinuxCNC's rule, :mod:`kontur.compensation`): the cutter's centre starts
+    #: where its equidistant ends (its corner with the next element), and the profile is
+    #: open; those after it are lead-in moves (an arc onto the outline, which the last
+    #: element returns to), traced as elements.
+    lead: int = 0
 
     @property
     def closed(self):
@@ -158,7 +160,7 @@ class Profile:
     @property
     def part(self):
         """The segments of the part (the entry move's not)."""
-        return self.segments[1:] if self.lead else self.segments
+        return self.segments[int(self.lead):]
 
     @property
     def sign(self):
