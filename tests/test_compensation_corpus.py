@@ -87,3 +87,14 @@ def test_rrect_square_on_verilator():
                            steps_per_mm=40)          # (half the steps: quicker)
     assert result["rs274"] is None and result["kontur"] is None, result
     assert result["out"] <= BOUND and result["back"] <= BOUND, result
+
+
+def test_gouge_in_a_notch():
+    """A notch 2 mm wide in a plate cut outside with a 6 mm cutter: the cutter cannot reach
+    its bottom without cutting its sides. rs274 refuses it at the notch's far side, kontur at
+    its bottom (whose equidistant would run backwards between its corners)."""
+    text = ("G21 G90 F600\nG0 X-10 Y0\nG42.1 D6 G1 X0 Y0\nG1 X30\nG1 Y20\nG1 X16\nG1 Y15\n"
+            "G1 X14\nG1 Y20\nG1 X0\nG1 Y0\nG40 G1 X-10 Y-5\nM2\n")
+    _refused_by_both(text, "cannot be reached by the tool without gouging",
+                     "line 8: the cutter (radius 240) is too large: the equidistant of this "
+                     "segment would run backwards")
