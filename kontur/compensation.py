@@ -52,6 +52,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from kontur import registry
+from kontur.gcode import Move
 from kontur.sim.models import equidistant
 from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
@@ -182,10 +183,10 @@ def _prepare(run, machine, radius, width):
              for m in moves]
     try:
         profile = equidistant.profile_from_moves(moves, tolerance=math.inf)
-        lead = moves[0].kind == "line" and len(moves) > 1
+        lead = len(moves) > 1
         if lead:
             entry = moves[0]
-            if math.dist(entry.start, entry.end) <= radius:
+            if entry.kind == "line" and math.dist(entry.start, entry.end) <= radius:
                 raise equidistant.ProfileError(
                     f"line {entry.line}: the entry move (the first move with G41/G42) is not "
                     f"longer than the cutter radius ({math.dist(entry.start, entry.end):.4g} "
@@ -255,9 +256,7 @@ def _contour_segments(prepared, origin, run, machine, position, board, radius_fr
     approach = None
     start = (prepared.start[0] + origin[0], prepared.start[1] + origin[1])
     if start != position:
-        spm = Fraction(machine.steps_per_mm)
-        lead = _Move(line0, "line", tuple(Fraction(c) / spm for c in position),
-                     tuple(Fraction(c) / spm for c in start), None, False, run[0].feed)
+        lead = _approach(run[0], position, start, machine)
         (segment,) = lattice([lead], machine, variants=(item.line[0], item.arc[0]),
                              widths=(item.line[1], item.arc[1]), start=position)
         approach = len(out)
@@ -269,6 +268,25 @@ def _contour_segments(prepared, origin, run, machine, position, board, radius_fr
         at = frame_segment(frames[index], outcomes[index][1], feeds.get(line, first_feed), line,
                            element, at)
     return out, approach
+
+
+def _approach(entry, position, start, machine):
+    """The move from where the machine is (``position``, steps) to the contour's ``start``
+    (steps), as LinuxCNC makes its entry move: a line, or for an entry by an arc an arc in its
+    direction through both points, centred on the radial line of the programmed arc's end."""
+    spm = Fraction(machine.steps_per_mm)
+    c = tuple(Fraction(v) / spm for v in position)
+    s = tuple(Fraction(v) / spm for v in start)
+    if entry.kind == "arc":
+        o = tuple(Fraction(v) for v in entry.centre)
+        u = (Fraction(entry.end[0]) - o[0], Fraction(entry.end[1]) - o[1])
+        across = 2 * (u[0] * (s[0] - c[0]) + u[1] * (s[1] - c[1]))
+        if across:
+            t = ((s[0] - o[0]) ** 2 + (s[1] - o[1]) ** 2
+                 - (c[0] - o[0]) ** 2 - (c[1] - o[1]) ** 2) / across
+            return Move(entry.line, "arc", c, s, (o[0] + t * u[0], o[1] + t * u[1]),
+                        entry.cw, feed=entry.feed)
+    return _Move(entry.line, "line", c, s, None, False, entry.feed)
 
 
 def _settle_tangents(segments):
@@ -359,7 +377,8 @@ def references(job):
     """What each segment of ``job``'s contours is measured against: ``{segment index:
     distance(point) -> mm}`` (``point`` in machine steps), an element's steps against the
     exact equidistant; ``None`` for the approach and the move after the contour, measured
-    against their own lines (they start where the machine is, not where the program was)."""
+    against their own lines (they start where the machine is, not where the program was); an
+    approach by an arc against its own circle."""
     spm = job.machine.steps_per_mm
     out = {}
     for contour in job.contours:
@@ -370,6 +389,13 @@ def references(job):
                 prepared.pieces, prepared.radius)) / spm
         for index in range(contour.first, contour.first + contour.count):
             out[index] = None if index == contour.approach else to_path
+            segment = job.segments[index]
+            if index == contour.approach and segment.kind == "arc":
+                # An entry by an arc (LinuxCNC's): from its own circle, the engine's path.
+                x0, y0 = segment.payload["x0"], segment.payload["y0"]
+                centre = (segment.start[0] - x0, segment.start[1] - y0)
+                out[index] = (lambda point, centre=centre, rho=math.hypot(x0, y0):
+                              abs(math.dist(point, centre) - rho) / spm)
         after = contour.first + contour.count
         if after < len(job.segments) and job.segments[after].kind == "line":
             out[after] = None            # the move off the equidistant: from where it starts

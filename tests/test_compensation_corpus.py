@@ -53,6 +53,17 @@ def test_linuxcnc_comp311():
     assert result["out"] <= BOUND and result["back"] <= BOUND, result
 
 
+def test_entry_by_an_arc():
+    """A G42 entry by an arc (LinuxCNC's rule: an arc from where the cutter is to the offset
+    end, centred on the end's radial line: rs274 prints it centred at (0, -1.8333)), then a
+    line and a convex corner."""
+    text = ("G21 F600\nG0 X-10 Y0\nG42.1 D4 G3 X0 Y-10 I10 J0\nG1 X20\nG1 Y10\n"
+            "G40 G1 X30 Y10\nM2\n")
+    result = check_program(text, steps_per_mm=40)
+    assert result["rs274"] is None and result["kontur"] is None, result
+    assert result["out"] <= BOUND and result["back"] <= BOUND, result
+
+
 def _refused_by_both(text, rs274_reason, kontur_reason):
     result = check_program(text)
     assert result["rs274"] is not None and rs274_reason in result["rs274"], result

@@ -101,7 +101,14 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
 
     # The start: where the equidistant begins, or with an entry move (``profile.lead``) where
     # its equidistant ends, at its corner with the first element of the part.
-    start = tuple(_round(c) for c in (pieces[0].end if profile.lead else pieces[0].start))
+    first = pieces[0].start
+    if profile.lead:                     # the end of the entry's own pieces (an arc's several)
+        own = profile.segments[0].line
+        for piece in pieces:
+            if piece.line != own or piece.what not in ("line", "arc"):
+                break
+            first = piece.end
+    start = tuple(_round(c) for c in first)
     prepared = made(start)
     # A closed profile starts where its last element ends (the corner it closes on), so that
     # the return to the start is empty: found by running the step level from the nearest
