@@ -55,9 +55,15 @@ def canonical(text, tools=None, *, folder=None):
         path.write_text(text)
         table = Path(where) / "tools-inch.tbl"
         table.write_text(inch_table(tools or {}))
-        run = subprocess.run([executable, "-t", str(table), "-g", str(path)],
-                             capture_output=True, text=True, timeout=60,
-                             stdin=subprocess.DEVNULL)
+        # (in its own folder: rs274 keeps files in its working directory, and runs side by
+        # side must not share them). A run killed by a signal (seen once: SIGBUS, with no
+        # message, on a loaded machine) is no answer: it is run again, twice at most.
+        for _ in range(3):
+            run = subprocess.run([executable, "-t", str(table), "-g", str(path)],
+                                 capture_output=True, text=True, timeout=60,
+                                 stdin=subprocess.DEVNULL, cwd=where)
+            if run.returncode >= 0:
+                break
     unit, g5x, g92, feed = 1.0, [0.0] * 3, [0.0] * 3, None
     moves, events = [], []
     for line in run.stdout.splitlines():
