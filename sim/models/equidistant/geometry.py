@@ -270,7 +270,13 @@ class Piece:
 
 
 def _offset_point(seg, point, side, r):
-    """``point`` of ``seg`` moved by ``r`` to the cutter's side (its normal there)."""
+    """``point`` of ``seg`` moved by ``r`` to the cutter's side (its normal there); for an arc
+    whose radius is not its start's (``radius2``), the point of its equidistant's circle on
+    the radial line through ``point`` (an end rounded to the lattice lies off the circle)."""
+    if seg.kind == "arc" and seg.radius2 is not None:
+        radial = _sub(point, seg.centre)
+        rho = _sqrt(seg.r2) + _sigma(seg, side) * r
+        return _add(seg.centre, _scale(radial, rho / _norm(radial)))
     t = seg.tangent(point)
     n = _left(t)
     return _add(point, _scale(n, side * r / _norm(t)))
