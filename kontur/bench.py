@@ -326,6 +326,69 @@ def _runs_main(argv, out):
     return 0
 
 
+def compensation(out, *, engine="model", steps_per_mm=80, names=None, random=0):
+    """The compensation corpus (``tests/programs/comp/*.ngc``, and LinuxCNC's comp311.ngc and
+    comp-g1.ngc without their Z moves, tool 4 of 6 mm and 1 inch, where installed) through
+    ``kontur run --board ulx3s`` on ``engine`` and through rs274
+    (:func:`kontur.rs274.check_program`): a row per program, refusals and the largest
+    distances (steps) both ways between the paths."""
+    from kontur.rs274 import check_program
+    from kontur.profiles import random_programs
+    paths = sorted((ROOT / "tests" / "programs" / "comp").glob("*.ngc"))
+    programs = [(p.stem, p.read_text()) for p in paths if not names or p.stem in names]
+    if random:
+        programs, names = list(random_programs(random)), {"random"}
+    rows = []
+    out.write(f"{'program':16} {'rs274':8} {'kontur':8} {'out':>6} {'back':>6}  reason\n")
+    for name, text in programs:
+        row = check_program(text, name=name, engine=engine, steps_per_mm=steps_per_mm)
+        rows.append(row)
+        reason = row["rs274"] or row["kontur"] or ""
+        out.write(f"{name:16} {'refuses' if row['rs274'] else 'ok':8} "
+                  f"{'refuses' if row['kontur'] else 'ok':8} {row.get('out', 0):6.2f} "
+                  f"{row.get('back', 0):6.2f}  {reason[:90]}\n")
+        out.flush()
+    from kontur.rs274 import LINUXCNC_COMPENSATED, LINUXCNC_EXAMPLES, LINUXCNC_TOOLS, planar_copy
+    for name in LINUXCNC_COMPENSATED:
+        path = LINUXCNC_EXAMPLES / f"{name}.ngc"
+        if names and name not in names or not path.exists():
+            continue
+        for diameter in (6, LINUXCNC_TOOLS[4]):
+            row = check_program(planar_copy(path.read_text()), tools={4: diameter},
+                                name=name, engine=engine, steps_per_mm=steps_per_mm)
+            rows.append(row)
+            reason = row["rs274"] or row["kontur"] or ""
+            label = f"{name} D{float(diameter):g}"
+            out.write(f"{label:16} {'refuses' if row['rs274'] else 'ok':8} "
+                      f"{'refuses' if row['kontur'] else 'ok':8} {row.get('out', 0):6.2f} "
+                      f"{row.get('back', 0):6.2f}  {reason[:90]}\n")
+            out.flush()
+    ran = [r for r in rows if "out" in r]
+    accepted = [r for r in rows if not r["rs274"]]
+    out.write(f"{len(rows)} programs, rs274 refuses {len(rows) - len(accepted)}, kontur "
+              f"refuses {sum(bool(r['kontur']) for r in rows)} ({sum(bool(r['kontur']) for r in accepted)} "
+              f"of those rs274 takes); largest distance "
+              f"{max([max(r['out'], r['back']) for r in ran], default=0):.2f} steps, over 1.5 "
+              f"in {sum(max(r['out'], r['back']) > 1.5 for r in ran)} "
+              f"({engine}, {steps_per_mm} steps/mm)\n")
+    return rows
+
+
+def _compensation_main(argv, out):
+    import argparse
+    parser = argparse.ArgumentParser(prog="python -m kontur.bench compensation")
+    parser.add_argument("--engine", default="model",
+                        choices=("model", "amaranth", "icarus", "verilator"))
+    parser.add_argument("--steps-per-mm", type=int, default=80)
+    parser.add_argument("--random", type=int, default=0, metavar="N",
+                        help="N random profiles (kontur.profiles) instead of the corpus")
+    parser.add_argument("names", nargs="*", help="programs of tests/programs/comp (all)")
+    args = parser.parse_args(argv)
+    compensation(out, engine=args.engine, steps_per_mm=args.steps_per_mm,
+                 names=set(args.names) or None, random=args.random)
+    return 0
+
+
 def main(argv=None, out=None):
     """``kontur bench area|speed|axes``: print the table (``axes``: the third axis's cost,
     :func:`axes_designs`); ``report [--out FILE]``: write
@@ -348,6 +411,8 @@ def main(argv=None, out=None):
             return 1
         out.write(f"{target} written in {result['seconds'] / 60:.1f} minutes\n")
         return 0
+    if argv[:1] == ["compensation"]:
+        return _compensation_main(argv[1:], out)
     if argv[:1] in (["controllers"], ["runs"]):
         try:
             return (_controllers_main if argv[0] == "controllers" else _runs_main)(argv[1:], out)
@@ -356,7 +421,7 @@ def main(argv=None, out=None):
             return 1
     if len(argv) != 1 or argv[0] not in tables:
         sys.stderr.write(f"usage: python -m kontur.bench area|speed|axes|report|controllers|"
-                         f"runs [--out FILE], "
+                         f"runs|compensation [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
         return 2
     try:

@@ -101,7 +101,8 @@ def _add_program(kinds, kind):
     parser.add_argument("--width", type=int, default=None, help="coordinate width in bits")
     parser.add_argument("--corner", choices=TREATMENTS, default=TREATMENTS[0],
                         help="convex corners: extend the equidistants to their intersection "
-                             "(default) or go round on an arc of radius R")
+                             "(default), go round on an arc of radius R, or miter: extend "
+                             "up to 2 R from the vertex, round beyond")
     parser.add_argument("--detect", choices=DETECTIONS, default=DETECTIONS[0],
                         help="what ends a line at a corner with a line: the normal through "
                              "the intersection (default) or the seed's next equidistant")

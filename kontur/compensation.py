@@ -9,15 +9,22 @@ in it (its step model, :func:`kontur.registry.outcomes`), so that the look-ahead
 (:func:`~kontur.planner.plan`) gives every frame its FEED like a line's or an arc's.
 
 A contour on the lattice. Its points and arc centres are rounded to the nearest step, as every
-move's are; an arc's radius is that of its start point, and its end's radius may differ by
-the machine's ``arc_tolerance`` (more is an error naming the line, as for any arc). The end
-stays where it was rounded to, where the next element begins: the engine does not trace an arc
-to its end point but to where the next element's equidistant (or its entry line) ends it, so
-the arc's end only has to be near its circle
+move's are; an arc's radius is the mean of its start's and its end's on the lattice, which may
+differ by the machine's ``arc_tolerance`` (more is an error naming the line, as for any arc).
+The ends stay where they were rounded to, where the elements meet: the engine does not trace an
+arc from its start or to its end point but from and to where the elements' equidistants (or
+their entry lines) meet, so the arc's ends only have to be near its circle
 (:func:`kontur.sim.models.equidistant.profile_from_moves`'s ``tolerance``). The contour is then
 prepared at the cutter radius (the machine's ``cutter_radius``, rounded to the nearest step)
 by :func:`kontur.sim.models.equidistant.prepare`, which refuses impossible geometry and any contour
 whose path it cannot bound (0.85 steps from the exact equidistant), naming the line.
+
+LinuxCNC's rules (``rs274``; docs/equidistant.md): the first move of a contour, a line, is
+its *entry move* (:attr:`kontur.sim.models.equidistant.Profile.lead`): it must be longer than
+the cutter radius, and the cutter goes straight from where it is (the approach) to where the
+line's equidistant meets the first element's; the last element ends on its normal at its end
+point, where the move after G40 begins; convex corners go round on an arc of the cutter radius
+(the machine's ``corner``, ``"arc"``; ``"miter"`` extends them up to 2 radii).
 
 Coordinates. The engine's registers hold ``±(2**width - 1)``; its frames are in coordinates
 relative to the contour's *origin*, the lattice point nearest the middle of the contour's
@@ -45,6 +52,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from kontur import registry
+from kontur.gcode import Move
 from kontur.sim.models import equidistant
 from kontur.planner import ProgramError, Segment, check_arc_radii, check_sweep, lattice, on_lattice
 
@@ -52,7 +60,7 @@ __all__ = ["Contour", "runs", "program_segments", "references", "needs_engine",
            "contour_radius"]
 
 #: A move on the lattice, as :func:`kontur.sim.models.equidistant.profile_from_moves` reads it.
-_LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side")
+_LatticeMove = namedtuple("_LatticeMove", "line kind start end centre cw side r2")
 #: A move in millimetres, as :func:`kontur.planner.lattice` reads it (the approach).
 _Move = namedtuple("_Move", "line kind start end centre cw feed")
 
@@ -145,7 +153,15 @@ def _prepare(run, machine, radius, width):
                                   (end[0] - centre[0], end[1] - centre[1]), machine)
             check_sweep(move, (vertex[0] - centre[0], vertex[1] - centre[1]),
                         (end[0] - centre[0], end[1] - centre[1]), rho)
-        moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side))
+        r2 = None
+        if move.kind == "arc":
+            # The mean of the radii of the start and the end on the lattice (squared, in
+            # steps), not the start's alone: the circle then misses neither end point by more
+            # than half their difference (the start's alone: the end's by all of it).
+            programmed = (math.dist(vertex, centre) + math.dist(end, centre)) / 2
+            r2 = round(programmed ** 2)
+        moves.append(_LatticeMove(move.line, move.kind, vertex, end, centre, move.cw, move.side,
+                                  r2))
         vertex = end
     # The origin: the middle of the contour's extent (arcs as whole circles: enough).
     xs, ys = [], []
@@ -167,7 +183,22 @@ def _prepare(run, machine, radius, width):
              for m in moves]
     try:
         profile = equidistant.profile_from_moves(moves, tolerance=math.inf)
-        prepared = equidistant.prepare(profile, radius, formats=equidistant.Formats(width))
+        lead = len(moves) > 1
+        if lead:
+            entry = moves[0]
+            if entry.kind == "line" and math.dist(entry.start, entry.end) <= radius:
+                raise equidistant.ProfileError(
+                    f"line {entry.line}: the entry move (the first move with G41/G42) is not "
+                    f"longer than the cutter radius ({math.dist(entry.start, entry.end):.4g} "
+                    f"steps, radius {radius}): LinuxCNC refuses it too")
+            # Lead-in moves after the entry: those up to the element whose end the outline
+            # returns to (LinuxCNC's comp311.ngc: an arc onto the outline).
+            lead = next((k + 1 for k in range(1, len(moves) - 1)
+                         if moves[k].end == moves[-1].end), 1)
+            profile = replace(profile, lead=lead)
+        # Convex corners: the machine's ``corner``, "arc" (LinuxCNC's) or "miter".
+        prepared = equidistant.prepare(profile, radius, treatment=machine.corner,
+                                       formats=equidistant.Formats(width))
     except equidistant.ProfileError as error:
         raise _profile_error(error, origin, machine) from None
     return prepared, origin
@@ -225,9 +256,7 @@ def _contour_segments(prepared, origin, run, machine, position, board, radius_fr
     approach = None
     start = (prepared.start[0] + origin[0], prepared.start[1] + origin[1])
     if start != position:
-        spm = Fraction(machine.steps_per_mm)
-        lead = _Move(line0, "line", tuple(Fraction(c) / spm for c in position),
-                     tuple(Fraction(c) / spm for c in start), None, False, run[0].feed)
+        lead = _approach(run[0], position, start, machine)
         (segment,) = lattice([lead], machine, variants=(item.line[0], item.arc[0]),
                              widths=(item.line[1], item.arc[1]), start=position)
         approach = len(out)
@@ -239,6 +268,25 @@ def _contour_segments(prepared, origin, run, machine, position, board, radius_fr
         at = frame_segment(frames[index], outcomes[index][1], feeds.get(line, first_feed), line,
                            element, at)
     return out, approach
+
+
+def _approach(entry, position, start, machine):
+    """The move from where the machine is (``position``, steps) to the contour's ``start``
+    (steps), as LinuxCNC makes its entry move: a line, or for an entry by an arc an arc in its
+    direction through both points, centred on the radial line of the programmed arc's end."""
+    spm = Fraction(machine.steps_per_mm)
+    c = tuple(Fraction(v) / spm for v in position)
+    s = tuple(Fraction(v) / spm for v in start)
+    if entry.kind == "arc":
+        o = tuple(Fraction(v) for v in entry.centre)
+        u = (Fraction(entry.end[0]) - o[0], Fraction(entry.end[1]) - o[1])
+        across = 2 * (u[0] * (s[0] - c[0]) + u[1] * (s[1] - c[1]))
+        if across:
+            t = ((s[0] - o[0]) ** 2 + (s[1] - o[1]) ** 2
+                 - (c[0] - o[0]) ** 2 - (c[1] - o[1]) ** 2) / across
+            return Move(entry.line, "arc", c, s, (o[0] + t * u[0], o[1] + t * u[1]),
+                        entry.cw, feed=entry.feed)
+    return _Move(entry.line, "line", c, s, None, False, entry.feed)
 
 
 def _settle_tangents(segments):
@@ -329,7 +377,8 @@ def references(job):
     """What each segment of ``job``'s contours is measured against: ``{segment index:
     distance(point) -> mm}`` (``point`` in machine steps), an element's steps against the
     exact equidistant; ``None`` for the approach and the move after the contour, measured
-    against their own lines (they start where the machine is, not where the program was)."""
+    against their own lines (they start where the machine is, not where the program was); an
+    approach by an arc against its own circle."""
     spm = job.machine.steps_per_mm
     out = {}
     for contour in job.contours:
@@ -340,6 +389,13 @@ def references(job):
                 prepared.pieces, prepared.radius)) / spm
         for index in range(contour.first, contour.first + contour.count):
             out[index] = None if index == contour.approach else to_path
+            segment = job.segments[index]
+            if index == contour.approach and segment.kind == "arc":
+                # An entry by an arc (LinuxCNC's): from its own circle, the engine's path.
+                x0, y0 = segment.payload["x0"], segment.payload["y0"]
+                centre = (segment.start[0] - x0, segment.start[1] - y0)
+                out[index] = (lambda point, centre=centre, rho=math.hypot(x0, y0):
+                              abs(math.dist(point, centre) - rho) / spm)
         after = contour.first + contour.count
         if after < len(job.segments) and job.segments[after].kind == "line":
             out[after] = None            # the move off the equidistant: from where it starts

@@ -12,6 +12,8 @@ dir_setup_us = 1.0         # step/dir timing of the drivers
 step_width_us = 2.0
 queue_frames = 32          # at least 2
 cutter_radius = 3.0        # mm, for G41/G42 (no default: a program with them needs it)
+corner = "arc"             # G41/G42's convex corners: "arc" (LinuxCNC's) or "miter" (extended
+                           # to a point up to 2 radii from the vertex, on an arc beyond)
 input_filter_us = 100      # the switch inputs' glitch filter, at most 10 000 (10 ms)
 estop = "nc"               # each input's switch: "nc" (normally closed) or "no" (open)
 limit_x = "nc"
@@ -86,6 +88,7 @@ class Machine:
     step_width_us: float = 2.0
     queue_frames: int = 32
     cutter_radius: float = None       # mm: G41/G42's (None: a program with them is refused)
+    corner: str = "arc"               # G41/G42's convex corners: "arc" or "miter"
     input_filter_us: float = 100.0
     estop: str = "nc"
     limit_x: str = "nc"
@@ -101,6 +104,10 @@ class Machine:
     pwm_hz: float = 1000.0            # the spindle (laser) PWM's frequency
 
     def __post_init__(self):
+        if self.corner not in ("arc", "miter"):
+            raise MachineError(f"corner must be \"arc\" (round a convex corner on an arc of "
+                               f"the cutter radius) or \"miter\" (extend it up to 2 radii), "
+                               f"not {self.corner!r}")
         for name in SWITCHES:
             if getattr(self, name) not in ("nc", "no"):
                 raise MachineError(f"{name} must be \"nc\" (normally closed) or \"no\" "
@@ -130,7 +137,7 @@ class Machine:
                                    f"{value!r}")
         for item in fields(self):
             if item.name in ("cutter_radius", "g28_position", "g30_position", "travel_x",
-                             "travel_y") \
+                             "travel_y", "corner") \
                     or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)

@@ -174,7 +174,8 @@ class ToolTestCase(unittest.TestCase):
         with mock.patch("sys.stderr", stderr):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
-                         "usage: python -m kontur.bench area|speed|axes|report|controllers|runs "
+                         "usage: python -m kontur.bench area|speed|axes|report|controllers|"
+                         "runs|compensation "
                          "[--out FILE], not 'fast'\n")
 
     def test_runs_section(self):

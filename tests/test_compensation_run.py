@@ -112,8 +112,8 @@ class ModelTestCase(unittest.TestCase):
         self.assertEqual(data["cutter_radius_mm"], 3)
         self.assertEqual(data["cutter_radius_steps"], 240)
         (contour,) = data["contours"]
-        self.assertEqual(contour["lines"], [6, 13])
-        self.assertTrue(contour["closed"])
+        self.assertEqual(contour["lines"], [6, 14])
+        self.assertFalse(contour["closed"])   # LinuxCNC's rule: entered by a move
         self.assertEqual(data["arcs"], 4)
         self.assertEqual(data["end_steps"], data["programmed_end_steps"])
 
@@ -122,7 +122,7 @@ class ModelTestCase(unittest.TestCase):
         cases = [
             (PLATE.read_text(), {}, BOARD, r"^line 6: .* needs a cutter radius: give --radius"),
             (inside, {"cutter_radius": 6}, BOARD,
-             r"^line 7: the cutter \(radius 480\) is too large for the arc of radius 400 on its "
+             r"^line 8: the cutter \(radius 480\) is too large for the arc of radius 400 on its "
              r"inside$"),
             (PLATE.read_text(), {"cutter_radius": 3}, "icebreaker",
              r"^line 6: .*equidistant engine, which the icebreaker's controller does not have.*"
@@ -132,6 +132,26 @@ class ModelTestCase(unittest.TestCase):
             with self.subTest(message=message), self.assertRaisesRegex(ProgramError, message):
                 prepare(text, machine=Machine(clock_hz=registry.board(board).clock_hz,
                                               **machine), board=board)
+
+    def test_convex_corners_arc_or_miter(self):
+        """A 20 mm square cut outside (G42) at r = 2: with ``corner = "arc"`` (the default,
+        LinuxCNC's) the cutter's centre stays r from the outline (its distance from the square
+        within the engine's 0.85 steps of r: round every corner); with ``"miter"`` the 90°
+        corners are extended to the point r·√2 from the vertex."""
+        square = ("G21 G90\nG0 X-5 Y0\nG42 G1 X0 Y0 F1200\nG1 X20\nG1 Y20\nG1 X0\nG1 Y0\n"
+                  "G40 G1 X0 Y-5\nM2\n")
+
+        def outside(point):
+            qx, qy = abs(point[0] - 10) - 10, abs(point[1] - 10) - 10
+            return math.hypot(max(qx, 0), max(qy, 0)) + min(max(qx, qy), 0)
+
+        for corner, reach in (("arc", 2), ("miter", 2 * math.sqrt(2))):
+            with self.subTest(corner=corner):
+                job = plate_job(square, cutter_radius=2, steps_per_mm=20, corner=corner)
+                points = [(x / 20, y / 20) for x, y in contour_points(job)]
+                far = max(outside(p) for p in points)
+                self.assertLess(abs(far - reach), 1 / 20, far)
+                self.assertGreater(min(outside(p) for p in points), 2 - 0.85 / 20)
 
     def test_cutter_radius_is_checked(self):
         from kontur.machine import MachineError

@@ -96,6 +96,40 @@ class GeometryTestCase(unittest.TestCase):
                 self.assertAlmostEqual(float(piece.start[0]), expected[0], places=9)
                 self.assertAlmostEqual(float(piece.start[1]), expected[1], places=9)
 
+    def test_miter_limit(self):
+        """``miter``: a convex corner is extended where the intersection of the equidistants
+        is at most 2 r from the vertex (a turn of at most 120°), else rounded. A triangle run
+        clockwise with G41 (outside): its turns at (0, 0) 90°, at (0, 30) 180° - atan(100/30)
+        = 106.7°, both extended to r/cos(turn/2) from the vertex; at (100, 0) 163.3°, rounded
+        about the vertex."""
+        shape = profile("G41 G1 X0 Y30\nG1 X100 Y0\nG1 X0 Y0\n")
+        pieces = offset_path(shape, 4, treatment="miter")
+        arcs = {p.centre for p in pieces if p.what == "corner arc"}
+        self.assertEqual(arcs, {(100, 0)})
+        lines = [p for p in pieces if p.kind == "line"]
+        for vertex, turn in (((0, 0), math.pi / 2), ((0, 30), math.pi - math.atan(100 / 30))):
+            reach = min(math.dist(vertex, [float(c) for c in p.end]) for p in lines)
+            self.assertAlmostEqual(reach, 4 / math.cos(turn / 2), places=9)
+        self.assertEqual({p.what for p in offset_path(shape, 4, treatment="extend")},
+                         {"line"})
+
+    def test_tangent_up_to_the_lattice(self):
+        """A line meeting an arc at a turn of 1/500 rad (a tangent joint rounded to the
+        lattice), the cutter inside the arc (a concave joint). With the radius known and the
+        gap r·sin(turn) at most a step, the joint is smooth: the arc is entered on its normal
+        at the vertex; with a larger gap, or without a radius (the program for any radius),
+        it is a concave corner at the intersection of the equidistants."""
+        # The arc round (0, 5000) from (10, 0), ccw, a quarter turn: its tangent there
+        # (5000, 10), the line's (1, 0).
+        shape = profile("G0 X-2000\nG41 G1 X10 Y0\nG3 X5000 Y5010 I-10 J5000\n")
+        for r in (1, 200, 500):
+            pieces = offset_path(shape, r)
+            self.assertEqual(pieces[1].entry, ((10, 0), (-10, 5000), 0))
+            arc = next(e for e in elements(shape, radius=r) if e.kind == "arc")
+            self.assertEqual(arc.entry, ((10, 0), (-10, 5000), 0))
+        self.assertIsNone(offset_path(shape, 1000)[1].entry)
+        self.assertIsNone(next(e for e in elements(shape) if e.kind == "arc").entry)
+
     def test_circle(self):
         for side, rho in ((None, 27), ("other", 33)):
             pieces = offset_path(load("circle", side), 3)
@@ -134,10 +168,10 @@ class GeometryTestCase(unittest.TestCase):
                                                r"not 1\.5$"):
             prepare(square, 1.5)
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "
-                                                r"'arc', not 'round'$"):
+                                                r"'arc', 'miter', not 'round'$"):
             elements(square, treatment="round")
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "
-                                                r"'arc', not 'round'$"):
+                                                r"'arc', 'miter', not 'round'$"):
             offset_path(square, 1, treatment="round")
         with self.assertRaisesRegex(ValueError, r"^Corner detection must be one of 'normal', "
                                                 r"'seed', not 'late'$"):

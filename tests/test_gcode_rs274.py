@@ -20,23 +20,20 @@ checked against rs274's compensated path of ``comp_table.ngc`` (test_tool_table_
 """
 
 import re
-import shutil
-import subprocess
 from fractions import Fraction
 from pathlib import Path
 
 import pytest
 
 from kontur.gcode import GCodeError, Z_REFUSAL, planar, read, read_tool_table
+from kontur.rs274 import available, inch_table
+from kontur.rs274 import canonical as rs274_canonical
 
 HERE = Path(__file__).resolve().parent
 PROGRAMS = HERE / "programs"
 WRITTEN = PROGRAMS / "rs274"
 LINUXCNC = Path("/usr/share/linuxcnc/ncfiles")
 TABLE = WRITTEN / "tools.tbl"
-RS274 = "/usr/bin/rs274"
-
-_CALL = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
 Z = re.escape(Z_REFUSAL)
 
 #: The programs and what kontur does with each: ``None`` (runs), or the regular expression of
@@ -79,10 +76,6 @@ CORPUS = {
 }
 
 
-def _numbers(text):
-    return [float(x) for x in re.split(r"[,\s]+", text.strip()) if x]
-
-
 def _uncompensated(text):
     """The program with cutter-radius compensation off: G41/G42 (and .1) become G40, their D
     words go (in the code, not in comments)."""
@@ -100,63 +93,18 @@ def _uncompensated(text):
 def _inch_table(tmp_path):
     """The corpus's tool table for rs274, which reads diameters in inches (its default
     machine units)."""
-    lines = []
-    for tool, diameter in read_tool_table(TABLE.read_text()).items():
-        lines.append(f"T{tool} P{tool} D{float(diameter / Fraction(254, 10)):.6f} Z0")
     path = tmp_path / "tools-inch.tbl"
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text(inch_table(read_tool_table(TABLE.read_text())))
     return path
 
 
 def canonical(text, tmp_path):
-    """rs274's canonical commands for ``text``: its moves (in mm, machine coordinates) and its
-    events, and its output."""
-    assert Path(RS274).exists() or shutil.which("rs274"), \
+    """rs274's canonical commands for ``text`` (:func:`kontur.rs274.canonical`, with the
+    corpus's tool table): its moves (in mm, machine coordinates), its events, and its
+    output."""
+    assert available(), \
         "rs274 (LinuxCNC's interpreter, package linuxcnc-uspace) is missing: run make setup"
-    path = tmp_path / "program.ngc"
-    path.write_text(text)
-    run = subprocess.run([shutil.which("rs274") or RS274, "-t", str(_inch_table(tmp_path)), "-g",
-                          str(path)], capture_output=True, text=True, timeout=60,
-                         stdin=subprocess.DEVNULL)
-    unit, g5x, g92, feed = 1.0, [0.0] * 3, [0.0] * 3, None
-    moves, events = [], []
-    for line in run.stdout.splitlines():
-        match = _CALL.match(line)
-        if not match:
-            continue
-        name, args = match.groups()
-        if name == "USE_LENGTH_UNITS":
-            unit = 25.4 if "INCHES" in args else 1.0
-        elif name == "SET_G5X_OFFSET":
-            g5x = [c * unit for c in _numbers(args)[1:4]]
-        elif name == "SET_G92_OFFSET":
-            g92 = [c * unit for c in _numbers(args)[0:3]]
-        elif name == "SET_FEED_RATE":
-            feed = _numbers(args)[0] * unit
-        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
-            v = _numbers(args)
-            off = [g5x[i] + g92[i] for i in range(3)]
-            move = {"end": (v[0] * unit + off[0], v[1] * unit + off[1]), "unit": unit}
-            if name == "ARC_FEED":
-                move.update(kind="arc", centre=(v[2] * unit + off[0], v[3] * unit + off[1]),
-                            cw=v[4] < 0, turns=abs(v[4]), z=v[5] * unit + off[2], feed=feed)
-            else:
-                move.update(kind="rapid" if name == "STRAIGHT_TRAVERSE" else "line",
-                            z=v[2] * unit + off[2], feed=feed)
-            moves.append(move)
-        elif name == "DWELL":
-            moves.append({"kind": "dwell", "seconds": _numbers(args)[0]})
-        elif name == "CHANGE_TOOL":
-            events.append(("tool_change", int(_numbers(args)[0])))
-        elif name in ("START_SPINDLE_CLOCKWISE", "START_SPINDLE_COUNTERCLOCKWISE"):
-            events.append(("spindle", 3 if "COUNTER" not in name else 4))
-        elif name in ("MIST_ON", "FLOOD_ON"):
-            events.append(("coolant", 7 if name == "MIST_ON" else 8))
-        elif name in ("PROGRAM_STOP", "OPTIONAL_PROGRAM_STOP"):
-            events.append(("pause", 0 if name == "PROGRAM_STOP" else 1))
-        elif name == "MESSAGE":
-            events.append(("message", args.strip()[1:-1]))
-    return moves, events, run
+    return rs274_canonical(text, read_tool_table(TABLE.read_text()), folder=tmp_path)
 
 
 def _events(program):

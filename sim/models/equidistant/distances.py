@@ -84,7 +84,8 @@ def _within(point, piece):
 
 
 def distance_to_profile(point, profile):
-    """The distance from ``point`` to the profile (every segment)."""
+    """The distance from ``point`` to the profile (every segment of the part: an entry
+    move's is not, :attr:`Profile.part`)."""
     def exact(seg):
         if seg.kind == "line":
             return _segment_distance(point, seg.start, seg.end)
@@ -100,7 +101,7 @@ def distance_to_profile(point, profile):
                        - math.sqrt(seg.r2))
         return min(_rough_segment(point, seg.start, seg.start),
                    _rough_segment(point, seg.end, seg.end))
-    return _nearest(point, profile.segments, exact, rough)
+    return _nearest(point, profile.part, exact, rough)
 
 
 def path_points(start, steps):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from .geometry import (DETECTIONS, TREATMENTS, ProfileError, _add, _corner_kind, _corner_normal,
-                       _cross, _dot, _left, _normal_entry, _scale, _sub, _turn)
+                       _cross, _rounds, _dot, _left, _normal_entry, _scale, _sub, _turn)
 
 __all__ = ["Element", "elements"]
 
@@ -73,7 +73,7 @@ def _arc_tangent(radius, cw):
     return _scale(_left(radius), -1 if cw else 1)
 
 
-def elements(profile, *, treatment="extend", detection="normal"):
+def elements(profile, *, treatment="extend", detection="normal", radius=None):
     """The hardware's elements for ``profile`` (any radius): a list of :class:`Element`, the
     last one the terminal aimed at (``last``): for a closed profile the first element again,
     for an open one the normal at the last end point.
@@ -82,6 +82,11 @@ def elements(profile, *, treatment="extend", detection="normal"):
     the line through the intersection of the equidistants (a combination of the two
     equations (13) that vanishes at the same point and crosses the line at a right angle), or
     ``"seed"``, the next line's own equidistant (equation (13) with Table 1's coefficients).
+
+    ``radius`` (steps), when given, is the one radius the elements are for: a joint tangent
+    up to the lattice's rounding is then smooth (:func:`~.geometry._corner_kind`), as
+    :func:`~.geometry.offset_path` at that radius has it; without it (the program for any
+    radius) only an exactly tangent joint is.
 
     Raises
     ------
@@ -121,7 +126,7 @@ def elements(profile, *, treatment="extend", detection="normal"):
     corners = {}
     for i in range(count if profile.closed else count - 1):
         s1, s2 = segs[i], segs[(i + 1) % count]
-        corners[i] = (_corner_kind(s1, s2, side), s1, s2)
+        corners[i] = (_corner_kind(s1, s2, side, radius), s1, s2)
 
     arriving = None
     entry = None
@@ -194,7 +199,7 @@ def _corner_items(kind, s1, s2, side, treatment, detection, arc_items):
     if kind == "concave":
         both = s1.kind == "line" and s2.kind == "line"
         return [], crossing(t1, t2) if both else None, t1
-    if treatment == "arc":
+    if _rounds(treatment, t1, t2):
         if arc_items is not None:
             cw = _cross(t1, t2) < 0
             ref = _scale(_left(t1), side)

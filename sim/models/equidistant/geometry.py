@@ -13,8 +13,29 @@ __all__ = ["ProfileError", "Segment", "Profile", "TREATMENTS", "DETECTIONS", "pr
            "offset_path", "Piece"]
 
 #: Convex-corner treatments: ``extend`` the equidistants to their intersection (an arc
-#: extended along its tangent), or go round the corner on an ``arc`` of radius r.
-TREATMENTS = ("extend", "arc")
+#: extended along its tangent), go round the corner on an ``arc`` of radius r, or ``miter``:
+#: extend where the intersection is at most :data:`MITER_LIMIT` times r from the vertex, and
+#: go round on an arc where it would be farther (a sharper corner).
+TREATMENTS = ("extend", "arc", "miter")
+
+#: The ``miter`` treatment's limit: the intersection of the equidistants at most this many
+#: radii from the vertex (``1/cos(turn/2) <= 2``: turns of up to 120° are extended).
+MITER_LIMIT = 2
+
+
+def _rounds(treatment, t1, t2):
+    """Whether a convex corner with the tangents ``t1``, ``t2`` goes round on an arc under
+    ``treatment`` (``miter``: where ``1/cos(turn/2) > MITER_LIMIT``, i.e. ``cos(turn) <
+    2/MITER_LIMIT² - 1``; exact)."""
+    if treatment != "miter":
+        return treatment == "arc"
+    c = Fraction(2, MITER_LIMIT * MITER_LIMIT) - 1
+    dot, norms = _dot(t1, t2), _dot(t1, t1) * _dot(t2, t2)
+    if (dot >= 0) != (c >= 0):
+        return dot < 0                   # cos(turn) and c of opposite signs
+    if dot >= 0:
+        return dot * dot < c * c * norms     # 0 <= cos(turn) < c
+    return dot * dot > c * c * norms         # cos(turn) < c < 0
 
 #: What ends a line at a corner with a line: the ``normal`` of the line through the
 #: intersection of the equidistants, or (the ``seed``'s rule) the next line's equidistant.
@@ -94,10 +115,15 @@ class Segment:
     line: int
     centre: tuple = None
     cw: bool = False
+    #: ``R²`` of an arc where it is not its start's (a program in millimetres: the radius as
+    #: programmed, which the start rounded to the lattice misses by up to a step)
+    radius2: int = None
 
     @property
     def r2(self):
-        """``R²`` of an arc."""
+        """``R²`` of an arc: ``radius2``, else its start's."""
+        if self.radius2 is not None:
+            return self.radius2
         return _dot(_sub(self.start, self.centre), _sub(self.start, self.centre))
 
     def tangent(self, point):
@@ -120,10 +146,21 @@ class Profile:
     and whether it is closed (its last element ends where its first begins)."""
     segments: tuple
     side: str
+    #: The number of leading segments that are no part of the part: with any, the first is an
+    #: entry move (LinuxCNC's rule, :mod:`kontur.compensation`): the cutter's centre starts
+    #: where its equidistant ends (its corner with the next element), and the profile is
+    #: open; those after it are lead-in moves (an arc onto the outline, which the last
+    #: element returns to), traced as elements.
+    lead: int = 0
 
     @property
     def closed(self):
-        return self.segments[-1].end == self.segments[0].start
+        return not self.lead and self.segments[-1].end == self.segments[0].start
+
+    @property
+    def part(self):
+        """The segments of the part (the entry move's not)."""
+        return self.segments[int(self.lead):]
 
     @property
     def sign(self):
@@ -190,7 +227,8 @@ def profile_from_moves(moves, *, tolerance=0):
         centre = tuple(_lattice(v, a, line) for v, a in zip(move.centre, "IJ"))
         if centre == start:
             raise ProfileError(f"line {line}: an arc of radius zero (I = J = 0)")
-        seg = Segment("arc", start, end, line, centre, bool(move.cw))
+        seg = Segment("arc", start, end, line, centre, bool(move.cw),
+                      getattr(move, "r2", None))
         d2 = _dot(_sub(end, centre), _sub(end, centre))
         if d2 != seg.r2 and abs(math.sqrt(d2) - math.sqrt(seg.r2)) > tolerance:
             raise ProfileError(f"line {line}: the arc's end point {end} is not on its circle "
@@ -232,7 +270,13 @@ class Piece:
 
 
 def _offset_point(seg, point, side, r):
-    """``point`` of ``seg`` moved by ``r`` to the cutter's side (its normal there)."""
+    """``point`` of ``seg`` moved by ``r`` to the cutter's side (its normal there); for an arc
+    whose radius is not its start's (``radius2``), the point of its equidistant's circle on
+    the radial line through ``point`` (an end rounded to the lattice lies off the circle)."""
+    if seg.kind == "arc" and seg.radius2 is not None:
+        radial = _sub(point, seg.centre)
+        rho = _sqrt(seg.r2) + _sigma(seg, side) * r
+        return _add(seg.centre, _scale(radial, rho / _norm(radial)))
     t = seg.tangent(point)
     n = _left(t)
     return _add(point, _scale(n, side * r / _norm(t)))
@@ -300,10 +344,27 @@ def _dist2(a, b):
     return _dot(d, d)
 
 
-def _corner_kind(seg1, seg2, side):
-    """``"smooth"``, ``"concave"`` or ``"convex"`` at the joint of ``seg1`` and ``seg2``."""
+#: A joint is taken as smooth (tangent) when its turn is at most this sine (0.57°; LinuxCNC
+#: makes no corner below 0.05 rad, its TOLERANCE_CONCAVE_CORNER) and the equidistants' ends
+#: at the vertex are at most :data:`SMOOTH_GAP` steps apart at the radius: the tangent joints
+#: of a program in millimetres are tangent only up to the rounding of its points and centres
+#: to the lattice (turns of up to 0.003 rad at 80 steps/mm on the corpus).
+SMOOTH_SINE = Fraction(1, 100)
+#: (steps) the largest gap ``r·sin(turn)`` between the equidistants' ends at a joint taken as
+#: smooth.
+SMOOTH_GAP = Fraction(1)
+
+
+def _corner_kind(seg1, seg2, side, radius=None):
+    """``"smooth"``, ``"concave"`` or ``"convex"`` at the joint of ``seg1`` and ``seg2``; with
+    a ``radius`` a joint that is tangent up to the lattice's rounding (:data:`SMOOTH_SINE`,
+    :data:`SMOOTH_GAP`) is smooth."""
     t1, t2 = seg1.tangent(seg1.end), seg2.tangent(seg2.start)
     turn = _cross(t1, t2)
+    if turn and radius is not None and _dot(t1, t2) > 0:
+        sine2 = Fraction(turn * turn, _dot(t1, t1) * _dot(t2, t2))
+        if sine2 <= SMOOTH_SINE ** 2 and radius * radius * sine2 <= SMOOTH_GAP ** 2:
+            return "smooth"
     if turn == 0:
         if _dot(t1, t2) < 0:
             raise ProfileError(f"line {seg2.line}: the path reverses at {seg2.start}: the "
@@ -405,7 +466,7 @@ def _corner(s1, s2, side, r, radius, treatment):
     """The joint of ``s1`` and ``s2``: where ``s1``'s equidistant ends (``finish``), where
     ``s2``'s begins (``begin``), the pieces between, and how the piece before ``s2``'s ends."""
     v = s1.end
-    kind = _corner_kind(s1, s2, side)
+    kind = _corner_kind(s1, s2, side, radius)
     n1, n2 = _offset_point(s1, v, side, r), _offset_point(s2, v, side, r)
     t1, t2 = s1.tangent(v), s2.tangent(v)
     if kind == "smooth":
@@ -418,7 +479,7 @@ def _corner(s1, s2, side, r, radius, treatment):
                                f"{s2.line}: their equidistants do not meet")
         q = min(points, key=lambda p: _dist2(p, v))
         return {"finish": q, "begin": q, "pieces": [], "entry": None}
-    if treatment == "arc":
+    if _rounds(treatment, t1, t2):
         cw = _cross(t1, t2) < 0
         ref = _scale(_left(t1), side)            # the radius to the corner arc's start
         span = _turn(ref, _scale(_left(t2), side), cw)

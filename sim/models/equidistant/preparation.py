@@ -11,10 +11,10 @@ from kontur.hdl.spec import Formats
 from .distances import distance_to_path, distance_to_profile, path_points
 from .elements import elements
 from .functions import KIND, _round, element_frame
-from .geometry import Profile, ProfileError, _sqrt, offset_path
+from .geometry import SMOOTH_GAP, Profile, ProfileError, _sqrt, offset_path
 from .steps import trace_elements
 
-__all__ = ["Prepared", "program_frames", "prepare", "PATH_BOUND"]
+__all__ = ["Prepared", "program_frames", "prepare", "PATH_BOUND", "NEAR_BOUND"]
 
 _START_ROUNDS = 4                  # rounds of the search for a closed profile's start
 
@@ -57,7 +57,7 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
     would visit is measured against the exact geometry: farther than :data:`PATH_BOUND` from
     the equidistant, or nearer the profile than ``radius - PATH_BOUND`` (where the
     equidistant of one part of the profile comes too near another: a slot narrower than the
-    cutter), and the profile is refused before anything moves.
+    cutter; :data:`NEAR_BOUND`), and the profile is refused before anything moves.
 
     Raises
     ------
@@ -88,7 +88,7 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
                 raise ProfileError(f"line {seg.line}: the cutter's path would leave the "
                                    f"{formats.width}-bit registers (at most {limit}) here")
     pieces = offset_path(profile, radius, treatment=treatment)
-    found = tuple(elements(profile, treatment=treatment, detection=detection))
+    found = tuple(elements(profile, treatment=treatment, detection=detection, radius=radius))
     body = [element_frame(e, formats) for e in found]
 
     def made(start):
@@ -99,7 +99,16 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
         return Prepared(profile, radius, treatment, detection, formats, found, start,
                         tuple(pieces), tuple(frames))
 
-    start = tuple(_round(c) for c in pieces[0].start)
+    # The start: where the equidistant begins, or with an entry move (``profile.lead``) where
+    # its equidistant ends, at its corner with the first element of the part.
+    first = pieces[0].start
+    if profile.lead:                     # the end of the entry's own pieces (an arc's several)
+        own = profile.segments[0].line
+        for piece in pieces:
+            if piece.line != own or piece.what not in ("line", "arc"):
+                break
+            first = piece.end
+    start = tuple(_round(c) for c in first)
     prepared = made(start)
     # A closed profile starts where its last element ends (the corner it closes on), so that
     # the return to the start is empty: found by running the step level from the nearest
@@ -120,6 +129,10 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
 #: Every point the cutter's centre visits lies within this distance of the exact equidistant
 #: (and no nearer the profile than the radius less it): checked on every profile prepared.
 PATH_BOUND = Fraction(17, 20)
+#: ... and no nearer the profile than the radius less this: the path's bound and the gap of a
+#: joint tangent up to the lattice's rounding (:data:`~.geometry.SMOOTH_GAP`), where the
+#: equidistant of one element runs up to that gap nearer the next than r.
+NEAR_BOUND = PATH_BOUND + SMOOTH_GAP
 
 
 def _verify(prepared):
@@ -137,8 +150,8 @@ def _verify(prepared):
                                    f" steps from the equidistant at {point}: the interpolator "
                                    f"cannot follow this corner")
             near = distance_to_profile(point, prepared.profile)
-            if near < r - PATH_BOUND:
-                seg = min(prepared.profile.segments, key=lambda g: distance_to_profile(
+            if near < r - NEAR_BOUND:
+                seg = min(prepared.profile.part, key=lambda g: distance_to_profile(
                     point, Profile((g,), prepared.profile.side)))
                 raise ProfileError(f"line {line}: the cutter (radius {r}) would cut "
                                    f"{float(r - near):.3g} steps into the part at line "
