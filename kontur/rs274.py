@@ -118,11 +118,9 @@ def refusal(run):
 # ---- a path against rs274's ----------------------------------------------------------------
 
 def _segment(p, a, b):
-    ax, ay = b[0] - a[0], b[1] - a[1]
-    length2 = ax * ax + ay * ay
-    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay)
-                                               / length2))
-    return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
+    """The distance from ``p`` to the segment ``a``-``b`` (the run's own measure)."""
+    from kontur.machining import _distance_to_segment
+    return _distance_to_segment(p, a, b)
 
 
 def _angle(v):
