@@ -40,7 +40,8 @@ from kontur import registry
 from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, planar, read, sweep
 from kontur.machine import Machine, MachineError
-from kontur.planner import ProgramError, frames as program_frames, lattice, plan, planned_feed
+from kontur.planner import (ProgramError, frames as program_frames, lattice, plan, planned_feed,
+                            step_seconds)
 from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -352,22 +353,14 @@ def auto_compress(job):
 
 
 def _plan_times(job):
-    """Each step's time (s from the start) under the feed plan: trapezoids of every segment."""
-    a, spm = job.machine.accel, job.machine.steps_per_mm
+    """Each step's time (s from the start) under the feed plan (:func:`.planner.step_seconds`)."""
     times, now = [], 0.0
     for segment, item in zip(job.segments, job.items):
         if segment.kind == "dwell":
             now += item.seconds
             continue
-        total = segment.length / spm
-        covered = 0.0
-        for dx, dy in segment.steps:
-            step = (math.sqrt(2) if dx and dy else 1.0) / spm
-            middle = covered + step / 2
-            speed = min(math.sqrt(item.entry ** 2 + 2 * a * middle), item.cruise,
-                        math.sqrt(item.exit ** 2 + 2 * a * max(total - middle, 0)))
-            now += step / max(speed, 1e-9)
-            covered += step
+        for seconds in step_seconds(segment, item, job.machine):
+            now += seconds
             times.append(now)
     return times
 

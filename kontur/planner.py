@@ -347,6 +347,31 @@ class PlanItem:
     seconds: float
 
 
+#: The step lengths before a move's end at which the feed generator is to be at the exit rate:
+#: its ramp-down begins that much early (the generator's look-ahead and the rounding of its
+#: rate), and the last of the move runs at the exit rate.
+MARGIN_STEPS = 2
+
+
+def step_seconds(segment, item, machine):
+    """The duration (s) of each step of ``segment`` under ``item``'s plan, as the feed
+    generator makes it: up from the entry speed, at most the cruise, down to the exit speed
+    :data:`MARGIN_STEPS` step lengths before the end and at the exit speed from there; each
+    step at the speed in its middle."""
+    a, spm = machine.accel, machine.steps_per_mm
+    total = segment.length / spm
+    ramp_end = max(total - MARGIN_STEPS / spm, 0)
+    out, covered = [], 0.0
+    for dx, dy in segment.steps:
+        step = (math.sqrt(2) if dx and dy else 1.0) / spm
+        middle = covered + step / 2
+        speed = min(math.sqrt(item.entry ** 2 + 2 * a * middle), item.cruise,
+                    math.sqrt(item.exit ** 2 + 2 * a * max(ramp_end - middle, 0)))
+        out.append(step / max(speed, 1e-9))
+        covered += step
+    return out
+
+
 def _junction(previous, following, machine):
     """The highest speed (mm/s) through the corner from ``previous`` into ``following``."""
     a, b = previous.tangents[1], following.tangents[0]
@@ -451,7 +476,7 @@ def _plan(segments, machine):
         length = lengths[i]
         peak = math.sqrt(max((2 * a * length + v0 * v0 + v1 * v1) / 2, 0))
         vc = max(_quantise(min(nominal[i], peak), unit), v1, v0)
-        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + 2     # step lengths, and two more
+        down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + MARGIN_STEPS   # step lengths
         remaining = s.length
         decelerate = 0
         for index, (dx, dy) in enumerate(s.steps):
@@ -459,11 +484,9 @@ def _plan(segments, machine):
                 break
             decelerate = index
             remaining -= math.sqrt(2) if dx and dy else 1.0
-        up = max((vc * vc - v0 * v0) / (2 * a), 0)
-        down_mm = max((vc * vc - v1 * v1) / (2 * a), 0)
-        cruise_mm = max(length - up - down_mm, 0)
-        seconds = (vc - v0) / a + (vc - v1) / a + cruise_mm / vc
-        items.append(PlanItem(v0, vc, v1, decelerate, seconds))
+        item = PlanItem(v0, vc, v1, decelerate, 0.0)
+        item.seconds = sum(step_seconds(s, item, machine))
+        items.append(item)
         v0 = v1
     return items
 
