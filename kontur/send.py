@@ -332,18 +332,22 @@ class _Sender:
         ``("rapid", PCT)``), sent at once as HOLD, RESUME, OVERRIDE. While held no frame is
         overdue; a resume counts as an answer (the oldest frame's time starts again)."""
         for command in self.controls() or ():
-            if command == "hold":
-                self.write(protocol.hold())
-                self.held = True
-            elif command == "resume":
-                self.write(protocol.resume())
-                self.held = False
-                self.heard = time.monotonic()
-            else:
-                what, percent = command
-                self.feed, self.rapid = (percent, self.rapid) if what == "feed" else \
-                    (self.feed, percent)
-                self.write(protocol.override(self.feed, self.rapid))
+            self.command(command)
+
+    def command(self, command):
+        """One of the operator's controls (as :meth:`control` takes them), sent at once."""
+        if command == "hold":
+            self.write(protocol.hold())
+            self.held = True
+        elif command == "resume":
+            self.write(protocol.resume())
+            self.held = False
+            self.heard = time.monotonic()
+        else:
+            what, percent = command
+            self.feed, self.rapid = (percent, self.rapid) if what == "feed" else \
+                (self.feed, percent)
+            self.write(protocol.override(self.feed, self.rapid))
 
     def deadline(self):
         """When the oldest unanswered frame is overdue (never while held)."""
@@ -568,6 +572,9 @@ class Feeder(_Sender):
 
     def query(self, unlock=False):
         self._link(self.write, protocol.unlock() if unlock else protocol.query())
+
+    def command(self, command):
+        self._link(super().command, command)
 
     def outcome(self, number, code, dropped=0):
         if not self.aborting:

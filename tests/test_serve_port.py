@@ -38,10 +38,10 @@ class Recording(FakeMachine):
         super().write(data)
 
 
-def _serve(tmp_path, board):
+def _serve(tmp_path, board, *options):
     link, out = tmp_path / "grbl", tmp_path / "out"
     args = [sys.executable, "-m", "kontur.cli", "serve", "--link", str(link), "--out",
-            str(out), "--speed", str(SPEED), "--port", board.path, "--timeout", "5"]
+            str(out), "--speed", str(SPEED), "--port", board.path, "--timeout", "5", *options]
     return processes.child(args, stdout=processes.subprocess.PIPE, cwd=tmp_path), link, out
 
 
@@ -121,6 +121,62 @@ def test_board_alarm_and_unlock(tmp_path):
         while port.status()[0] != "Idle":
             assert time.monotonic() < deadline, "the board never left ALARM"
         assert board.machine.unlocks == 1
+        port.close()
+        process.stdout.close()
+
+
+def _override_fields(feed, rapid):
+    """What the board decodes from an OVERRIDE of ``feed`` and ``rapid`` percent."""
+    (event,) = protocol.CommandParser().feed(protocol.override(feed, rapid))
+    return event[1:]
+
+
+def _until(condition, seconds=10):
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+
+
+def test_hold_resume_and_overrides_reach_the_board(tmp_path):
+    """On the ULX3S (a controller with overrides): ``!`` is the board's HOLD (Hold in the
+    status, the board ends no frame while held), ``~`` its RESUME, and the feed and rapid
+    override bytes OVERRIDE frames with both overrides as they stand (Grbl's steps: +10 %,
+    rapid 50 %); the program still ends at its end."""
+    board = PtyBoard(Recording(WINDOW), pace=0.05)
+    child, link, _ = _serve(tmp_path, board, "--board", "ulx3s")
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command("G1 X20 Y10 F600") == ["ok"]
+        port.serial.write(b"!")                 # before the board has ended a frame
+        _until(lambda: board.machine.holding)
+        assert port.status()[0].startswith("Hold")
+        time.sleep(0.5)                         # the move's frames sent meanwhile
+        assert board.machine.count > 0 and board.machine.released == 0
+        port.serial.write(b"~")
+        _until(lambda: not board.machine.holding)
+        assert [c for c, _ in board.machine.controls] == ["hold", "resume"]
+        port.serial.write(bytes([0x91, 0x96]))                 # feed +10 %, rapid 50 %
+        _until(lambda: len(board.machine.overrides) == 2)
+        assert [o[:2] for o in board.machine.overrides] == \
+            [_override_fields(110, 100), _override_fields(110, 50)]
+        assert port.wait_idle(60)[:2] == (20.0, 10.0)
+        assert tuple(board.machine.position) == (20 * 80, 10 * 80)
+        port.close()
+        process.stdout.close()
+
+
+def test_overrides_on_a_board_without_them(tmp_path):
+    """The iCEBreaker's controller has no overrides: a feed override byte is a message, no
+    OVERRIDE reaches the board, the status keeps 100 %."""
+    board = PtyBoard(Recording(WINDOW))
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        port.serial.write(bytes([0x91]))
+        assert port.line() == "[MSG:the icebreaker's controller is built without the feed " \
+                              "and rapid overrides]"
+        assert board.machine.overrides == []
         port.close()
         process.stdout.close()
 

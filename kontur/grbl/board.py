@@ -21,12 +21,15 @@ unanswered or says it moves. A board in ALARM (its e-stop, a limit) is Grbl's ``
 (e-stop, as grblHAL numbers it) or ``ALARM:1`` (hard limit); a board that fails the protocol
 (:class:`kontur.send.SendError`) is ``ALARM:3`` with the reason in a ``[MSG:...]``. A soft
 reset sends ``ABORT`` and takes the position where the board stopped. Feed hold, resume and
-the overrides are not the board's yet: on ``--port`` they are refused with a message.
+the feed and rapid overrides are the board's ``HOLD``, ``RESUME`` and ``OVERRIDE`` frames
+(:meth:`kontur.send._Sender.command`), sent at once beside the virtual machine's own (which
+paces the planner); while held no frame is overdue.
 """
 
 import time
 import types
 
+from kontur import registry
 from kontur.grbl.motion import Motion
 from kontur.grbl.protocol import PLANNER_BLOCKS
 from kontur.planner import frames as program_frames, plan
@@ -246,13 +249,39 @@ class PortMotion(Motion):
             except SendError:
                 pass                        # the port is gone: nothing more to do
 
-    # ---- not the board's yet ----------------------------------------------------------
+    # ---- the operator's controls: the virtual machine's timing and the board's frames ----
+
+    def _operate(self, command):
+        """Send the board one of :meth:`kontur.send._Sender.command`'s controls."""
+        if self.failed is None:
+            try:
+                self.feeder.command(command)
+            except SendError as error:
+                self._fail(error)
 
     def hold(self):
-        self.say("[MSG:feed hold is not supported with --port yet: ctrl-X stops the board]")
+        """Feed hold: the board's HOLD (it ramps down along the path and holds)."""
+        held = self.held
+        super().hold()
+        if not held:
+            self._operate("hold")
 
     def resume(self):
-        return None
+        """Cycle start: the board's RESUME."""
+        held = self.held
+        result = super().resume()
+        if held:
+            self._operate("resume")
+        return result
 
     def override(self, index, percent):
-        self.say("[MSG:overrides are not supported with --port yet]")
+        """The feed (0) and rapid (1) overrides as the board's OVERRIDE (both as they stand);
+        the spindle's (2) is the virtual machine's only. A board built without overrides
+        (:attr:`kontur.registry.Board.overrides`) keeps 100 %: the sender is told so."""
+        if index < 2 and not registry.board(self.board).overrides:
+            self.say(f"[MSG:the {registry.board(self.board).name}'s controller is built "
+                     f"without the feed and rapid overrides]")
+            return
+        super().override(index, percent)
+        if index < 2:
+            self._operate(("feed", percent) if index == 0 else ("rapid", percent))
