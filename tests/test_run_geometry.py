@@ -228,6 +228,19 @@ def _decimal(value):
     return text
 
 
+def _speeds(move):
+    """A move's feed (mm/s), and the highest and lowest cruise the plan may give it."""
+    feed = MACHINE.max_feed if move["kind"] == "rapid" else \
+        min(float(move["feed"]), MACHINE.max_feed)
+    v = high = low = feed / 60
+    if move["kind"] == "arc":
+        # The centripetal limit sqrt(accel r), on the lattice's radius: the programmed one
+        # within two steps (start and centre each rounded by up to sqrt(2)/2).
+        high = min(v, math.sqrt(MACHINE.accel * (move["radius"] + 2 * STEP)))
+        low = min(v, math.sqrt(MACHINE.accel * max(move["radius"] - 2 * STEP, STEP)))
+    return v, high, low
+
+
 class GeometryTestCase(unittest.TestCase):
 
     def check(self, text):
@@ -245,6 +258,8 @@ class GeometryTestCase(unittest.TestCase):
         planned = {}
         for segment, item in zip(job.segments, job.items):
             planned[segment.line] = planned.get(segment.line, 0.0) + item.seconds
+        slowest = min([math.sqrt(2 * MACHINE.accel / SPM)]
+                      + [_speeds(move)[2] for move in moves]) - UNIT
         index = 0
         point = (on_grid(moves[0]["start"][0]), on_grid(moves[0]["start"][1]))
         for move in moves:
@@ -264,17 +279,12 @@ class GeometryTestCase(unittest.TestCase):
             # 2. the end, exactly
             self.assertEqual(point, (on_grid(move["end"][0]), on_grid(move["end"][1])), where)
             # 3. the time
-            feed = MACHINE.max_feed if move["kind"] == "rapid" else \
-                min(float(move["feed"]), MACHINE.max_feed)
-            v = high = low = feed / 60
-            ramps = 1
-            if move["kind"] == "arc":
-                # The centripetal limit sqrt(accel r), on the lattice's radius: the programmed
-                # one within two steps (start and centre each rounded by up to sqrt(2)/2).
-                high = min(v, math.sqrt(MACHINE.accel * (move["radius"] + 2 * STEP)))
-                low = min(v, math.sqrt(MACHINE.accel * max(move["radius"] - 2 * STEP, STEP)))
-                ramps = 2
+            v, high, low = _speeds(move)
+            ramps = 2 if move["kind"] == "arc" else 1
             seconds = planned.get(move["line"], 0.0)
+            # Each segment's last two steps (planner.MARGIN_STEPS) at its exit speed: at least
+            # the slowest a move may end at, the stop's one-step speed or the slowest feed.
+            margin = len(by_line.get(move["line"], [])) * 2 * math.sqrt(2) * STEP / slowest
             length = contour * STEP
             # A segment cruising at c takes length / c and at most c / accel more (ramps from and
             # to rest: (c - v0)^2 / 2ac + (c - v1)^2 / 2ac; a move too short to reach c,
@@ -282,7 +292,7 @@ class GeometryTestCase(unittest.TestCase):
             # at most the feed and at least it less one rate of the generator.
             self.assertGreaterEqual(seconds, length / high * (1 - 1e-9), where)
             self.assertLessEqual(seconds, length / (low - UNIT) + ramps * v / MACHINE.accel
-                                 + 1e-9, where)
+                                 + margin + 1e-9, where)
             # 4. the steps of an arc: its length, within the rounding (the radius by two steps,
             # each end's angle by 4 / r: start, end and centre rounded, the end's path point a
             # step along the circle), the contour of a step path up to STAIR times longer.
