@@ -15,7 +15,9 @@ The ends stay where they were rounded to, where the elements meet: the engine do
 arc from its start or to its end point but from and to where the elements' equidistants (or
 their entry lines) meet, so the arc's ends only have to be near its circle
 (:func:`kontur.sim.models.equidistant.profile_from_moves`'s ``tolerance``). The contour is then
-prepared at the cutter radius (the machine's ``cutter_radius``, rounded to the nearest step)
+prepared at the cutter radius (the machine's ``cutter_radius``, in steps exactly: the engine
+dials its whole steps and the elements' frames carry the rest, so that a radius half a step
+off the lattice does not move the path by half a step)
 by :func:`kontur.sim.models.equidistant.prepare`, which refuses impossible geometry and any contour
 whose path it cannot bound (0.85 steps from the exact equidistant), naming the line.
 
@@ -71,7 +73,9 @@ class Contour:
     in the engine's coordinates), ``origin`` (steps: the machine's point that is the engine's
     ``(0, 0)``), the program ``lines`` it spans (first, last), the indices of its segments in
     the job (``first`` is its ``START``'s, ``count`` of them), ``approach`` (the index of the
-    approach line, ``None`` without one) and ``radius`` (steps), and the radius as given
+    approach line, ``None`` without one) and ``radius`` (steps, exact: a
+    :class:`~fractions.Fraction`; the engine's radius frame dials its whole steps, the
+    elements' frames take the rest), and the radius as given
     (``radius_mm``) and where it came from (``radius_from``: the program's G41.1/G42.1 D, the
     tool table, ``--radius`` or the machine file)."""
     prepared: object
@@ -333,11 +337,12 @@ def program_segments(moves, machine, board):
                                                f"equidistant: put a line first)") from None
         else:
             radius_mm, source = contour_radius(run[0], machine)
-            radius = math.floor(Fraction(radius_mm) * spm + Fraction(1, 2))
+            # (steps, exact: the engine dials its whole steps, the frames take the rest)
+            radius = Fraction(radius_mm) * spm
             prepared, origin = _prepare(run, machine, radius, item.profile[1])
             part, approach = _contour_segments(prepared, origin, run, machine, position, board,
-                                               radius_frame=not contours
-                                               or contours[-1].radius != radius)
+                                               radius_frame=not contours or math.floor(
+                                                   contours[-1].radius) != math.floor(radius))
             if not contours:                 # RADIUS: at the head of the program
                 segments.insert(0, part.pop(0))
                 if approach is not None:
