@@ -212,15 +212,20 @@ def _at_radius(profile, radius, corner, width):
     the frames carry the rest. Where that path would leave the engine's bound (the check of
     :func:`~kontur.sim.models.equidistant.prepare`; seen once in 45 random profiles, 0.886
     steps at a corner), it is prepared at the radius rounded to the nearest step, as before
-    (the path then up to half a step farther from rs274's); an error of that one is raised."""
+    (the path then up to half a step farther from rs274's); where both fail, the error at the
+    exact radius is raised."""
     formats = equidistant.Formats(width)
     try:
         return equidistant.prepare(profile, radius, treatment=corner, formats=formats)
-    except equidistant.ProfileError:
+    except equidistant.ProfileError as error:
         if Fraction(radius).denominator == 1:
             raise
-    return equidistant.prepare(profile, math.floor(radius + Fraction(1, 2)), treatment=corner,
-                               formats=formats)
+        exact = error
+    try:
+        return equidistant.prepare(profile, math.floor(radius + Fraction(1, 2)),
+                                   treatment=corner, formats=formats)
+    except equidistant.ProfileError:
+        raise exact from None
 
 
 def _tangents(element, first, last):
