@@ -199,6 +199,15 @@ def _prepare(run, machine, radius, width):
             # returns to (LinuxCNC's comp311.ngc: an arc onto the outline).
             lead = next((k + 1 for k in range(1, len(moves) - 1)
                          if moves[k].end == moves[-1].end), 1)
+            # The exit: the last element ends on its normal through its end point as
+            # programmed, not as rounded to the lattice (the move after G40 starts there;
+            # rounded, its start was up to 0.7 steps off rs274's, across that move).
+            spm = Fraction(machine.steps_per_mm)
+            end = tuple(Fraction(c) * spm - o for c, o in zip(run[-1].end, origin))
+            last = profile.segments[-1]
+            if last.kind == "arc" or math.dist(last.start, end) > 2:
+                profile = replace(profile, segments=profile.segments[:-1]
+                                  + (replace(last, end=end),))
             profile = replace(profile, lead=lead)
         # Convex corners: the machine's ``corner``, "arc" (LinuxCNC's) or "miter".
         prepared = _at_radius(profile, radius, machine.corner, width)
