@@ -161,10 +161,12 @@ class GeometryTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         square = load("square")
-        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer or Fraction, "
+        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer "
+                                               r"or Fraction, "
                                                r"not -1$"):
             offset_path(square, -1)
-        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer or Fraction, "
+        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer "
+                                               r"or Fraction, "
                                                r"not 1\.5$"):
             prepare(square, 1.5)
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "

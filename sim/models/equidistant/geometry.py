@@ -432,7 +432,8 @@ def offset_path(profile, radius, *, treatment="extend"):
     segs = profile.segments
     for seg in segs:
         if seg.kind == "arc" and _sigma(seg, side) < 0 and _sqrt(seg.r2) <= r:
-            raise ProfileError(f"line {seg.line}: the cutter (radius {_shown(radius)}) is too large for "
+            raise ProfileError(f"line {seg.line}: the cutter (radius {_shown(radius)}) is too "
+                               f"large for "
                                f"the arc of radius {float(_sqrt(seg.r2)):.6g} on its inside")
     count = len(segs)
     joints = range(count) if profile.closed else range(count - 1)
@@ -487,7 +488,8 @@ def _corner(s1, s2, side, r, radius, treatment):
     if kind == "concave" or radius == 0:
         points = _intersections(_offset_of(s1, side, r), _offset_of(s2, side, r))
         if not points:
-            raise ProfileError(f"line {s2.line}: the cutter (radius {_shown(radius)}) is too large for "
+            raise ProfileError(f"line {s2.line}: the cutter (radius {_shown(radius)}) is too "
+                               f"large for "
                                f"the concave corner at {v} between lines {s1.line} and "
                                f"{s2.line}: their equidistants do not meet")
         q = min(points, key=lambda p: _dist2(p, v))

@@ -77,7 +77,8 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
     radius = _radius(radius)
     dial = math.floor(radius)            # the RADIUS frame's whole steps; the rest in the frames
     if radius > limit:
-        raise ProfileError(f"the cutter radius {float(radius):g} is too wide for the {formats.width}-bit "
+        raise ProfileError(f"the cutter radius {float(radius):g} is too wide for the "
+                           f"{formats.width}-bit "
                            f"registers (at most {limit})")
     for seg in profile.segments:
         for name, point in (("start", seg.start), ("end", seg.end), ("centre", seg.centre)):
