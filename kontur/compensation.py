@@ -237,6 +237,11 @@ def _at_radius(profile, radius, corner, width):
         raise exact from None
 
 
+def _dial(prepared):
+    """The radius a prepared contour's RADIUS frame dials (whole steps)."""
+    return prepared.frames[0]["x"]
+
+
 def _tangents(element, first, last):
     """The directions of motion at the two ends of an element's steps (engine points
     ``first`` and ``last``; ``element`` ``None`` for a ``CLOSE``), or ``None`` where there is
@@ -370,8 +375,8 @@ def program_segments(moves, machine, board):
             radius = Fraction(radius_mm) * spm
             prepared, origin = _prepare(run, machine, radius, item.profile[1])
             part, approach = _contour_segments(prepared, origin, run, machine, position, board,
-                                               radius_frame=not contours or math.floor(
-                                                   contours[-1].radius) != math.floor(radius))
+                                               radius_frame=not contours or _dial(
+                                                   contours[-1].prepared) != _dial(prepared))
             if not contours:                 # RADIUS: at the head of the program
                 segments.insert(0, part.pop(0))
                 if approach is not None:
