@@ -746,11 +746,11 @@ def summary(job, result):
     }
     if job.contours:
         data["cutter_radius_mm"] = float(job.contours[0].radius_mm)
-        data["cutter_radius_steps"] = job.contours[0].radius
+        data["cutter_radius_steps"] = float(job.contours[0].radius)
         data["contours"] = [{
             "lines": list(contour.lines),
             "radius_mm": float(contour.radius_mm),
-            "radius_steps": contour.radius,
+            "radius_steps": float(contour.radius),
             "radius_from": contour.radius_from,
             "side": contour.prepared.profile.side,
             "closed": contour.prepared.closed,

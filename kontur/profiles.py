@@ -168,9 +168,19 @@ def random_programs(count, seed=26):
         yield name, program(name, kind, shape, side, "G21", round(diameter, 3), angle, origin)
 
 
+#: The random profiles (:func:`random_programs`, seed 26) kept in the corpus: those whose path
+#: was farther than 1.5 steps from rs274's before the cutter radius was taken exactly (1.84,
+#: 1.74 and 1.53 steps; issue 26).
+RANDOM_IN_CORPUS = ("random8_kink", "random19_slot", "random20_kink")
+
+
 def main():
     mm, inch = "G21", "G20"
     out = []
+    for name, text in random_programs(45):
+        if name in RANDOM_IN_CORPUS:
+            (CORPUS / f"{name}.ngc").write_text(text)
+            out.append(name)
     specs = [
         ("rrect_out_g42", "rounded rectangle 40 x 25 R6, outside, G42 (ccw)",
          rounded_rectangle(40, 25, 6, False), "G42", mm, 6, 0.3, (10.1234, 5.4321)),

@@ -40,6 +40,19 @@ def test_path_is_linuxcnc_s(name):
     assert result["out"] <= BOUND and result["back"] <= BOUND, result
 
 
+@pytest.mark.parametrize("name", ("random8_kink", "random19_slot", "random20_kink"))
+def test_radius_off_the_lattice(name):
+    """Random profiles (kontur.profiles, seed 26) whose cutter radius lies about half a step
+    off the lattice (109.52, 277.56 and 199.56 steps): rounded to a step, the radius added
+    its 0.44-0.48 steps to the lattice's and the engine's errors, 1.84, 1.74 and 1.53 steps
+    from rs274's path; taken exactly (the frames carry its fraction) they are within the
+    bound."""
+    assert available(), "rs274 is missing: run make setup"
+    result = check_program((COMP / f"{name}.ngc").read_text(), name=name)
+    assert result["rs274"] is None and result["kontur"] is None, result
+    assert result["out"] <= BOUND and result["back"] <= BOUND, result
+
+
 def test_linuxcnc_comp311():
     """LinuxCNC's comp311.ngc (its Z moves dropped), tool 4 of 1 inch: a G41 entry line, a
     lead-in arc tangent to it and to the outline, the outline closing on the lead-in's end.
@@ -109,3 +122,27 @@ def test_gouge_in_a_notch():
     _refused_by_both(text, "cannot be reached by the tool without gouging",
                      "line 8: the cutter (radius 240) is too large: the equidistant of this "
                      "segment would run backwards")
+
+
+def test_equidistant_running_backwards():
+    """A random kinked profile (kontur.profiles, seed 26, random32_kink) whose first chamfer
+    after the G42 entry is shorter than its equidistant's corners are apart: rs274 takes it
+    and makes that chamfer's compensated move backwards, against the chamfer (0.06 mm from
+    the entry's end); kontur refuses it, naming the line: the engine's line elements step
+    along their segment (block 3's major axis moves forward at every step), so a piece of
+    equidistant running against its segment cannot be traced (docs/equidistant.md)."""
+    from kontur.profiles import random_programs
+    from kontur.rs274 import canonical
+    text = dict(random_programs(33))["random32_kink"]
+    moves, _, run = canonical(text)
+    assert run.returncode == 0, run.stderr
+    assert text.splitlines()[5] == "G1 X8.1092 Y13.7616"   # line 6, from (6.2472, 11.6006)
+    d = (8.1092 - 6.2472, 13.7616 - 11.6006)
+    feeds = [m for m in moves if m["kind"] == "line"]
+    (entry_end, chamfer_end) = feeds[0]["end"], feeds[1]["end"]
+    moved = (chamfer_end[0] - entry_end[0], chamfer_end[1] - entry_end[1])
+    assert moved[0] * d[0] + moved[1] * d[1] < 0, (entry_end, chamfer_end)   # backwards
+    result = check_program(text)
+    assert result["kontur"] is not None and result["kontur"].startswith(
+        "line 6: the cutter (radius 232.96) is too large: the equidistant of this segment "
+        "would run backwards"), result

@@ -161,10 +161,12 @@ class GeometryTestCase(unittest.TestCase):
 
     def test_parameters_wrong(self):
         square = load("square")
-        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer, "
+        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer "
+                                               r"or Fraction, "
                                                r"not -1$"):
             offset_path(square, -1)
-        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer, "
+        with self.assertRaisesRegex(TypeError, r"^Cutter radius must be a non-negative integer "
+                                               r"or Fraction, "
                                                r"not 1\.5$"):
             prepare(square, 1.5)
         with self.assertRaisesRegex(ValueError, r"^Corner treatment must be one of 'extend', "
@@ -247,6 +249,35 @@ class BoundsTestCase(unittest.TestCase):
             self.assertEqual([f["kind"] for f in frames[1][:2]], [KIND["radius"],
                                                                   KIND["start"]])
             self.assertEqual(frames[1][0]["x"], 1)
+
+    def test_radius_between_steps(self):
+        """A radius of a fraction of a step (a radius in millimetres on a lattice of steps):
+        the radius frame dials its whole steps and the elements' frames carry the rest, so
+        the square's path keeps to its equidistant at the whole radius (inside the 40 x 40
+        square at r: every visited point r from the nearest side, up to the path's bound),
+        not at the whole steps."""
+        square = load("square")
+        for r in (Fraction(5, 2), Fraction(7, 4), Fraction(3, 10)):
+            prepared = prepare(square, r)
+            self.assertEqual(prepared.frames[0], {"kind": KIND["radius"], "x": math.floor(r)})
+            x, y = prepared.start
+            worst = 0
+            for dx, dy in trace(prepared):
+                x, y = x + dx, y + dy
+                worst = max(worst, abs(min(x, y, 40 - x, 40 - y) - r))
+            self.assertLessEqual(worst, PATH_BOUND, r)
+            self.assertLessEqual(check_trace(prepared).path, PATH_BOUND, r)
+        # Along the sides (away from the corners) the lattice line nearest the equidistant:
+        # 1.75 and 2.75 from the side are 2 and 3 (the whole steps alone would be 1 and 2).
+        for r, nearest in ((Fraction(7, 4), 2), (Fraction(11, 4), 3)):
+            prepared = prepare(square, r)
+            x, y = prepared.start
+            sides = set()
+            for dx, dy in trace(prepared):
+                x, y = x + dx, y + dy
+                if 6 <= x <= 34 or 6 <= y <= 34:
+                    sides.add(min(x, y, 40 - x, 40 - y))
+            self.assertEqual(sides, {nearest}, r)
 
     def test_closed_profiles_return_to_their_start(self):
         for name in NAMES:

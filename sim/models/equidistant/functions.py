@@ -10,7 +10,7 @@ from fractions import Fraction
 from kontur.hdl.spec import Formats, Kind
 
 from ..arc import SIGNS, native, quadrant
-from .geometry import _sqrt
+from .geometry import _add, _left, _scale, _sqrt
 
 __all__ = ["Formats", "KIND", "LineFunction", "CircleFunction", "line_function", "circle_function",
            "own_function", "step_signs", "threshold", "line_step", "element_frame"]
@@ -59,26 +59,30 @@ class LineFunction:
         return c * dx + d * dy
 
 
-def line_function(base, d, offset, formats):
+def line_function(base, d, offset, formats, delta=0):
     """The hardware's line through the lattice point ``base`` with direction ``d``, moved
     ``offset`` times r to the left (:class:`LineFunction`).
 
     ``k``, ``1/cos α`` and ``offset/cos α`` are rounded to the nearest multiple of ``2**-F``;
-    ``b`` is formed from the rounded ``k`` so that the line passes exactly through ``base``.
+    ``b`` is formed from the rounded ``k`` so that the line passes exactly through ``base``
+    (with ``delta``, the part of the cutter radius below the dial's whole steps, through
+    ``base`` moved ``offset·delta`` to the left: ``b`` rounded to ``2**-F``).
     """
     dx, dy = d
     one = formats.one
     length = _sqrt(dx * dx + dy * dy)
+    if delta and offset:
+        base = _add(base, _scale(_left(d), offset * Fraction(delta) / length))
     if abs(dy) <= abs(dx):
         swap, minor = 0, int(dy < 0)
         k = _round(Fraction(dy, dx) * one)
         secant = length / dx
-        b = base[1] * one - k * base[0]
+        b = _round(base[1] * one - k * base[0])
     else:
         swap, minor = 1, int(dx < 0)
         k = _round(Fraction(dx, dy) * one)
         secant = length / dy
-        b = base[0] * one - k * base[1]
+        b = _round(base[0] * one - k * base[1])
     sec = _round(secant * one)
     return LineFunction(swap, minor, k, b, sec, _round(offset * secant * one), one)
 
@@ -103,18 +107,29 @@ class CircleFunction:
         return u * u + v * v - self.n(r)
 
 
-def circle_function(centre, r2, sigma, formats):
+def circle_function(centre, r2, sigma, formats, delta=0):
     """The hardware's circle round ``centre`` of profile radius ``sqrt(r2)`` (``2R`` rounded to
-    ``2**-F``), the cutter outside it when ``sigma`` is +1 (:class:`CircleFunction`)."""
-    g = _round(2 * _sqrt(r2) * formats.one)
-    return CircleFunction(tuple(centre), r2, g, sigma, formats.fraction)
+    ``2**-F``), the cutter outside it when ``sigma`` is +1 (:class:`CircleFunction`).
+
+    With ``delta`` (the part of the cutter radius below the dial's whole steps) the profile
+    radius is ``R + σ·delta`` (``R²`` rounded to an integer, ``2R`` to ``2**-F``), so that the
+    circle traced at the dial's ``r`` is the equidistant at ``r + delta``; so too where ``r2``
+    is not an integer (a radius fitted by the host)."""
+    if not delta and Fraction(r2).denominator == 1:
+        return CircleFunction(tuple(centre), int(r2), _round(2 * _sqrt(r2) * formats.one),
+                              sigma, formats.fraction)
+    rho = _sqrt(r2) + sigma * Fraction(delta)
+    if rho < 0:
+        raise ValueError(f"the circle's radius less the radius's fraction is negative ({rho})")
+    return CircleFunction(tuple(centre), _round(rho * rho), _round(2 * rho * formats.one),
+                          sigma, formats.fraction)
 
 
-def own_function(element, formats):
-    """The function of an element's own equidistant."""
+def own_function(element, formats, delta=0):
+    """The function of an element's own equidistant (``delta``: see :func:`line_function`)."""
     if element.kind == "line":
-        return line_function(element.base, element.d, element.offset, formats)
-    return circle_function(element.centre, element.r2, element.sigma, formats)
+        return line_function(element.base, element.d, element.offset, formats, delta)
+    return circle_function(element.centre, element.r2, element.sigma, formats, delta)
 
 
 def step_signs(element, function, point):
@@ -168,19 +183,22 @@ def _native_start(point, centre, cw):
     return q, native(u, v, q, cw)
 
 
-def element_frame(element, formats):
-    """The frame of one element (a dict of the frame's fields, see ``kontur.hdl.equidistant``)."""
+def element_frame(element, formats, delta=0):
+    """The frame of one element (a dict of the frame's fields, see ``kontur.hdl.equidistant``);
+    ``delta``: the cutter radius less the dial's whole steps (``0 <= delta < 1``), taken into
+    the frame's numbers (:func:`line_function`, :func:`circle_function`), so that the engine,
+    dialled at the whole steps, traces the equidistant at the whole radius."""
     frame = {"kind": KIND[element.kind], "last": int(element.last), "h": int(element.h < 0)}
     if element.kind == "line":
-        own = own_function(element, formats)
+        own = own_function(element, formats, delta)
         frame.update(side=element.offset, swap=own.swap, minor=own.minor, k=own.k, b=own.b,
                      sec=own.sec)
     else:
-        own = own_function(element, formats)
+        own = own_function(element, formats, delta)
         frame.update(side=element.side, cw=int(element.cw), x=own.centre[0], y=own.centre[1],
                      e=own.e, g=own.g)
     if element.entry is not None:
-        entry = line_function(*element.entry, formats)
+        entry = line_function(*element.entry, formats, delta)
         frame.update(entry=1, eswap=entry.swap, eminor=entry.minor, ek=entry.k, eb=entry.b,
                      eg=entry.g)
     return frame

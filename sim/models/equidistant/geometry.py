@@ -339,6 +339,20 @@ def _intersections(a, b):
     return _circle_circle(a[1], a[2], b[1], b[2])
 
 
+def _radius(radius):
+    """A cutter radius (steps): a non-negative integer or :class:`~fractions.Fraction` (an
+    integral Fraction as an int)."""
+    if isinstance(radius, bool) or not isinstance(radius, (int, Fraction)) or radius < 0:
+        raise TypeError(f"Cutter radius must be a non-negative integer or Fraction, not "
+                        f"{radius!r}")
+    return int(radius) if Fraction(radius).denominator == 1 else radius
+
+
+def _shown(radius):
+    """A radius (steps) as a message shows it."""
+    return radius if isinstance(radius, int) else f"{float(radius):.6g}"
+
+
 def _dist2(a, b):
     d = _sub(a, b)
     return _dot(d, d)
@@ -401,7 +415,7 @@ def offset_path(profile, radius, *, treatment="extend"):
     Raises
     ------
     TypeError
-        If ``radius`` is not a non-negative integer.
+        If ``radius`` is not a non-negative integer or Fraction.
     ValueError
         If ``treatment`` is not one of :data:`TREATMENTS`.
     ProfileError
@@ -409,8 +423,7 @@ def offset_path(profile, radius, *, treatment="extend"):
         (the equidistants do not meet) or for an arc on its inside, an equidistant running
         backwards between its corners.
     """
-    if isinstance(radius, bool) or not isinstance(radius, int) or radius < 0:
-        raise TypeError(f"Cutter radius must be a non-negative integer, not {radius!r}")
+    radius = _radius(radius)
     if treatment not in TREATMENTS:
         raise ValueError(f"Corner treatment must be one of {', '.join(map(repr, TREATMENTS))}, "
                          f"not {treatment!r}")
@@ -419,7 +432,8 @@ def offset_path(profile, radius, *, treatment="extend"):
     segs = profile.segments
     for seg in segs:
         if seg.kind == "arc" and _sigma(seg, side) < 0 and _sqrt(seg.r2) <= r:
-            raise ProfileError(f"line {seg.line}: the cutter (radius {radius}) is too large for "
+            raise ProfileError(f"line {seg.line}: the cutter (radius {_shown(radius)}) is too "
+                               f"large for "
                                f"the arc of radius {float(_sqrt(seg.r2)):.6g} on its inside")
     count = len(segs)
     joints = range(count) if profile.closed else range(count - 1)
@@ -436,7 +450,7 @@ def offset_path(profile, radius, *, treatment="extend"):
         if seg.kind == "line":
             d = _sub(seg.end, seg.start)
             if _dot(_sub(end, start), d) < 0:
-                raise ProfileError(f"line {seg.line}: the cutter (radius {radius}) is too "
+                raise ProfileError(f"line {seg.line}: the cutter (radius {_shown(radius)}) is too "
                                    f"large: the equidistant of this segment would run backwards "
                                    f"between its corners")
             pieces.append(Piece("line", start, end, seg.line, "line", base=seg.start, d=d,
@@ -452,7 +466,7 @@ def offset_path(profile, radius, *, treatment="extend"):
             if start == end or (span == 0 and seg.span() == 4):
                 span = Fraction(4)
             if first + span > seg.span() + Fraction(1, 1 << 60):
-                raise ProfileError(f"line {seg.line}: the cutter (radius {radius}) is too "
+                raise ProfileError(f"line {seg.line}: the cutter (radius {_shown(radius)}) is too "
                                    f"large: the equidistant of this arc would run backwards "
                                    f"between its corners")
             pieces.extend(_arc_pieces(seg.centre, seg.cw, seg.r2, sigma, rho, ref, start, end,
@@ -474,7 +488,8 @@ def _corner(s1, s2, side, r, radius, treatment):
     if kind == "concave" or radius == 0:
         points = _intersections(_offset_of(s1, side, r), _offset_of(s2, side, r))
         if not points:
-            raise ProfileError(f"line {s2.line}: the cutter (radius {radius}) is too large for "
+            raise ProfileError(f"line {s2.line}: the cutter (radius {_shown(radius)}) is too "
+                               f"large for "
                                f"the concave corner at {v} between lines {s1.line} and "
                                f"{s2.line}: their equidistants do not meet")
         q = min(points, key=lambda p: _dist2(p, v))

@@ -3,6 +3,7 @@ radius, the start point, the program of :func:`program_frames`, the return), the
 where a closed contour closes, and the step level verified against the exact geometry
 (:data:`PATH_BOUND`)."""
 
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -11,7 +12,7 @@ from kontur.hdl.spec import Formats
 from .distances import distance_to_path, distance_to_profile, path_points
 from .elements import elements
 from .functions import KIND, _round, element_frame
-from .geometry import SMOOTH_GAP, Profile, ProfileError, _sqrt, offset_path
+from .geometry import SMOOTH_GAP, Profile, ProfileError, _radius, _shown, _sqrt, offset_path
 from .steps import trace_elements
 
 __all__ = ["Prepared", "program_frames", "prepare", "PATH_BOUND", "NEAR_BOUND"]
@@ -51,7 +52,12 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
 
     The element frames do not depend on the radius (:func:`program_frames`); the radius frame
     and the start point do: the start is the lattice point nearest where the equidistant
-    begins (halves rounded up).
+    begins (halves rounded up). ``radius`` (steps) is an integer or a rational (a
+    :class:`~fractions.Fraction`: a radius in millimetres on a lattice of steps): the radius
+    frame dials its whole steps (rounded down) and the rest is taken into the elements'
+    frames (:func:`~.functions.element_frame`), so the path follows the equidistant at the
+    whole radius, not at a radius up to half a step off; the frames of an integer radius are
+    the program's (:func:`program_frames`).
 
     With ``verify`` (the default) the step level is run and every point the cutter's centre
     would visit is measured against the exact geometry: farther than :data:`PATH_BOUND` from
@@ -68,10 +74,11 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
         a path that would leave the equidistant or cut into the part (``verify``).
     """
     limit = (1 << formats.width) - 1
-    if isinstance(radius, bool) or not isinstance(radius, int) or radius < 0:
-        raise TypeError(f"Cutter radius must be a non-negative integer, not {radius!r}")
+    radius = _radius(radius)
+    dial = math.floor(radius)            # the RADIUS frame's whole steps; the rest in the frames
     if radius > limit:
-        raise ProfileError(f"the cutter radius {radius} is too wide for the {formats.width}-bit "
+        raise ProfileError(f"the cutter radius {float(radius):g} is too wide for the "
+                           f"{formats.width}-bit "
                            f"registers (at most {limit})")
     for seg in profile.segments:
         for name, point in (("start", seg.start), ("end", seg.end), ("centre", seg.centre)):
@@ -89,10 +96,10 @@ def prepare(profile, radius, *, treatment="extend", detection="normal", formats=
                                    f"{formats.width}-bit registers (at most {limit}) here")
     pieces = offset_path(profile, radius, treatment=treatment)
     found = tuple(elements(profile, treatment=treatment, detection=detection, radius=radius))
-    body = [element_frame(e, formats) for e in found]
+    body = [element_frame(e, formats, radius - dial) for e in found]
 
     def made(start):
-        frames = [{"kind": KIND["radius"], "x": radius},
+        frames = [{"kind": KIND["radius"], "x": dial},
                   {"kind": KIND["start"], "x": start[0], "y": start[1]}, *body]
         if profile.closed:
             frames.append({"kind": KIND["close"]})
@@ -153,6 +160,6 @@ def _verify(prepared):
             if near < r - NEAR_BOUND:
                 seg = min(prepared.profile.part, key=lambda g: distance_to_profile(
                     point, Profile((g,), prepared.profile.side)))
-                raise ProfileError(f"line {line}: the cutter (radius {r}) would cut "
+                raise ProfileError(f"line {line}: the cutter (radius {_shown(r)}) would cut "
                                    f"{float(r - near):.3g} steps into the part at line "
                                    f"{seg.line} (its centre at {point})")
