@@ -1,0 +1,184 @@
+# amaranth: UnusedElaboratable=no
+"""Homing to the switches (issue 25): the HomingEngine against its model in every clock, with
+the bench's switches following the position; where homing ends, from the geometry alone; the
+ALARM's mask (the e-stop always trips, a limit only outside the homing axis's pass)."""
+
+import unittest
+
+from kontur.hdl.motion.alarm import Alarm
+from kontur.hdl.motion.homing import HomingEngine
+from kontur.hdl.motion.inputs import INPUTS
+from kontur.sim.models.homing import BenchSwitches, HomingModel
+
+from .utils import simulate
+
+DONE, REFUSED, ABORTED = 0, 1, 2
+
+
+def home_pass(axis, negative, until, steps, value=None):
+    return {"axis": axis, "negative": int(negative), "until": int(until),
+            "set": int(value is not None), "reserved": 0, "steps": steps,
+            "value": 0 if value is None else value}
+
+
+def cycle_passes(axis, *, seek, pull_off, offset):
+    """Grbl's cycle for one axis toward its negative switch: seek, back off, approach and set."""
+    return [home_pass(axis, True, True, seek), home_pass(axis, False, False, pull_off),
+            home_pass(axis, True, True, pull_off, offset)]
+
+
+def run(passes, *, start, switches, every=3, lag=0, abort_at=None, clocks=None, ready=None):
+    """Drive the RTL engine and its model with the same inputs (the switches from the position
+    the RTL's steps make, ``lag`` clocks late; a tick every ``every`` clocks) and assert they
+    agree in every clock. Returns ``(outcomes, position, counter, steps)``: the outcomes taken,
+    the bench's position, the controller's position counter (the steps, and the loads), and the
+    steps made on each axis."""
+    dut, model = HomingEngine(), HomingModel()
+    result = {}
+
+    async def bench(ctx):
+        position, counter, steps = list(start), list(start), [0, 0]
+        history = [tuple(position)] * (lag + 1)
+        outcomes, queue, clock = [], list(passes), 0
+        while True:
+            limits = switches.levels(history[0])
+            tick = int(clock % every == 0)
+            abort = int(clock == abort_at)
+            status_ready = 1 if ready is None else ready(clock)
+            offered = queue[0] if queue else None
+            ctx.set(dut.cmd.valid, int(offered is not None))
+            if offered is not None:
+                ctx.set(dut.cmd.payload, offered)
+            ctx.set(dut.feed.tick, tick)
+            ctx.set(dut.limits, limits)
+            ctx.set(dut.status.ready, status_ready)
+            ctx.set(dut.abort, abort)
+            want = model.cycle(cmd_valid=int(offered is not None), cmd=offered, tick=tick,
+                               limits=limits, status_ready=status_ready, abort=abort)
+            got = {"cmd_ready": ctx.get(dut.cmd.ready), "due": ctx.get(dut.feed.due),
+                   "step": ctx.get(dut.motion.step), "status_valid": ctx.get(dut.status.valid),
+                   "busy": ctx.get(dut.busy), "homing": ctx.get(dut.homing),
+                   "mask": ctx.get(dut.mask), "load": ctx.get(dut.load)}
+            for name, value in got.items():
+                assert value == want[name], (clock, name, value, want[name])
+            if got["step"]:
+                assert ctx.get(dut.motion.dir) & got["step"] == want["dir"] & got["step"], clock
+            if got["status_valid"]:
+                payload = ctx.get(dut.status.payload)
+                rtl = [payload.number, payload.outcome.value, list(payload.position)]
+                assert rtl == want["status"], (clock, rtl, want["status"])
+                if status_ready:
+                    outcomes.append(rtl[1])
+            if got["load"]:
+                assert (ctx.get(dut.load_axis), ctx.get(dut.load_value)) == \
+                    (want["load_axis"], want["load_value"]), clock
+            for axis in range(2):
+                if got["step"] >> axis & 1:
+                    delta = -1 if want["dir"] >> axis & 1 else 1
+                    position[axis] += delta
+                    counter[axis] += delta
+                    steps[axis] += 1
+            if got["load"]:
+                counter[want["load_axis"]] = want["load_value"]
+            if offered is not None and got["cmd_ready"]:
+                queue.pop(0)
+            history = history[1:] + [tuple(position)]
+            clock += 1
+            await ctx.tick()
+            finished = not queue and not got["busy"] and len(outcomes) == len(passes)
+            if (clocks is None and finished) or clock == (clocks or 200_000):
+                break
+        result.update(outcomes=outcomes, position=position, counter=counter, steps=steps)
+
+    simulate(dut, bench, name="homing")
+    return result["outcomes"], result["position"], result["counter"], result["steps"]
+
+
+class HomingEngineTest(unittest.TestCase):
+    def test_homing_from_several_positions(self):
+        switches = BenchSwitches((-40, 25))
+        offset = (-3, 7)
+        for start, lag, every in (((200, 160), 0, 3), ((-40, 25), 2, 3), ((-39, 90), 5, 3),
+                                  ((-42, 24), 1, 4)):
+            with self.subTest(start=start, lag=lag):
+                passes = cycle_passes(0, seek=500, pull_off=20, offset=offset[0]) + \
+                    cycle_passes(1, seek=500, pull_off=20, offset=offset[1])
+                outcomes, position, counter, _ = run(passes, start=start, switches=switches,
+                                                     lag=lag, every=every)
+                self.assertEqual(outcomes, [DONE] * 6)
+                for axis in range(2):
+                    trip = switches.trip[axis]
+                    # Stopped at the switch point; a switch seen later than the next permission
+                    # (lag 5 at a tick every 3 clocks) lets one more step through.
+                    self.assertLessEqual(abs(position[axis] - trip), 1)
+                    self.assertLessEqual(abs((counter[axis] - offset[axis]) -
+                                             (position[axis] - trip)), 1)
+                    if lag < every:                  # seen before the next permission
+                        self.assertEqual((position[axis], counter[axis]),
+                                         (trip, offset[axis]))
+
+    def test_switch_not_found(self):
+        switches = BenchSwitches((-10_000, -10_000))
+        outcomes, position, counter, steps = run([home_pass(1, True, True, 57, 0)],
+                                                 start=(0, 0), switches=switches, clocks=400)
+        self.assertEqual(outcomes, [REFUSED])
+        self.assertEqual(steps, [0, 57])              # no step beyond the maximum
+        self.assertEqual(position, [0, -57])
+        self.assertEqual(counter, [0, -57])           # no position set
+
+    def test_back_off_already_clear_and_seek_already_pressed(self):
+        switches = BenchSwitches((0, 0))
+        outcomes, position, _, steps = run(
+            [home_pass(0, False, False, 30), home_pass(0, True, True, 30, 5)],
+            start=(10, 0), switches=switches)
+        self.assertEqual(outcomes, [DONE, DONE])
+        self.assertEqual(steps, [10, 0])
+        self.assertEqual(position, [0, 0])
+
+    def test_abort_and_late_turn(self):
+        switches = BenchSwitches((-1000, -1000))
+        outcomes, _, _, steps = run([home_pass(0, True, True, 500)], start=(0, 0),
+                                    switches=switches, abort_at=40, clocks=80)
+        self.assertEqual(outcomes, [ABORTED])
+        # Taken at clock 0, running from clock 1: the ticks at clocks 3, 6, ..., 39 are steps.
+        self.assertEqual(steps[0], 13)
+        # The turn comes late: the steps are made (the feed permits them) but the end waits.
+        outcomes, position, _, _ = run([home_pass(0, True, True, 500)], start=(5, 0),
+                                       switches=BenchSwitches((0, 0)),
+                                       ready=lambda clock: int(clock >= 100))
+        self.assertEqual((outcomes, position), ([DONE], [0, 0]))
+
+
+class AlarmMaskTest(unittest.TestCase):
+    def trips(self, changes, clocks=8):
+        """The clocks where the ALARM unit enters ALARM, the inputs and mask per clock."""
+        dut, entered = Alarm(), []
+
+        async def bench(ctx):
+            for clock in range(clocks):
+                active, mask = changes(clock)
+                ctx.set(dut.active, sum(1 << INPUTS.index(n) for n in active))
+                ctx.set(dut.mask, mask)
+                if ctx.get(dut.enter):
+                    entered.append(clock)
+                await ctx.tick()
+
+        simulate(dut, bench, name="alarm_mask")
+        return entered
+
+    def test_masked_limit_does_not_trip(self):
+        self.assertEqual(self.trips(lambda c: (("limit_x",) if c >= 3 else (), 0b01)), [])
+
+    def test_other_limit_trips_while_homing(self):
+        self.assertEqual(self.trips(lambda c: (("limit_y",) if c >= 3 else (), 0b01)), [3])
+
+    def test_limit_trips_outside_homing(self):
+        self.assertEqual(self.trips(lambda c: (("limit_x",) if c >= 3 else (), 0)), [3])
+
+    def test_estop_trips_while_homing(self):
+        self.assertEqual(self.trips(lambda c: (("estop",) if c >= 2 else (), 0b11)), [2])
+
+    def test_limit_still_pressed_after_homing_does_not_trip(self):
+        # The approach ends on the switch: lifting the mask with the switch pressed is no edge.
+        self.assertEqual(self.trips(lambda c: (("limit_x",) if c >= 2 else (),
+                                               0b01 if c < 5 else 0)), [])
