@@ -182,3 +182,84 @@ class AlarmMaskTest(unittest.TestCase):
         # The approach ends on the switch: lifting the mask with the switch pressed is no edge.
         self.assertEqual(self.trips(lambda c: (("limit_x",) if c >= 2 else (),
                                                0b01 if c < 5 else 0)), [])
+
+
+#: The controller's bench: tests/test_controller.py's controller with the homing row.
+Q24 = 1 << 24
+
+
+def controller_run(frames, *, trip, clocks, inject=None, name):
+    """Run ``frames`` through a controller with a homing engine in Amaranth's simulator; the
+    X and Y limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
+    toward the negative side). Returns ``(replies, position)``: the replies and the bench's
+    position (the pulses made)."""
+    from kontur.hdl.motion.homing import homing_row
+    from kontur.sim.testbench.hostlink import run_amaranth
+
+    from .test_controller import BIT, controller
+
+    dut = controller(queue_frames=8, engines=[homing_row()])
+    switches = BenchSwitches(trip)
+    position, before = [0, 0], [0]
+
+    def each(ctx, clock):
+        step, direction = ctx.get(dut.motion.step), ctx.get(dut.motion.dir)
+        for axis in range(2):
+            if step >> axis & 1 and not before[0] >> axis & 1:    # a pulse's first clock
+                position[axis] += -1 if direction >> axis & 1 else 1
+        before[0] = step
+        pins = dut.idle_inputs
+        for axis in range(2):
+            if switches.active(axis, position[axis]):
+                pins ^= 1 << INPUTS.index(("limit_x", "limit_y")[axis])
+        ctx.set(dut.inputs, pins)
+
+    result = run_amaranth(dut, frames, divisor=BIT, window=8, max_clocks=clocks, inject=inject,
+                          each=each)
+    return [reply for _, reply in result.replies], position
+
+
+class ControllerHomingTest(unittest.TestCase):
+    def setUp(self):
+        from kontur.hdl.motion import protocol
+        from kontur.hdl.motion.homing import home_frame
+        self.protocol, self.home = protocol, home_frame
+        self.rate = round(0.05 * Q24)                     # a step every 20 clocks
+
+    def feed(self):
+        return self.protocol.feed(self.rate, self.rate, 1 << 20)
+
+    def test_homing_x_sets_the_position_and_masks_the_limit(self):
+        p, home = self.protocol, self.home
+        frames = [p.config((1 << 32) - 1), self.feed(), home(0, True, True, 800),
+                  self.feed(), home(0, False, False, 20), home(0, True, True, 20, 11),
+                  self.feed(), p.line(5, 0), p.query()]
+        replies, position = controller_run(frames, trip=(-400, -1000), clocks=60_000,
+                                           inject={c: p.query() for c in (6000, 8000)}, name="controller_homing")
+        outcomes = [r.fields[1] for r in replies if r.kind == 0x80]
+        self.assertEqual(outcomes, [DONE] * 8)
+        *during, last = [r for r in replies if r.kind == 0x81]
+        self.assertIn("HOMING", [r.state for r in during])  # seeking, no ALARM
+        self.assertNotIn("ALARM", [r.state for r in during])
+        # Homed at the switch (X -400 is the machine's 11), then 5 steps off it.
+        self.assertEqual(position, [-395, 0])
+        self.assertEqual(last.fields[:2], (16, 0))
+        self.assertEqual(last.state, "IDLE")
+
+    def test_switch_not_found_is_refused(self):
+        p, home = self.protocol, self.home
+        frames = [p.config((1 << 32) - 1), self.feed(), home(1, True, True, 40), p.query()]
+        replies, position = controller_run(frames, trip=(-1000, -1000), clocks=20_000,
+                                           name="controller_homing_fail")
+        self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80], [DONE, DONE, REFUSED])
+        self.assertEqual(position, [0, -40])
+
+    def test_limit_during_a_move_trips(self):
+        p = self.protocol
+        frames = [p.config((1 << 32) - 1), self.feed(), p.line(-50, 0), p.query()]
+        replies, position = controller_run(frames, trip=(-30, -1000), clocks=20_000,
+                                           name="controller_limit")
+        self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80], [DONE, DONE, ABORTED])
+        (status,) = [r for r in replies if r.kind == 0x81]
+        self.assertEqual(status.state, "ALARM")
+        self.assertEqual(position, [-30, 0])

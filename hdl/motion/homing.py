@@ -23,12 +23,20 @@ outcome, :py:`status.ready`): a pass taken while the move before runs does not e
 switch that move passes.
 """
 
+import struct
+
 from amaranth import *
 from amaranth.lib import data, wiring
 
 from ..engine import EngineSignature, Outcome, StatusUnit
+from .dispatch import EngineUnit, raw_bits
+from .inputs import INPUTS
+from .link import profile_bytes
+from .link import SYNC
+from .protocol import crc
 
-__all__ = ["HOME", "HOMING_UNIT", "HomeFrame", "HomingEngine"]
+__all__ = ["HOME", "HOMING_UNIT", "HomeFrame", "HomingEngine", "homing_row", "connect_homing",
+           "home_frame"]
 
 #: The HOME frame's type and the engine's turn number (the built-in rows use 1 to 4).
 HOME, HOMING_UNIT = 0x17, 5
@@ -116,3 +124,43 @@ class HomingEngine(wiring.Component):
         with m.Elif(stepping):
             m.d.sync += left.eq(left - 1)
         return m
+
+
+def home_frame(axis, negative, until, steps, value=None):
+    """The HOME frame of a pass (the host's side): ``axis`` 0 or 1, ``negative`` the
+    direction, ``until`` the switch level that ends it, at most ``steps`` steps, and the
+    position to set (``None``: none)."""
+    if axis not in (0, 1):
+        raise ValueError(f"A homing pass's axis must be 0 (X) or 1 (Y), not {axis!r}")
+    if not 0 <= steps < 1 << 32:
+        raise ValueError(f"A homing pass's step count must fit 32 bits, not {steps!r}")
+    flags = axis | bool(negative) << 1 | bool(until) << 2 | (value is not None) << 3
+    payload = struct.pack("<BIi", flags, steps, 0 if value is None else value)
+    body = bytes([HOME, len(payload)]) + payload
+    return bytes([SYNC]) + body + crc(body).to_bytes(2, "big")
+
+
+def homing_row(engine=None):
+    """The engine-table row of a homing engine (a new :class:`HomingEngine` by default):
+    ``MotionController(engines=[homing_row()])``."""
+    engine = HomingEngine() if engine is None else engine
+    return EngineUnit("homing", HOMING_UNIT, HOME, engine, profile_bytes(HomeFrame()), raw_bits)
+
+
+def connect_homing(m, controller):
+    """Wire the homing engines of ``controller``'s table (none: nothing is built): the limit
+    switches in, the HOMING state and the ALARM's mask, and the position loads (after the
+    position's counting in ``m``, so that a load wins over a step counted in its clock)."""
+    for row in controller.table:
+        engine = row.engine
+        if not isinstance(engine, HomingEngine):
+            continue
+        active, alarm = controller.input_stage.active, controller.alarm_unit
+        m.d.comb += [
+            engine.limits.eq(Cat(active[INPUTS.index("limit_x")],
+                                 active[INPUTS.index("limit_y")])),
+            alarm.homing.eq(engine.homing),
+            alarm.mask.eq(engine.mask),
+        ]
+        with m.If(engine.load):
+            m.d.sync += controller.position[engine.load_axis].eq(engine.load_value)
