@@ -188,7 +188,7 @@ class AlarmMaskTest(unittest.TestCase):
 Q24 = 1 << 24
 
 
-def controller_run(frames, *, trip, clocks, inject=None, name):
+def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, True)):
     """Run ``frames`` through a controller with a homing engine in Amaranth's simulator; the
     X and Y limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
     toward the negative side). Returns ``(replies, position)``: the replies and the bench's
@@ -196,10 +196,16 @@ def controller_run(frames, *, trip, clocks, inject=None, name):
     from kontur.hdl.motion.homing import homing_row
     from kontur.sim.testbench.hostlink import run_amaranth
 
-    from .test_controller import BIT, controller
+    from kontur import registry
+    from kontur.hdl.motion.controller import MotionController
 
-    dut = controller(queue_frames=8, engines=[homing_row()])
-    switches = BenchSwitches(trip)
+    # tests/test_controller.py's controller, at a bit every 4 clocks (the UART's least): the
+    # serial line is most of a homing run's time.
+    dut, bit = MotionController(line=registry.make_engine("line", width=12),
+                                arc=registry.make_engine("arc", "fast", width=12),
+                                clock_hz=1e6, baud=250_000, dir_setup=1, step_width=2,
+                                queue_frames=8, engines=[homing_row()]), 4
+    switches = BenchSwitches(trip, negative=negative)
     position, before = [0, 0], [0]
 
     def each(ctx, clock):
@@ -214,7 +220,7 @@ def controller_run(frames, *, trip, clocks, inject=None, name):
                 pins ^= 1 << INPUTS.index(("limit_x", "limit_y")[axis])
         ctx.set(dut.inputs, pins)
 
-    result = run_amaranth(dut, frames, divisor=BIT, window=8, max_clocks=clocks, inject=inject,
+    result = run_amaranth(dut, frames, divisor=bit, window=8, max_clocks=clocks, inject=inject,
                           each=each)
     return [reply for _, reply in result.replies], position
 
@@ -263,3 +269,47 @@ class ControllerHomingTest(unittest.TestCase):
         (status,) = [r for r in replies if r.kind == 0x81]
         self.assertEqual(status.state, "ALARM")
         self.assertEqual(position, [-30, 0])
+
+
+class HostCycleTest(unittest.TestCase):
+    """kontur.homing's cycle on the controller, the switches following the pulses."""
+
+    def machine(self, **keys):
+        from kontur.machine import Machine
+        return Machine(clock_hz=1e6, baud=125_000, steps_per_mm=10, dir_setup_us=1,
+                       step_width_us=2, travel_x=(0, 20), travel_y=(-5, 10),
+                       homing_dir=("-", "+"), homing_seek=30_000, homing_feed=6000,
+                       homing_debounce_ms=1, accel=200_000, input_filter_us=10, **keys)
+
+    def test_cycle_homes_both_axes(self):
+        from kontur.homing import homing_frames
+        machine = self.machine()
+        frames, names = homing_frames(machine)
+        # Two axes: 3 passes (FEED, HOME, DWELL) and the pull-off (FEED, LINE) each.
+        self.assertEqual(len(frames), 2 + 2 * (3 * 3 + 2))
+        # X's switch closes at or below -23 steps, Y's (toward "+") at or above 17.
+        replies, position = controller_run(frames + [self.protocol_query()], trip=(-23, 17),
+                                           negative=(True, False), clocks=200_000,
+                                           name="controller_homing_cycle")
+        self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80],
+                         [DONE] * (len(frames)))
+        (status,) = [r for r in replies if r.kind == 0x81]
+        # X's switch point is its travel's low end, 0 mm; Y's its high end, 10 mm = 100
+        # steps; each then pulled 1 mm (10 steps) off.
+        self.assertEqual(status.fields[:2], (10, 90))
+        self.assertEqual(position, [-23 + 10, 17 - 10])
+
+    def protocol_query(self):
+        from kontur.hdl.motion import protocol
+        return protocol.query()
+
+    def test_no_travel_is_refused(self):
+        from kontur.homing import homing_frames
+        from kontur.machine import Machine, MachineError
+        with self.assertRaisesRegex(MachineError, "^homing needs travel_x"):
+            homing_frames(Machine(clock_hz=1e6))
+
+    def test_failure_words(self):
+        from kontur.homing import failure
+        self.assertEqual(failure(self.machine(), "x seek"),
+                         "homing failed: the X switch was not active within 30 mm (seek)")
