@@ -28,13 +28,26 @@ from kontur.hdl.motion.homing import home_frame
 from kontur.machine import MachineError
 from kontur.planner import MARGIN_STEPS, dwell_clocks
 
-__all__ = ["homing_frames", "failure", "LOCATE_SCALAR", "SEEK_SCALAR"]
+__all__ = ["homing_frames", "failure", "check_board", "LOCATE_SCALAR", "SEEK_SCALAR"]
 
 #: Grbl's limits of a homing pass: the seek 1.5 travels, the locating passes 5 pull-offs.
 SEEK_SCALAR, LOCATE_SCALAR = 1.5, 5
 
 #: FEED's ramp-down step for a pass that never ramps down (the 24-bit field's largest).
 NO_RAMP = (1 << 24) - 1
+
+
+def check_board(board_name):
+    """Raise :exc:`kontur.trace.UsageError` (status 2) for a board whose controller has no
+    homing engine (:attr:`kontur.registry.Board.homing`)."""
+    from kontur import registry
+    from kontur.trace import UsageError
+    item = registry.board(board_name)
+    if not item.homing:
+        others = [b.name for b in registry.BOARDS.values() if b.homing]
+        raise UsageError(f"homing: the {item.name}'s controller is built without the homing "
+                         f"engine (no room for it on the {item.help}); boards with it: "
+                         f"{', '.join(others)}")
 
 
 def _travel(machine, axis):

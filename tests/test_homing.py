@@ -313,3 +313,20 @@ class HostCycleTest(unittest.TestCase):
         from kontur.homing import failure
         self.assertEqual(failure(self.machine(), "x seek"),
                          "homing failed: the X switch was not active within 30 mm (seek)")
+
+
+class BoardTest(unittest.TestCase):
+    def test_boards(self):
+        from kontur import registry
+        from kontur.homing import check_board
+        from kontur.machine import Machine
+        from kontur.trace import UsageError
+        rows = {name: [row.name for row in registry.make_controller(
+            name, Machine(clock_hz=registry.board(name).clock_hz)).table]
+            for name in ("icebreaker", "ulx3s")}
+        self.assertIn("homing", rows["ulx3s"])
+        self.assertNotIn("homing", rows["icebreaker"])
+        check_board("ulx3s")
+        with self.assertRaisesRegex(UsageError, "^homing: the icebreaker's controller is built "
+                                                "without the homing engine .*: ulx3s$"):
+            check_board("icebreaker")
