@@ -188,10 +188,11 @@ class AlarmMaskTest(unittest.TestCase):
 Q24 = 1 << 24
 
 
-def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, True)):
+def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, True),
+                   estop_at=None):
     """Run ``frames`` through a controller with a homing engine in Amaranth's simulator; the
     X and Y limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
-    toward the negative side). Returns ``(replies, position)``: the replies and the bench's
+    toward the negative side; the e-stop pressed from clock ``estop_at`` on). Returns ``(replies, position)``: the replies and the bench's
     position (the pulses made)."""
     from kontur.hdl.motion.homing import homing_row
     from kontur.sim.testbench.hostlink import run_amaranth
@@ -218,6 +219,8 @@ def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, T
         for axis in range(2):
             if switches.active(axis, position[axis]):
                 pins ^= 1 << INPUTS.index(("limit_x", "limit_y")[axis])
+        if estop_at is not None and clock >= estop_at:
+            pins ^= 1 << INPUTS.index("estop")
         ctx.set(dut.inputs, pins)
 
     result = run_amaranth(dut, frames, divisor=bit, window=8, max_clocks=clocks, inject=inject,
@@ -259,6 +262,17 @@ class ControllerHomingTest(unittest.TestCase):
                                            name="controller_homing_fail")
         self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80], [DONE, DONE, REFUSED])
         self.assertEqual(position, [0, -40])
+
+    def test_estop_during_homing_trips(self):
+        p, home = self.protocol, self.home
+        frames = [p.config((1 << 32) - 1), self.feed(), home(0, True, True, 800), p.query()]
+        replies, position = controller_run(frames, trip=(-400, -1000), clocks=20_000,
+                                           estop_at=4000, name="controller_homing_estop")
+        self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80],
+                         [DONE, DONE, ABORTED])
+        (status,) = [r for r in replies if r.kind == 0x81]
+        self.assertEqual((status.state, status.fields[5]), ("ALARM", 1))   # cause: e-stop
+        self.assertGreater(position[0], -400)           # stopped before the switch
 
     def test_limit_during_a_move_trips(self):
         p = self.protocol
