@@ -344,3 +344,16 @@ class BoardTest(unittest.TestCase):
         with self.assertRaisesRegex(UsageError, "^homing: the icebreaker's controller is built "
                                                 "without the homing engine .*: ulx3s$"):
             check_board("icebreaker")
+
+
+class GrblSettingsTest(unittest.TestCase):
+    def test_homing_settings_are_the_machine_files(self):
+        """Grbl's $24-$27 (its defaults 25, 500, 250, 1.0: Grbl's settings document) are the
+        machine keys homing_feed, homing_seek, homing_debounce_ms, homing_pulloff."""
+        from kontur.grbl.settings import Settings
+        from kontur.machine import Machine
+        settings = Settings(Machine())
+        lines = dict(line.split("=") for line in settings.lines())
+        self.assertEqual([lines[f"${n}"] for n in (24, 25, 26, 27)],
+                         ["25.000", "500.000", "250", "1.000"])
+        self.assertEqual(settings.write(27, 2.5).homing_pulloff, 2.5)
