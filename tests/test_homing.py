@@ -8,7 +8,7 @@ import unittest
 from kontur.hdl.motion.alarm import Alarm
 from kontur.hdl.motion.homing import HomingEngine
 from kontur.hdl.motion.inputs import INPUTS
-from kontur.sim.models.homing import BenchSwitches, HomingModel
+from kontur.sim.models.homing import BenchSwitches, HomingModel, cycle_steps
 
 from .utils import simulate
 
@@ -188,8 +188,13 @@ class AlarmMaskTest(unittest.TestCase):
 Q24 = 1 << 24
 
 
+def status_of(replies):
+    (status,) = [r for r in replies if r.kind == 0x81]
+    return status
+
+
 def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, True),
-                   estop_at=None):
+                   estop_at=None, with_steps=False):
     """Run ``frames`` through a controller with a homing engine in Amaranth's simulator; the
     X and Y limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
     toward the negative side; the e-stop pressed from clock ``estop_at`` on). Returns ``(replies, position)``: the replies and the bench's
@@ -207,13 +212,15 @@ def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, T
                                 clock_hz=1e6, baud=250_000, dir_setup=1, step_width=2,
                                 queue_frames=8, engines=[homing_row()]), 4
     switches = BenchSwitches(trip, negative=negative)
-    position, before = [0, 0], [0]
+    position, before, steps = [0, 0], [0], []
 
     def each(ctx, clock):
         step, direction = ctx.get(dut.motion.step), ctx.get(dut.motion.dir)
         for axis in range(2):
             if step >> axis & 1 and not before[0] >> axis & 1:    # a pulse's first clock
                 position[axis] += -1 if direction >> axis & 1 else 1
+                steps.append((-1 if direction & 1 else 1, 0) if axis == 0 else
+                             (0, -1 if direction >> 1 & 1 else 1))
         before[0] = step
         pins = dut.idle_inputs
         for axis in range(2):
@@ -225,7 +232,8 @@ def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, T
 
     result = run_amaranth(dut, frames, divisor=bit, window=8, max_clocks=clocks, inject=inject,
                           each=each)
-    return [reply for _, reply in result.replies], position
+    replies = [reply for _, reply in result.replies]
+    return (replies, position, steps) if with_steps else (replies, position)
 
 
 class ControllerHomingTest(unittest.TestCase):
@@ -302,12 +310,29 @@ class HostCycleTest(unittest.TestCase):
         # Two axes: 3 passes (FEED, HOME, DWELL) and the pull-off (FEED, LINE) each.
         self.assertEqual(len(frames), 2 + 2 * (3 * 3 + 2))
         # X's switch closes at or below -23 steps, Y's (toward "+") at or above 17.
-        replies, position = controller_run(frames + [self.protocol_query()], trip=(-23, 17),
-                                           negative=(True, False), clocks=200_000,
-                                           name="controller_homing_cycle")
+        replies, position, steps = controller_run(
+            frames + [self.protocol_query()], trip=(-23, 17), negative=(True, False),
+            clocks=200_000, name="controller_homing_cycle", with_steps=True)
+        # The cycle's step-level model, its passes read off the frames' bytes here.
+        items = []
+        for frame in frames:
+            kind, payload = frame[1], frame[3:-2]
+            if kind == 0x17:                               # HOME
+                items.append(("home", {"axis": payload[0] & 1, "negative": payload[0] >> 1 & 1,
+                                       "until": payload[0] >> 2 & 1,
+                                       "set": payload[0] >> 3 & 1,
+                                       "steps": int.from_bytes(payload[1:5], "little"),
+                                       "value": int.from_bytes(payload[5:9], "little",
+                                                               signed=True)}))
+            elif kind == 0x10:                             # LINE
+                items.append(("line", int.from_bytes(payload[0:4], "little", signed=True),
+                              int.from_bytes(payload[4:8], "little", signed=True)))
+        want = cycle_steps(items, (0, 0), BenchSwitches((-23, 17), negative=(True, False)))
+        self.assertEqual(steps, want[0])
+        self.assertEqual((position, list(status_of(replies).fields[:2])), (want[2], want[3]))
         self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80],
                          [DONE] * (len(frames)))
-        (status,) = [r for r in replies if r.kind == 0x81]
+        status = status_of(replies)
         # X's switch point is its travel's low end, 0 mm; Y's its high end, 10 mm = 100
         # steps; each then pulled 1 mm (10 steps) off.
         self.assertEqual(status.fields[:2], (10, 90))

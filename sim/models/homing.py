@@ -3,7 +3,7 @@ switches that close at a position of an axis. Exact integers."""
 
 from .engine import DONE, REFUSED, StatusModel
 
-__all__ = ["HomingModel", "BenchSwitches"]
+__all__ = ["HomingModel", "BenchSwitches", "pass_steps", "cycle_steps"]
 
 
 class HomingModel:
@@ -70,3 +70,41 @@ class BenchSwitches:
     def levels(self, position):
         return sum(1 << axis for axis in range(len(self.trip))
                    if self.active(axis, position[axis]))
+
+
+def pass_steps(position, item, switches):
+    """The steps of one homing pass (``item``: a HOME frame's fields) from ``position`` against
+    the bench's ``switches``, the switch seen before the next step (a step interval longer
+    than the switch's lag): ``(steps, outcome)``, each step a ``(dx, dy)``."""
+    axis, way = item["axis"], -1 if item["negative"] else 1
+    here, steps = list(position), []
+    while True:
+        if switches.active(axis, here[axis]) == bool(item["until"]):
+            return steps, DONE
+        if len(steps) == item["steps"]:
+            return steps, REFUSED
+        here[axis] += way
+        steps.append((way, 0) if axis == 0 else (0, way))
+
+
+def cycle_steps(items, start, switches):
+    """A homing cycle's steps, outcomes and position counter: ``items`` are ``("home",
+    fields)`` (:func:`pass_steps`; a pass ending ``DONE`` with ``set`` loads ``value``) and
+    ``("line", dx, dy)`` (an axis-parallel move's steps). Returns ``(steps, outcomes,
+    position, counter)``."""
+    position, counter, steps, outcomes = list(start), list(start), [], []
+    for item in items:
+        if item[0] == "home":
+            made, outcome = pass_steps(position, item[1], switches)
+        else:
+            dx, dy = item[1], item[2]
+            made = [((dx > 0) - (dx < 0), 0)] * abs(dx) + [(0, (dy > 0) - (dy < 0))] * abs(dy)
+            outcome = DONE
+        for dx, dy in made:
+            position = [position[0] + dx, position[1] + dy]
+            counter = [counter[0] + dx, counter[1] + dy]
+        if item[0] == "home" and outcome == DONE and item[1]["set"]:
+            counter[item[1]["axis"]] = item[1]["value"]
+        steps += made
+        outcomes.append(outcome)
+    return steps, outcomes, position, counter
