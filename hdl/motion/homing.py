@@ -31,8 +31,7 @@ from amaranth.lib import data, wiring
 from ..engine import EngineSignature, Outcome, StatusUnit
 from .dispatch import EngineUnit, raw_bits
 from .inputs import INPUTS
-from .link import profile_bytes
-from .link import SYNC
+from .link import SYNC, profile_bytes
 from .protocol import crc
 
 __all__ = ["HOME", "HOMING_UNIT", "HomeFrame", "HomingEngine", "homing_row", "connect_homing",
