@@ -27,6 +27,14 @@ travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no defaul
 travel_y = [0, 200]
 s_max = 1000               # the S of full spindle (laser) power (Grbl's $30), an integer
 pwm_hz = 1000              # the spindle (laser) PWM's frequency
+homing_order = ["x", "y"]  # the axes homed, one after the other (kontur run --home)
+homing_dir = ["+", "+"]    # toward which end each axis's switch is (Grbl's $23 = 0: "+")
+homing_feed = 25.0         # mm/min: the slow approach (Grbl's $24)
+homing_seek = 500.0        # mm/min: the seek (Grbl's $25)
+homing_debounce_ms = 250   # the wait between the passes (Grbl's $26)
+homing_pulloff = 1.0       # mm: the move off the switch at the end (Grbl's $27)
+homing_offset = [0, 300]   # mm, machine coordinates of the switch points (X Y); default: the
+                           # travel's end on the switch's side, 0 without a travel
 ```
 
 The clock is not a key of the file: it is the board's (``kontur run --board``, ``kontur send
@@ -102,6 +110,13 @@ class Machine:
     travel_y: tuple = None
     s_max: int = 1000                 # the S of full power (Grbl's $30)
     pwm_hz: float = 1000.0            # the spindle (laser) PWM's frequency
+    homing_order: tuple = ("x", "y")  # kontur.homing: the axes homed, in order
+    homing_dir: tuple = ("+", "+")    # toward which end each switch is (Grbl's $23 = 0)
+    homing_feed: float = 25.0         # mm/min (Grbl's $24)
+    homing_seek: float = 500.0        # mm/min (Grbl's $25)
+    homing_debounce_ms: float = 250.0  # (Grbl's $26)
+    homing_pulloff: float = 1.0       # mm (Grbl's $27)
+    homing_offset: tuple = None       # mm: the switch points (None: from the travel)
 
     def __post_init__(self):
         if self.corner not in ("arc", "miter"):
@@ -129,6 +144,7 @@ class Machine:
                 raise MachineError(f"{name} must be [min, max] in mm with min < max, not "
                                    f"{value!r}")
             object.__setattr__(self, name, (float(value[0]), float(value[1])))
+        self._check_homing()
         if self.cutter_radius is not None:
             value = self.cutter_radius
             if isinstance(value, bool) or not isinstance(value, (int, float)) \
@@ -137,7 +153,8 @@ class Machine:
                                    f"{value!r}")
         for item in fields(self):
             if item.name in ("cutter_radius", "g28_position", "g30_position", "travel_x",
-                             "travel_y", "corner") \
+                             "travel_y", "corner", "homing_order", "homing_dir",
+                             "homing_offset") \
                     or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)
@@ -162,6 +179,24 @@ class Machine:
             raise MachineError(
                 f"max_feed {self.max_feed:g} mm/min is {self.max_feed / 60 * self.steps_per_mm:.0f}"
                 f" steps/s, more than the {self.max_step_rate:.0f} the step/dir timing allows")
+
+    def _check_homing(self):
+        order, ways, offset = self.homing_order, self.homing_dir, self.homing_offset
+        if not isinstance(order, (list, tuple)) or not 1 <= len(order) <= 2 or \
+                len(set(order)) != len(order) or any(a not in ("x", "y") for a in order):
+            raise MachineError(f"homing_order must be a list of \"x\" and \"y\", each once, "
+                               f"not {order!r}")
+        if not isinstance(ways, (list, tuple)) or len(ways) != 2 or \
+                any(w not in ("+", "-") for w in ways):
+            raise MachineError(f"homing_dir must be [X, Y], each \"+\" or \"-\", not {ways!r}")
+        if offset is not None and (not isinstance(offset, (list, tuple)) or len(offset) != 2
+                                   or any(isinstance(c, bool) or not isinstance(c, (int, float))
+                                          or not math.isfinite(c) for c in offset)):
+            raise MachineError(f"homing_offset must be [X, Y] in mm, not {offset!r}")
+        object.__setattr__(self, "homing_order", tuple(order))
+        object.__setattr__(self, "homing_dir", tuple(ways))
+        if offset is not None:
+            object.__setattr__(self, "homing_offset", tuple(float(c) for c in offset))
 
     @classmethod
     def from_toml(cls, path, *, clock_hz, **overrides):

@@ -25,6 +25,7 @@ from kontur.hdl.equidistant import EquidistantEngine
 from kontur.hdl.line import LineEngine
 from kontur.hdl.linear import LinearCore
 from kontur.hdl.motion.controller import MotionController
+from kontur.hdl.motion.homing import homing_row
 from kontur.hdl.serial import SerialArcCore, SerialLineCore
 from kontur.hdl.spatial import SpatialLineCore
 from kontur.hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
@@ -118,7 +119,9 @@ class Board:
     ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
     (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
     (see :func:`make_controller`); ``overrides`` whether its feed generator has the feed and
-    rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`)."""
+    rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`); ``homing`` whether it has
+    the homing engine (:class:`kontur.hdl.motion.homing.HomingEngine`: HOME frames, homing to
+    the limit switches; a board without it reports HOME an unknown frame type)."""
     name: str
     help: str
     platform: object
@@ -129,6 +132,7 @@ class Board:
     divide: int = 1
     profile: tuple = None
     overrides: bool = True
+    homing: bool = False
 
 
 KINDS = {}
@@ -237,7 +241,7 @@ def make_controller(board_name, machine):
         make_engine("profile", item.profile[0], width=item.profile[1])
     return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
                             arc=make_engine("arc", item.arc[0], width=item.arc[1]),
-                            profile=profile,
+                            profile=profile, engines=[homing_row()] if item.homing else (),
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width, input_filter=machine.input_filter,
@@ -413,8 +417,9 @@ BOARD_TABLE = (
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
     # controller runs at half the board's clock, 12.5 MHz.
+    # It has the homing engine too (issue 25); the iCEBreaker has no room for it.
     Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
-          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2),
+          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2, homing=True),
 )
 
 for _item in KIND_TABLE + VARIANT_TABLE + BOARD_TABLE:

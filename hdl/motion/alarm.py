@@ -44,6 +44,9 @@ class Alarm(wiring.Component):
     busy, hold, homing : :py:`In(1)`
         Frames are queued or running; the feed is held; the machine is homing (the states
         below ALARM, in this order of precedence: HOMING, HOLD, RUN, IDLE).
+    mask : :py:`In(2)`
+        The limits that do not trip (bit 0 X, bit 1 Y): the axis a homing pass runs on
+        (:class:`~.homing.HomingEngine`); the e-stop always trips.
     enter : :py:`Out(1)`
         ALARM begins in this clock (an input tripped, and the controller was not in ALARM).
     halt : :py:`Out(1)`
@@ -62,6 +65,7 @@ class Alarm(wiring.Component):
             "busy":   In(1),
             "hold":   In(1),
             "homing": In(1),
+            "mask":   In(2),
             "enter":  Out(1),
             "halt":   Out(1),
             "alarm":  Out(1),
@@ -75,7 +79,7 @@ class Alarm(wiring.Component):
         limits = Cat(self.active[INPUTS.index("limit_x")], self.active[INPUTS.index("limit_y")])
         pressed = Signal(2)                       # the limits' levels a clock before
         m.d.sync += pressed.eq(limits)
-        tripped = Cat(estop, limits & ~pressed)
+        tripped = Cat(estop, limits & ~pressed & ~self.mask)
         trip = tripped.any()
         m.d.comb += [self.enter.eq(trip & ~self.alarm), self.halt.eq(trip | self.alarm)]
         with m.If(trip):

@@ -17,6 +17,7 @@ from ..engine import MotionSignature
 from .dispatch import (DWELL_UNIT, NONE_UNIT, Dispatcher, EngineUnit, Replies, Turn, TurnQueue,
                        UnitSignature, little, raw_bits)
 from .alarm import Alarm
+from .homing import connect_homing
 from .feed import OVERRIDE_ONE, FeedGenerator, rate_limit
 from .inputs import INPUTS, Inputs, check_polarity, idle_pins
 from .link import (ARC, CONFIG, DWELL, FEED, IMMEDIATE, LENGTHS, LINE, PROFILE,
@@ -317,6 +318,7 @@ class MotionController(wiring.Component):
                     self.position[axis] + Mux(self.stepdir.o.dir[axis], -1, 1))
         m.d.sync += self.enable.eq(1)
         self._safety(m)
+        connect_homing(m, self)             # homing rows of the table, if any (.homing)
 
         # Replies: outcomes, errors, status.
         wiring.connect(m, turns.outcome, replies.outcome)

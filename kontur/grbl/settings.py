@@ -24,11 +24,13 @@ __all__ = ["Settings", "MACHINE_KEYS", "DEFAULTS", "SettingError"]
 
 #: Settings on the machine file: number -> its key.
 MACHINE_KEYS = {0: "step_width_us", 11: "junction_deviation", 12: "arc_tolerance",
+                24: "homing_feed", 25: "homing_seek", 26: "homing_debounce_ms",
+                27: "homing_pulloff",
                 100: "steps_per_mm", 101: "steps_per_mm", 110: "max_feed", 111: "max_feed",
                 120: "accel", 121: "accel"}
 #: Settings kept in memory, Grbl's defaults (``$10=3``: MPos and the buffer state reported).
 DEFAULTS = {1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 3, 13: 0, 20: 0, 21: 0, 22: 0, 23: 0,
-            24: 25.0, 25: 500.0, 26: 250, 27: 1.0, 30: 1000, 31: 0, 32: 0,
+            30: 1000, 31: 0, 32: 0,
             102: 250.0, 112: 500.0, 122: 10.0, 130: 200.0, 131: 200.0, 132: 200.0}
 INTEGERS = {0, 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 26, 30, 31, 32}
 #: Settings that must stay 0 until kontur has what they enable: (error code, the reason).

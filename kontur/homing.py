@@ -1,0 +1,126 @@
+"""The homing cycle (issue 25): the host's frames for Grbl's cycle on the homing engine.
+
+For each axis of ``homing_order``, one after the other (the engine moves one axis a pass):
+
+1. ``FEED(seek)``, ``HOME`` toward the switch until it is active, at most 1.5 times the
+   axis's travel (Grbl's seek limit) — the seek;
+2. ``FEED(approach)``, ``HOME`` away from it until it is inactive, at most 5 pull-offs (Grbl's
+   ``HOMING_AXIS_LOCATE_SCALAR``) — the back-off;
+3. ``HOME`` toward it until it is active again, as far, setting the axis's position to the
+   switch point's machine coordinate (``homing_offset``, by default the travel's end on that
+   side) — the approach;
+4. ``FEED(seek)``, a ``LINE`` of ``homing_pulloff`` away from the switch, ramping down to rest
+   (the feed generator's floor speed, as the planner ends a move).
+
+A ``DWELL`` of ``homing_debounce_ms`` (Grbl's ``$26``) follows each pass. The seek and
+approach FEEDs have their exit rate equal to their cruise: a pass stops in the step its
+switch is seen, as Grbl's seek stops at the switch. The machine keys are
+:class:`kontur.machine.Machine`'s ``homing_*`` (Grbl's ``$23``-``$27`` defaults).
+
+A pass that makes its most steps without its switch ends ``REFUSED``: :func:`failure` words
+it.
+"""
+
+import math
+
+from kontur.hdl.motion import protocol
+from kontur.hdl.motion.homing import home_frame
+from kontur.machine import MachineError
+from kontur.planner import MARGIN_STEPS, dwell_clocks
+
+__all__ = ["homing_frames", "failure", "check_board", "LOCATE_SCALAR", "SEEK_SCALAR"]
+
+#: Grbl's limits of a homing pass: the seek 1.5 travels, the locating passes 5 pull-offs.
+SEEK_SCALAR, LOCATE_SCALAR = 1.5, 5
+
+#: FEED's ramp-down step for a pass that never ramps down (the 24-bit field's largest).
+NO_RAMP = (1 << 24) - 1
+
+
+def check_board(board_name):
+    """Raise :exc:`kontur.trace.UsageError` (status 2) for a board whose controller has no
+    homing engine (:attr:`kontur.registry.Board.homing`)."""
+    from kontur import registry
+    from kontur.trace import UsageError
+    item = registry.board(board_name)
+    if not item.homing:
+        others = [b.name for b in registry.BOARDS.values() if b.homing]
+        raise UsageError(f"homing: the {item.name}'s controller is built without the homing "
+                         f"engine (no room for it on the {item.help}); boards with it: "
+                         f"{', '.join(others)}")
+
+
+def _travel(machine, axis):
+    travel = (machine.travel_x, machine.travel_y)[axis]
+    if travel is None:
+        raise MachineError(f"homing needs travel_{'xy'[axis]} (the seek's length is 1.5 times "
+                           f"the travel, as Grbl's)")
+    return travel
+
+
+def homing_frames(machine):
+    """The frames of the homing cycle (CONFIG first, STOP last) and, for each, a description
+    (the axis and pass: ``"x seek"`` ...; ``None`` for CONFIG and STOP).
+
+    Raises :exc:`~kontur.machine.MachineError` if an axis homed has no travel, or a rate does
+    not fit the feed generator."""
+    spm = machine.steps_per_mm
+    seek, approach = machine.rate(machine.homing_seek / 60), machine.rate(machine.homing_feed / 60)
+    if seek == 0 or approach == 0:
+        raise MachineError("homing_seek and homing_feed must be at least the feed generator's "
+                           "lowest rate")
+    pause = dwell_clocks(machine.homing_debounce_ms / 1000, machine)
+    frames, names = [protocol.config(machine.accel_q40)], [None]
+
+    def add(frame, name):
+        frames.append(frame)
+        names.append(name)
+
+    for name in machine.homing_order:
+        axis = "xy".index(name)
+        low, high = _travel(machine, axis)
+        negative = machine.homing_dir[axis] == "-"
+        offset = machine.homing_offset[axis] if machine.homing_offset is not None else \
+            (low if negative else high)
+        seek_steps = math.ceil(SEEK_SCALAR * (high - low) * spm)
+        locate_steps = math.ceil(LOCATE_SCALAR * machine.homing_pulloff * spm)
+        passes = ((seek, negative, True, seek_steps, None, "seek"),
+                  (approach, not negative, False, locate_steps, None, "back-off"),
+                  (approach, negative, True, locate_steps, round(offset * spm), "approach"))
+        for rate, way, until, steps, value, what in passes:
+            add(protocol.feed(rate, rate, NO_RAMP), f"{name} {what}")
+            add(home_frame(axis, way, until, steps, value), f"{name} {what}")
+            for clocks in pause:
+                add(protocol.dwell(clocks), f"{name} {what}")
+        pulloff = round(machine.homing_pulloff * spm)
+        if pulloff:
+            add(_pulloff_feed(machine, seek, pulloff), f"{name} pull-off")
+            delta = pulloff if negative else -pulloff     # away from the switch
+            add(protocol.line(*((delta, 0) if axis == 0 else (0, delta))), f"{name} pull-off")
+    add(protocol.stop(), None)
+    return frames, names
+
+
+def _pulloff_feed(machine, seek, steps):
+    """The pull-off's FEED: the seek rate, down to the floor speed ``sqrt(2 accel /
+    steps_per_mm)`` (the planner's end of a move at rest) from ``MARGIN_STEPS`` before its end
+    (kontur/planner.py's rule)."""
+    a, spm = machine.accel, machine.steps_per_mm
+    cruise = seek * machine.clock_hz / (1 << 24) / spm                   # mm/s
+    floor = min(math.sqrt(2 * a / spm), cruise)
+    down = (cruise ** 2 - floor ** 2) / (2 * a) * spm + MARGIN_STEPS     # steps
+    return protocol.feed(seek, min(machine.rate(floor), seek), max(math.floor(steps - down), 0))
+
+
+def failure(machine, name):
+    """The host's words for a pass ``name`` (:func:`homing_frames`) that ended ``REFUSED``."""
+    axis, what = name.split(" ", 1)
+    index = "xy".index(axis)
+    if what == "seek":
+        low, high = _travel(machine, index)
+        reach = SEEK_SCALAR * (high - low)
+    else:
+        reach = LOCATE_SCALAR * machine.homing_pulloff
+    state = "active" if what != "back-off" else "released"
+    return f"homing failed: the {axis.upper()} switch was not {state} within {reach:g} mm " \
+           f"({what})"
