@@ -291,6 +291,10 @@ def _add_machining(commands):
     send.add_argument("--unlock", action="store_true",
                       help="leave ALARM first (an UNLOCK instead of the handshake's QUERY; "
                            "refused while the e-stop is pressed)")
+    send.add_argument("--home", action="store_true",
+                      help="run the homing cycle first (Grbl's $H: the machine file's "
+                           "homing_* keys, every axis), then the program from where it left "
+                           "the machine; on a board with the homing engine (the ULX3S)")
     send.add_argument("--feed", type=int, default=100, metavar="PCT",
                       help="feed override, 10-200 %% (an OVERRIDE frame after the handshake; "
                            "default 100)")
@@ -401,7 +405,7 @@ def _machine(args):
         raise UsageError(str(error)) from None
 
 
-def _job(args):
+def _job(args, start=(0, 0)):
     from kontur.machining import prepare
     from kontur.trace import UsageError
     text = _read_program(args.file)
@@ -415,7 +419,7 @@ def _job(args):
             raise UsageError(f"--tool-table: {error}") from None
     from pathlib import Path
     return prepare(text, machine=machine, board=args.board, name=Path(args.file).name,
-                   max_steps=getattr(args, "max_steps", None), tools=tools)
+                   max_steps=getattr(args, "max_steps", None), tools=tools, start=start)
 
 
 def _progress(total, what):
@@ -505,6 +509,30 @@ def _events(texts):
     return events
 
 
+def _homing(args):
+    """``kontur send --home``: the homing cycle's job (:func:`kontur.homing.homing_job`) for a
+    board with the homing engine, every axis homed, with ``start_mm``: where it leaves the
+    machine (mm), the program's start."""
+    from fractions import Fraction
+
+    from kontur.homing import check_board, homing_job
+    from kontur.machine import MachineError
+    from kontur.trace import UsageError
+    check_board(args.board)
+    machine = _machine(args)
+    if sorted(machine.homing_order) != ["x", "y"]:
+        raise UsageError(f"--home homes every axis, and the machine file's homing_order is "
+                         f"{list(machine.homing_order)}: the program would start where the "
+                         f"axes not homed happen to be")
+    try:
+        job = homing_job(machine, (0, 0))
+    except MachineError as error:
+        raise UsageError(f"--home: {error}") from None
+    spm = Fraction(machine.steps_per_mm)
+    job.start_mm = tuple(Fraction(c) / spm for c in job.end)
+    return job
+
+
 class _keys:
     """The operator's keys while ``kontur send`` streams, when standard input is a terminal
     (Grbl's): ``!`` or ``h`` feed hold, ``~`` or ``r`` resume, ``+`` and ``-`` the feed
@@ -565,7 +593,8 @@ def _send(args, out):
         raise UsageError(f"--feed {args.feed} --rapid {args.rapid}: {error}") from None
     if (args.feed, args.rapid) != (100, 100):
         _check_overrides(args.board, f"--feed {args.feed} --rapid {args.rapid}")
-    job = _job(args)
+    homing = _homing(args) if args.home else None
+    job = _job(args, start=homing.start_mm if homing else (0, 0))
     from kontur.send import unhonoured
     from kontur.planner import ProgramError
     refusal = unhonoured(job)
@@ -581,8 +610,15 @@ def _send(args, out):
         # SIGINT, SIGTERM and SIGHUP stop the machine (ABORT) before kontur ends.
         with Stop() as stop, port, _progress(len(frames), "frames") as bar, \
                 _keys(args.feed, registry.board(args.board).overrides) as controls:
+            unlock = args.unlock
+            if homing is not None:
+                at = send(homing, port, out=sys.stderr, timeout=args.timeout, stop=stop,
+                          unlock=unlock, controls=controls)
+                out.write(f"homed: the machine at ({at[0]}, {at[1]}) steps\n")
+                out.flush()
+                unlock = False
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
-                       timeout=args.timeout, stop=stop, unlock=args.unlock, feed=args.feed,
+                       timeout=args.timeout, stop=stop, unlock=unlock, feed=args.feed,
                        rapid=args.rapid, controls=controls)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")

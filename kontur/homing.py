@@ -27,11 +27,16 @@ from kontur.hdl.motion import protocol
 from kontur.hdl.motion.homing import home_frame
 from kontur.machine import MachineError
 from kontur.planner import MARGIN_STEPS, dwell_clocks
+from kontur.send import REFUSED
 
-__all__ = ["homing_frames", "failure", "check_board", "LOCATE_SCALAR", "SEEK_SCALAR"]
+__all__ = ["homing_frames", "homing_job", "homed_position", "failure", "check_board",
+           "LOCATE_SCALAR", "SEEK_SCALAR"]
 
 #: Grbl's limits of a homing pass: the seek 1.5 travels, the locating passes 5 pull-offs.
 SEEK_SCALAR, LOCATE_SCALAR = 1.5, 5
+
+#: The passes of an axis that end on its switch (a HOME frame each).
+PASSES = ("seek", "back-off", "approach")
 
 #: FEED's ramp-down step for a pass that never ramps down (the 24-bit field's largest).
 NO_RAMP = (1 << 24) - 1
@@ -64,41 +69,89 @@ def homing_frames(machine):
 
     Raises :exc:`~kontur.machine.MachineError` if an axis homed has no travel, or a rate does
     not fit the feed generator."""
-    spm = machine.steps_per_mm
+    frames, names, _ = _cycle(machine)
+    return frames, names
+
+
+def _switch_point(machine, axis):
+    """The machine coordinate (steps) the approach sets on ``axis`` (``homing_offset``, by
+    default the travel's end on the switch's side)."""
+    low, high = _travel(machine, axis)
+    negative = machine.homing_dir[axis] == "-"
+    offset = machine.homing_offset[axis] if machine.homing_offset is not None else \
+        (low if negative else high)
+    return round(offset * machine.steps_per_mm)
+
+
+def homed_position(machine, position):
+    """Where the cycle leaves the machine (steps) from ``position``: each homed axis at its
+    switch point moved off by the pull-off, the others where they were."""
+    out = list(position)
+    pulloff = round(machine.homing_pulloff * machine.steps_per_mm)
+    for name in machine.homing_order:
+        axis = "xy".index(name)
+        negative = machine.homing_dir[axis] == "-"
+        out[axis] = _switch_point(machine, axis) + (pulloff if negative else -pulloff)
+    return tuple(out)
+
+
+def _cycle(machine):
+    """:func:`homing_frames`'s frames and names, and each frame's longest time (s): a pass its
+    most steps at its rate, a DWELL its clocks, a pull-off its steps at the seek rate."""
+    spm, clock = machine.steps_per_mm, machine.clock_hz
     seek, approach = machine.rate(machine.homing_seek / 60), machine.rate(machine.homing_feed / 60)
     if seek == 0 or approach == 0:
         raise MachineError("homing_seek and homing_feed must be at least the feed generator's "
                            "lowest rate")
     pause = dwell_clocks(machine.homing_debounce_ms / 1000, machine)
-    frames, names = [protocol.config(machine.accel_q40)], [None]
+    frames, names, seconds = [protocol.config(machine.accel_q40)], [None], [0.0]
 
-    def add(frame, name):
+    def add(frame, name, time=0.0):
         frames.append(frame)
         names.append(name)
+        seconds.append(time)
+
+    def at(rate, steps):                    # s: steps at a Q0.24 rate of steps a clock
+        return steps * (1 << 24) / (rate * clock)
 
     for name in machine.homing_order:
         axis = "xy".index(name)
         low, high = _travel(machine, axis)
         negative = machine.homing_dir[axis] == "-"
-        offset = machine.homing_offset[axis] if machine.homing_offset is not None else \
-            (low if negative else high)
         seek_steps = math.ceil(SEEK_SCALAR * (high - low) * spm)
         locate_steps = math.ceil(LOCATE_SCALAR * machine.homing_pulloff * spm)
         passes = ((seek, negative, True, seek_steps, None, "seek"),
                   (approach, not negative, False, locate_steps, None, "back-off"),
-                  (approach, negative, True, locate_steps, round(offset * spm), "approach"))
+                  (approach, negative, True, locate_steps, _switch_point(machine, axis),
+                   "approach"))
         for rate, way, until, steps, value, what in passes:
             add(protocol.feed(rate, rate, NO_RAMP), f"{name} {what}")
-            add(home_frame(axis, way, until, steps, value), f"{name} {what}")
+            add(home_frame(axis, way, until, steps, value), f"{name} {what}", at(rate, steps))
             for clocks in pause:
-                add(protocol.dwell(clocks), f"{name} {what}")
+                add(protocol.dwell(clocks), f"{name} {what}", clocks / clock)
         pulloff = round(machine.homing_pulloff * spm)
         if pulloff:
             add(_pulloff_feed(machine, seek, pulloff), f"{name} pull-off")
             delta = pulloff if negative else -pulloff     # away from the switch
-            add(protocol.line(*((delta, 0) if axis == 0 else (0, delta))), f"{name} pull-off")
+            add(protocol.line(*((delta, 0) if axis == 0 else (0, delta))), f"{name} pull-off",
+                at(machine.rate(math.sqrt(2 * machine.accel / spm)) or 1, pulloff))
     add(protocol.stop(), None)
-    return frames, names
+    return frames, names, seconds
+
+
+def homing_job(machine, position):
+    """The homing cycle as :func:`kontur.send.send` streams a program's job: its frames with
+    their passes (:func:`homing_frames`) and longest times, from anywhere (no start), ending
+    at :func:`homed_position` from ``position`` (steps); a pass ``REFUSED`` is worded by
+    :func:`failure`."""
+    import types
+    frames, names, seconds = _cycle(machine)
+    return types.SimpleNamespace(
+        name="the homing cycle", machine=machine, start=None,
+        end=homed_position(machine, position), segments=[], items=[], seconds=sum(seconds),
+        durations=seconds, frames=lambda: (list(frames), list(names)),
+        explain=lambda name, code: failure(machine, name) if code == REFUSED and name and \
+        name.split()[1] in PASSES else None)
 
 
 def _pulloff_feed(machine, seek, steps):

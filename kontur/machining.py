@@ -198,7 +198,8 @@ def estimate_steps(moves, machine, *, max_steps=None):
     return total
 
 
-def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None, tools=None):
+def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None, tools=None,
+            start=(0, 0)):
     """Read, place on the lattice and plan a program for ``board``'s controller (a board's
     name, or a :class:`kontur.registry.Board`); return the :class:`Job`.
 
@@ -209,6 +210,9 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     travel (``travel_x``, ``travel_y``) a move that leaves it is refused
     (:func:`check_travel`: every step point, an arc's bulge and a compensated contour's cutter
     path too).
+
+    ``start`` is where the machine is when the program begins (mm, machine coordinates: the
+    origin, or where a homing cycle left it, ``kontur send --home``).
 
     Before any step is computed the program's steps are estimated (:func:`estimate_steps`)
     and a program of more than ``max_steps`` (default :data:`MAX_STEPS`) is refused.
@@ -230,7 +234,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     except MachineError as error:
         raise UsageError(str(error)) from None
     try:
-        program = read(text, name=name, units="mm", tools=tools,
+        program = read(text, name=name, units="mm", tools=tools, start=start,
                        parameters=machine.parameters)
         planar(program.moves)
     except GCodeError as error:

@@ -112,6 +112,8 @@ def open_port(device, baud, *, timeout=0.05, write_timeout=None):
 
 def _where(lines, index):
     line = lines[index] if 0 <= index < len(lines) else None
+    if isinstance(line, str):                  # a homing cycle's pass (kontur.homing)
+        return f"the homing cycle's {line}"
     return f"line {line}" if line is not None else "the program's set-up (no program line)"
 
 
@@ -144,6 +146,9 @@ def _durations(job, count):
     plan's, a dwell's its share of the dwell, the others' none (CONFIG, FEED and a move each,
     DWELL frames, STOP; for any other layout every frame gets the whole program's time)."""
     from kontur.planner import dwell_clocks
+    given = getattr(job, "durations", None)   # the frames' own (a homing cycle's)
+    if given is not None and len(given) == count:
+        return list(given)
     out = [0.0]
     for segment, item in zip(job.segments, job.items):
         if segment.kind == "dwell":
@@ -255,7 +260,9 @@ class _Sender:
             self.fail(f"the machine answered frame {number} ({where}) with outcome code "
                       f"{code}, which no controller sends")
         if code != DONE:
-            self.fail(f"{where}: the machine {OUTCOMES[code]} this move")
+            explain = getattr(self.job, "explain", None)    # a homing pass's own words
+            reason = explain(self.lines[self.answered], code) if explain else None
+            self.fail(reason or f"{where}: the machine {OUTCOMES[code]} this move")
         self.answered += 1
         self.heard = time.monotonic()
         self.statuses, self.garbage = 0, dropped
@@ -321,9 +328,9 @@ class _Sender:
             self.fail(f"the board's queue holds {free} frames, the machine file says "
                       f"{self.window}: build the bitstream with --machine FILE (kontur build "
                       f"--machine FILE, make bitstream MACHINE=FILE)", abort=False)
-        start = tuple(self.job.start)
-        if (x, y) != start:
-            self.fail(f"the board is at ({x}, {y}) steps, not at the program's start {start}: "
+        start = self.job.start                  # None: anywhere (a homing cycle)
+        if start is not None and (x, y) != tuple(start):
+            self.fail(f"the board is at ({x}, {y}) steps, not at the program's start {tuple(start)}: "
                       f"its coordinates count from where the board was reset; reset it there",
                       abort=False)
 
