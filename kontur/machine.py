@@ -27,7 +27,7 @@ travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no defaul
 travel_y = [0, 200]
 s_max = 1000               # the S of full spindle (laser) power (Grbl's $30), an integer
 pwm_hz = 1000              # the spindle (laser) PWM's frequency
-homing_order = ["x", "y"]  # the axes homed, one after the other (kontur run --home)
+homing_order = ["x", "y"]  # the axes homed, one after the other (kontur send --home, $H)
 homing_dir = ["+", "+"]    # toward which end each axis's switch is (Grbl's $23 = 0: "+")
 homing_feed = 25.0         # mm/min: the slow approach (Grbl's $24)
 homing_seek = 500.0        # mm/min: the seek (Grbl's $25)

@@ -260,14 +260,19 @@ class _Sender:
             self.fail(f"the machine answered frame {number} ({where}) with outcome code "
                       f"{code}, which no controller sends")
         if code != DONE:
-            explain = getattr(self.job, "explain", None)    # a homing pass's own words
-            reason = explain(self.lines[self.answered], code) if explain else None
-            self.fail(reason or f"{where}: the machine {OUTCOMES[code]} this move")
+            self.refused(code, where)
         self.answered += 1
         self.heard = time.monotonic()
         self.statuses, self.garbage = 0, dropped
         if self.progress is not None:
             self.progress(self.answered)
+
+    def refused(self, code, where):
+        """The oldest frame came back not done (``code``): the send fails, in the program's
+        words (a homing pass's, :func:`kontur.homing.homing_job`'s ``explain``)."""
+        explain = getattr(self.job, "explain", None)
+        reason = explain(self.lines[self.answered], code) if explain else None
+        self.fail(reason or f"{where}: the machine {OUTCOMES[code]} this move")
 
     def error(self, code):
         name = ERRORS.get(code)
@@ -531,6 +536,8 @@ class Feeder(_Sender):
         self.status = None
         self.reports = 0                        # STATUS replies taken
         self.aborting = False
+        self.homing = None                      # the homing cycle's job while it runs
+        self.homing_failed = None               # why the homing cycle failed (a pass)
 
     def check_board(self, fields):
         self.job.start = tuple(fields[:2])      # wherever it is: the session starts there
@@ -582,6 +589,22 @@ class Feeder(_Sender):
 
     def command(self, command):
         self._link(super().command, command)
+
+    def home(self, job):
+        """Send the homing cycle's frames (:func:`kontur.homing.homing_job`): a pass that
+        does not find its switch is no failure of the link but :attr:`homing_failed` (the
+        caller aborts the rest, :meth:`reset`)."""
+        frames, names = job.frames()
+        self.homing, self.homing_failed = job, None
+        self.extend(frames, names, list(job.durations))
+
+    def refused(self, code, where):
+        line = self.lines[self.answered]
+        reason = self.homing.explain(line, code) if self.homing is not None and \
+            isinstance(line, str) else None
+        if reason is None:
+            super().refused(code, where)
+        self.homing_failed = reason
 
     def outcome(self, number, code, dropped=0):
         if not self.aborting:

@@ -141,3 +141,68 @@ def test_a_program_leaving_the_travel_from_the_homed_point(tmp_path, capsys):
                    "--machine", _machine_file(tmp_path, **MACHINE), "--home"])
     err = capsys.readouterr().err.splitlines()
     assert status == 2 and len(err) == 1 and "line 2" in err[0], err
+
+
+# ---- $H in kontur serve --port ----------------------------------------------------------------
+
+def _serve_home(tmp_path, machine):
+    from .test_serve_port import _connect, _serve
+    board = PtyBoard(machine)
+    child, link, _ = _serve(tmp_path, board, "--board", "ulx3s", "--machine",
+                            _machine_file(tmp_path, **MACHINE))
+    return board, child, link, _connect
+
+
+def test_serve_home_then_a_move(tmp_path):
+    """``$22=1``, ``$H``: ``ok`` once the board has made the cycle; the status reports the
+    homed point (mm, machine coordinates) and Idle; a G0 then goes from there on the board."""
+    machine = _board()
+    board, child, link, connect = _serve_home(tmp_path, machine)
+    with board, child as process:
+        port = connect(process, link)
+        assert port.command("$H") == [
+            "[MSG:line 1: homing is off: $22=1 turns it on]", "error:5"]
+        assert port.command("$22=1") == ["ok"]
+        assert port.command("$H") == ["ok"]
+        assert machine.homes == 6
+        assert port.wait_idle(10) == (HOMED[0] / 80, HOMED[1] / 80, 0.0)
+        assert port.command("G0 X10 Y10") == ["ok"]
+        assert port.wait_idle(10) == (10.0, 10.0, 0.0)
+        assert tuple(machine.position) == (800, 800)
+        assert machine.steps == [5000 - 80 + (800 - HOMED[0]), -3000 + 80 + (800 - HOMED[1])]
+        port.close()
+        process.stdout.close()
+
+
+def test_serve_home_without_the_switch(tmp_path):
+    """Y's switch never found: ``ALARM:9`` with the pass named, the board ABORTed; ``$X``
+    leaves the lock."""
+    machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)))
+    board, child, link, connect = _serve_home(tmp_path, machine)
+    with board, child as process:
+        port = connect(process, link)
+        assert port.command("$22=1") == ["ok"]
+        port.serial.write(b"$H\n")
+        assert port.line() == "[MSG:homing failed: the Y switch was not active within 150 mm " \
+                              "(seek)]"
+        assert port.line() == "ALARM:9"
+        assert port.status()[0] == "Alarm" and machine.aborted
+        assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
+        assert port.wait_idle(10)[1] == -round(1.5 * 100 * 80) / 80
+        port.close()
+        process.stdout.close()
+
+
+def test_the_virtual_machine_does_not_home():
+    """The model engine's machine has no switches: ``$22=1`` and ``$H`` refused with why."""
+    from kontur import registry
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    said = []
+    grbl = Session(Machine(clock_hz=registry.board("ulx3s").clock_hz), "ulx3s", said.append)
+    for line in ("$22=1", "$H"):
+        said.clear()
+        grbl.receive(line.encode() + b"\n")
+        grbl.poll()
+        assert said[-1] in ("error:3", "error:5") and "virtual machine has no limit switches" \
+            in said[0], said

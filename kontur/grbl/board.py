@@ -85,6 +85,43 @@ class PortMotion(Motion):
         self.settled = None                 # the STATUS count to pass once all is answered
 
     @property
+    def can_home(self):
+        """The board's controller has the homing engine (:attr:`kontur.registry.Board.
+        homing`)."""
+        return registry.board(self.board).homing
+
+    def home(self):
+        """``$H``: the homing cycle's frames (:func:`kontur.homing.homing_job`) to the board,
+        after an UNLOCK if it is in ALARM (Grbl homes from the alarm lock); at its end the
+        virtual machine is where the cycle left the board, and a pass without its switch
+        stops the board (``ABORT``) and is ``ALARM:9``. Raises
+        :exc:`kontur.machine.MachineError` for a machine file homing cannot use."""
+        from kontur.homing import homing_job
+        job = homing_job(self.machine, self.position)
+        if self.failed is not None:
+            return
+        status = self.feeder.status
+        if status is not None and status[4] == ALARM_STATE:
+            self.unlock()
+        try:
+            self.feeder.home(job)
+        except SendError as error:
+            self._fail(error)
+        self.settled = -1
+
+    def _homed(self):
+        """The homing cycle's end, or its failure (a pass without its switch)."""
+        feeder = self.feeder
+        if feeder.homing_failed is not None:
+            reason, feeder.homing, feeder.homing_failed = feeder.homing_failed, None, None
+            self._stop_board()
+            self.say(f"[MSG:{reason}]")
+            self.alarm(9)
+        elif not feeder.in_flight:
+            self.position = feeder.homing.end
+            feeder.homing = None
+
+    @property
     def reported(self):
         """Where the board says it is (steps)."""
         status = self.feeder.status
@@ -139,6 +176,8 @@ class PortMotion(Motion):
             self._send(len(self.pending), end=True)
         feeder = self.feeder
         feeder.pump()
+        if feeder.homing is not None:
+            self._homed()
         if now - self.asked >= POLL:        # at rest too: an e-stop is an alarm at once
             self.ask()
         if feeder.in_flight:

@@ -74,6 +74,9 @@ class Motion:
         self._ramp = None                   # a resume's ramp up: (steps made then, mm since)
         self.cut = set()                    # indexes in segments of those cut short
 
+    #: The virtual machine has no limit switches to home to (a board's does: PortMotion).
+    can_home = False
+
     # ---- the queue ----------------------------------------------------------------------
 
     def add(self, block):

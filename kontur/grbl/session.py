@@ -18,7 +18,7 @@ from kontur import registry
 from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse
 from kontur.grbl import protocol as p
 from kontur.grbl.motion import Block, Motion
-from kontur.grbl.settings import SettingError, Settings
+from kontur.grbl.settings import REFUSED, SettingError, Settings
 from kontur.machining import check_travel, estimate_steps
 from kontur.planner import ProgramError, lattice, plan
 from kontur.sim.models.errors import InputError
@@ -44,9 +44,10 @@ class Session:
     def __init__(self, machine, board, send, *, speed=1.0, clock=None, machine_file=None,
                  motion=None):
         self.board, self.send = board, send
-        self.settings = Settings(machine, machine_file)
         options = {} if clock is None else {"clock": clock}
         self.motion = motion or Motion(machine, board, speed=speed, **options)
+        self.settings = Settings(machine, machine_file, homing=self.motion.can_home)
+        self._homing = False                   # $H: the cycle runs (Grbl's Home state)
         self.rx = bytearray()
         self.alarm = self.check = False
         self.number = 0                        # lines received
@@ -80,6 +81,9 @@ class Session:
         self.rx.clear()
         self._waiting = None
         self.alarm = True
+        if self._homing:                       # a pass without its switch: where it stopped
+            self._homing = False
+            self._sync()
         self.send(f"ALARM:{code}")
 
     # ---- bytes in -----------------------------------------------------------------------
@@ -153,6 +157,9 @@ class Session:
                     self.motion.hold()
                 if self.motion.held:
                     return
+                if self._homing:               # $H's ok: the reader where it left the machine
+                    self._homing = False
+                    self._sync()
                 for line in self._waiting:
                     self.send(line)
                 self._waiting = None
@@ -210,6 +217,8 @@ class Session:
         motion = self.motion
         if self.alarm:
             return "Alarm"
+        if self._homing:
+            return "Home"
         if self.check:
             return "Check"
         if motion.held:
@@ -501,7 +510,7 @@ class Session:
         if text == "$#":
             return self._offsets()
         if text.startswith("$H"):
-            raise LineError(5, "homing: kontur has no homing cycle yet (issue 25)")
+            return self._home(text)
         if text == "$SLP":
             raise LineError(3, "sleep: kontur's virtual machine does not sleep")
         if text.startswith("$I"):
@@ -523,6 +532,26 @@ class Session:
         if text.startswith("$N"):
             return self._startup(text)
         return self._setting(text)
+
+    def _home(self, text):
+        """``$H``: the homing cycle (kontur.homing's, Grbl's) on a board that has it, with
+        ``$22=1``; ``ok`` once it has ended, the alarm lock left; a pass without its switch is
+        ``ALARM:9``. Grbl's single-axis ``$HX`` is a compile-time option, not taken here."""
+        if text != "$H":
+            raise LineError(3, "homing: $H homes every axis of the machine file's homing_order")
+        if not self.motion.can_home:
+            raise LineError(5, REFUSED[22][1])
+        if not self.settings.value(22):
+            raise LineError(5, "homing is off: $22=1 turns it on")
+        from kontur.machine import MachineError
+        try:
+            self.motion.home()
+        except MachineError as error:
+            raise LineError(5, f"homing: {error}") from None
+        self.alarm = False
+        self._homing = True
+        self._waiting = []                     # the ok once the cycle has ended
+        return None
 
     def _startup(self, text):
         if text == "$N":

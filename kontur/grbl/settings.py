@@ -35,9 +35,11 @@ DEFAULTS = {1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 3, 13: 0, 20: 0, 21: 0, 22:
 INTEGERS = {0, 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 26, 30, 31, 32}
 #: Settings that must stay 0 until kontur has what they enable: (error code, the reason).
 REFUSED = {20: (10, None),
-           21: (3, "hard limits: kontur has no limit inputs yet (issue 25)"),
-           22: (3, "homing: kontur has no homing cycle yet (issue 25)"),
-           23: (3, "homing: kontur has no homing cycle yet (issue 25)"),
+           21: (3, "hard limits: a board's limit inputs always trip its ALARM (in the "
+                   "gateware, docs/controller.md); the virtual machine has no switches"),
+           22: (3, "homing: the virtual machine has no limit switches; $22=1 and $H home a "
+                   "board with the homing engine (kontur serve --port, the ULX3S)"),
+           23: (3, "homing: the directions are the machine file's homing_dir"),
            32: (17, None)}
 
 
@@ -50,9 +52,11 @@ class SettingError(Exception):
 
 
 class Settings:
-    """The ``$`` settings of a session on ``machine`` (the machine file's)."""
+    """The ``$`` settings of a session on ``machine`` (the machine file's); ``homing``: the
+    machine can home (``$22`` may be set)."""
 
-    def __init__(self, machine, path=None):
+    def __init__(self, machine, path=None, *, homing=False):
+        self.homing = homing
         self.original = machine
         self.machine = machine
         self.path = None if path is None else Path(path)
@@ -84,7 +88,7 @@ class Settings:
                                "remove them there to turn them off")
         if key == 20:
             return None
-        if key in REFUSED and value:
+        if key in REFUSED and value and not (key == 22 and self.homing):
             code, reason = REFUSED[key]
             raise SettingError(code, reason)
         if key not in MACHINE_KEYS:
