@@ -75,17 +75,22 @@ def _board(**options):
 PROGRAM = "G21 G90\nG0 X10 Y10\nG1 X20 F600\nG1 Y20\nM30\n"
 
 
+def _send_home(tmp_path, machine):
+    # `kontur send PROGRAM --home` to the stand-in board on a pseudo-terminal; its status.
+    path = tmp_path / "p.ngc"
+    path.write_text(PROGRAM)
+    with PtyBoard(machine) as board:
+        return within(30, main, ["send", str(path), "--port", board.path, "--board", "ulx3s",
+                                 "--machine", _machine_file(tmp_path, **MACHINE), "--home",
+                                 "--timeout", "2"])
+
+
 def test_home_then_the_program(tmp_path, capsys):
     """The cycle homes both axes (six passes), the board's counters become the machine
     coordinates of the switch points less the pull-off, and the program starts there: its
     G0 X10 Y10 goes from the homed point, and it ends at (20, 20) mm."""
     machine = _board()
-    path = tmp_path / "p.ngc"
-    path.write_text(PROGRAM)
-    with PtyBoard(machine) as board:
-        status = within(30, main, ["send", str(path), "--port", board.path, "--board", "ulx3s",
-                                   "--machine", _machine_file(tmp_path, **MACHINE), "--home",
-                                   "--timeout", "2"])
+    status = _send_home(tmp_path, machine)
     captured = capsys.readouterr()
     assert status == 0, captured.err
     lines = captured.out.splitlines()
@@ -102,12 +107,7 @@ def test_a_switch_never_found(tmp_path, capsys):
     """Y's switch beyond 1.5 travels: its seek ends REFUSED, the send ends in one line naming
     the pass (status 1), the program is never sent."""
     machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)))
-    path = tmp_path / "p.ngc"
-    path.write_text(PROGRAM)
-    with PtyBoard(machine) as board:
-        status = within(30, main, ["send", str(path), "--port", board.path, "--board", "ulx3s",
-                                   "--machine", _machine_file(tmp_path, **MACHINE), "--home",
-                                   "--timeout", "2"])
+    status = _send_home(tmp_path, machine)
     captured = capsys.readouterr()
     assert status == 1 and captured.out == ""
     assert captured.err.splitlines() == [
