@@ -10,7 +10,9 @@ Two uses, one resource set each:
   ``switches``, the six inputs of :data:`kontur.hdl.motion.inputs.INPUTS` on J1 with the
   ECP5's pull-ups: e-stop ``3+`` (GP3), limit X ``3-`` (GN3), limit Y ``4+`` (GP4), probe
   ``4-`` (GN4), cycle start ``5+`` (GP5), feed hold ``5-`` (GN5); a switch connects its pin to
-  ground;
+  ground; ``tool``, the tool outputs (:data:`kontur.hdl.motion.tools.TOOL_PINS`, active high):
+  spindle/laser/torch enable ``8+`` (GP8), direction (M4) ``8-`` (GN8), PWM ``9+`` (GP9), mist
+  ``9-`` (GN9), flood ``10+`` (GP10);
 * :func:`bench_platform`, the place-and-route benchmarks: a ``shift_in`` resource for any
   :class:`~kontur.hdl.top.ShiftInTop` on the first pins of the GPIO header (``0+``, ``0-``, ``1+``,
   ...).
@@ -22,7 +24,8 @@ All LVCMOS33. The board's clock is 25 MHz. Amaranth's ULX3S platform asks for
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.ulx3s import ULX3S_85F_Platform
 
-__all__ = ["ULX3S_85F_Platform", "STEPPER", "SWITCHES", "FREE_PINS", "platform", "bench_platform"]
+__all__ = ["ULX3S_85F_Platform", "STEPPER", "SWITCHES", "TOOL", "FREE_PINS", "platform",
+           "bench_platform"]
 
 _GPIO = ("gpio", 0)
 _LVCMOS33 = Attrs(IO_TYPE="LVCMOS33")
@@ -45,10 +48,18 @@ SWITCHES = [
 ]
 
 
+#: The tool outputs, in the order of :data:`kontur.hdl.motion.tools.TOOL_PINS`: enable,
+#: direction, PWM, mist, flood.
+TOOL = [
+    Resource("tool", 0, Pins("8+ 8- 9+ 9- 10+", dir="o", conn=_GPIO), _LVCMOS33),
+]
+
+
 def platform():
-    """Return a new :class:`ULX3S_85F_Platform` with :data:`STEPPER` and :data:`SWITCHES`."""
+    """Return a new :class:`ULX3S_85F_Platform` with :data:`STEPPER`, :data:`SWITCHES` and
+    :data:`TOOL`."""
     board = ULX3S_85F_Platform()
-    board.add_resources(STEPPER + SWITCHES)
+    board.add_resources(STEPPER + SWITCHES + TOOL)
     return board
 
 #: The pins a ``shift_in`` resource takes, in order: the GPIO header's pairs 0 to 13.

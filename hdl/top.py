@@ -17,6 +17,7 @@ from .line import LineEngine
 from .linear import LinearCore
 from .motion import ProgramPlayer
 from .motion.player import check_timing
+from .motion.tools import TOOL_PINS, tool_engine
 
 __all__ = ["BareAccumulator", "ShiftInTop", "PinnedTop", "ControllerTop", "DemoTop", "OCTAGON"]
 
@@ -279,7 +280,9 @@ class ControllerTop(Elaboratable):
     (``led_r``) once a frame has been dropped. The receiver synchronises ``rx`` itself; ``tx``
     comes straight from the transmitter's flip-flop. The switch inputs on the ``switches``
     resource (six pins, :data:`~kontur.hdl.motion.inputs.INPUTS`' order, pulled up) go to the
-    controller's :py:`inputs`, which synchronises them itself.
+    controller's :py:`inputs`, which synchronises them itself. With a tool engine in its table
+    (:class:`~kontur.hdl.motion.tools.ToolEngine`) its pins go to the ``tool`` resource
+    (:data:`~kontur.hdl.motion.tools.TOOL_PINS`' order), registered like step and dir.
 
     With ``divide`` 2 the controller runs on half the board's clock (a flip-flop toggled by
     the board's clock, constrained as such for nextpnr; the I/O registers on it too), for a
@@ -343,6 +346,11 @@ class ControllerTop(Elaboratable):
             "i", platform.request("switches", 0, dir="-"))
         m.submodules.led_busy = led_busy = io.Buffer("o", platform.request("led_g", 0, dir="-"))
         m.submodules.led_error = led_error = io.Buffer("o", platform.request("led_r", 0, dir="-"))
+        tools = tool_engine(controller)
+        if tools is not None:                   # the tool outputs, registered as step/dir
+            m.submodules.tool_buffer = tool = io.FFBuffer(
+                "o", platform.request("tool", 0, dir="-"), o_domain=domain)
+            m.d.comb += tool.o.eq(Cat(getattr(tools, name) for name in TOOL_PINS))
         m.d.comb += [
             controller.rx.eq(rx.i),
             controller.inputs.eq(switches.i),

@@ -27,6 +27,7 @@ travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no defaul
 travel_y = [0, 200]
 s_max = 1000               # the S of full spindle (laser) power (Grbl's $30), an integer
 pwm_hz = 1000              # the spindle (laser) PWM's frequency
+laser = false              # Grbl's laser mode ($32): in M4 the power follows the feed
 homing_order = ["x", "y"]  # the axes homed, one after the other (kontur send --home, $H)
 homing_dir = ["+", "+"]    # toward which end each axis's switch is (Grbl's $23 = 0: "+")
 homing_feed = 25.0         # mm/min: the slow approach (Grbl's $24)
@@ -62,7 +63,8 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
    limits refuse it.
 7. ``s_max``: an integer from 1 to 2**24 - 1; ``pwm_hz``: its period at the clock, rounded to
    whole clocks (:attr:`Machine.pwm_period`), at least the clocks the tool outputs take to
-   work a duty out (:func:`kontur.hdl.motion.tools.min_period`).
+   work a duty out (:func:`kontur.hdl.motion.tools.min_period`). ``laser``: ``true`` or
+   ``false``, Grbl's ``$32`` (the TOOL frames carry it: in M4 the power follows the feed).
 """
 
 import math
@@ -110,6 +112,7 @@ class Machine:
     travel_y: tuple = None
     s_max: int = 1000                 # the S of full power (Grbl's $30)
     pwm_hz: float = 1000.0            # the spindle (laser) PWM's frequency
+    laser: bool = False               # Grbl's laser mode ($32): in M4 power follows the feed
     homing_order: tuple = ("x", "y")  # kontur.homing: the axes homed, in order
     homing_dir: tuple = ("+", "+")    # toward which end each switch is (Grbl's $23 = 0)
     homing_feed: float = 25.0         # mm/min (Grbl's $24)
@@ -119,6 +122,9 @@ class Machine:
     homing_offset: tuple = None       # mm: the switch points (None: from the travel)
 
     def __post_init__(self):
+        if not isinstance(self.laser, bool):
+            raise MachineError(f"laser must be true or false (Grbl's laser mode, $32), not "
+                               f"{self.laser!r}")
         if self.corner not in ("arc", "miter"):
             raise MachineError(f"corner must be \"arc\" (round a convex corner on an arc of "
                                f"the cutter radius) or \"miter\" (extend it up to 2 radii), "
@@ -154,7 +160,7 @@ class Machine:
         for item in fields(self):
             if item.name in ("cutter_radius", "g28_position", "g30_position", "travel_x",
                              "travel_y", "corner", "homing_order", "homing_dir",
-                             "homing_offset") \
+                             "homing_offset", "laser") \
                     or item.name in SWITCHES:
                 continue
             value = getattr(self, item.name)

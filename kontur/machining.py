@@ -31,7 +31,7 @@ import itertools
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from fractions import Fraction
 from pathlib import Path
@@ -40,8 +40,8 @@ from kontur import registry
 from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, planar, read, sweep
 from kontur.machine import Machine, MachineError
-from kontur.planner import (ProgramError, frames as program_frames, lattice, plan, planned_feed,
-                            step_seconds)
+from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, plan,
+                            planned_feed, step_seconds)
 from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -254,10 +254,104 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     else:
         segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
                            widths=(item.line[1], item.arc[1]))
+    if item.tools:
+        segments, contours = tool_stops(segments, contours, moves, program.events, machine)
     start = segments[0].start if segments else (0, 0)
     check_travel(segments, machine, start)
     return Job(name or "program", board, machine, moves, segments, plan(segments, machine),
                start, contours, list(program.events))
+
+
+def tool_changes(events, machine, moves):
+    """The tool states a program sets, for a board with tool outputs: ``(event, state)`` for
+    each event that changes the state (``state`` the keywords of
+    :func:`kontur.hdl.motion.tools.tool_frame`; the changes between the same two moves are one,
+    the last event's), and a last ``(event, all off)`` if the program
+    leaves anything on (as LinuxCNC and Grbl turn the spindle and coolant off at M2/M30; it
+    takes the place of a change after the last of the ``moves`` moves, whose event it keeps;
+    else the event is ``None``).
+
+    M3 and M4 turn the spindle on clockwise and counter-clockwise, M5 off; S sets the power
+    (rounded to a whole number, above the machine's ``s_max`` taken as ``s_max``, as Grbl
+    clamps it); M7 turns mist on, M8 flood, M9 both off; the machine's ``laser`` (Grbl's
+    ``$32``) goes with every state."""
+    from kontur.hdl.motion.tools import Spindle
+    spindles = {"M3": Spindle.CW, "M4": Spindle.CCW, "M5": Spindle.OFF}
+    off = {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
+           "laser": machine.laser}
+    state, out = dict(off), []
+    for event in events:
+        new = dict(state)
+        if event.kind == "spindle":
+            new["spindle"] = spindles[event.text.split()[0]]
+        elif event.kind == "speed":
+            new["s"] = min(round(event.value), machine.s_max)
+        elif event.kind == "coolant":
+            code = event.text.strip()
+            if code == "M7":
+                new["mist"] = True
+            elif code == "M8":
+                new["flood"] = True
+            else:
+                new["mist"] = new["flood"] = False
+        else:
+            continue
+        # S alone changes nothing on the pins while the spindle is off.
+        if new != state and not (event.kind == "speed" and new["spindle"] == Spindle.OFF):
+            if out and out[-1][0].move == event.move:     # the same place: one change
+                out.pop()
+            out.append((event, new))
+        state = new
+    if state["spindle"] != Spindle.OFF or state["mist"] or state["flood"]:
+        last = None
+        if out and out[-1][0].move >= moves:        # after the last move too: one change
+            last = out.pop()[0]
+        out.append((last, {**state, "spindle": Spindle.OFF, "mist": False, "flood": False}))
+    return out
+
+
+def tool_stops(segments, contours, moves, events, machine):
+    """``segments`` and ``contours`` with a stop for each tool change (:func:`tool_changes`):
+    a segment of kind ``"dwell"`` of no time whose payload's ``"tool"`` is the state (its TOOL
+    frame, :func:`kontur.planner.dwell_frames`), before the segments of the first move after
+    the change (the change at the end: after the last). The machine stops for it, as LinuxCNC
+    stops for a spindle or coolant change; the controller takes it after the move before has
+    ended.
+
+    Raises
+    ------
+    ProgramError
+        For a change inside a compensated contour (the equidistant engine takes the contour
+        whole), naming its line.
+    """
+    changes = tool_changes(events, machine, len(moves))
+    if not changes:
+        return segments, contours
+    segments, contours = list(segments), list(contours)
+    head = 1 if contours else 0                 # RADIUS heads a program with contours
+    for event, state in reversed(changes):
+        at = len(segments)
+        if event is not None and event.move < len(moves):
+            line = moves[event.move].line
+            at = next((i for i in range(head, len(segments)) if segments[i].line >= line),
+                      len(segments))
+        for n, contour in enumerate(contours):
+            if contour.first < at < contour.first + contour.count:
+                raise ProgramError(event.line, f"{event.text} inside the compensated contour "
+                                               f"of lines {contour.lines[0]}-"
+                                               f"{contour.lines[1]}: the equidistant engine "
+                                               f"takes the contour whole; change the tool "
+                                               f"before G41/G42 or after G40")
+            if contour.first >= at:
+                contours[n] = replace(contour, first=contour.first + 1,
+                                      approach=None if contour.approach is None
+                                      else contour.approach + 1)
+        position = segments[at - 1].end if at else segments[0].start if segments else (0, 0)
+        line = segments[-1].line if event is None else event.line
+        segments.insert(at, Segment(line, "dwell",
+                                    {"seconds": 0, "tool": state}, position, position, 0.0, [],
+                                    None, None, None))
+    return segments, contours
 
 
 def check_travel(segments, machine, start):
@@ -745,6 +839,11 @@ def summary(job, result):
         "dwells": len(dwells),
         "dwell_seconds": float(sum(move.seconds for move in dwells)),
         "tool_events": [event.as_dict() for event in job.events if event.kind in TOOL_EVENTS],
+        # The TOOL frames sent (a board with tool outputs): the state each sets, and its line.
+        "tool_frames": [{"line": segment.line, **{key: value.name.lower() if key == "spindle"
+                                                   else value for key, value in
+                                                   segment.payload["tool"].items()}}
+                        for segment in job.segments if "tool" in segment.payload],
         "pauses": [event.as_dict() for event in job.events if event.kind == "pause"],
         "messages": [event.as_dict() for event in job.events if event.kind == "message"],
     }
@@ -805,8 +904,10 @@ def summary_text(data, out_dir=None):
         lines.append(f"dwells     {data['dwells']} (G4), {data['dwell_seconds']:g} s, as DWELL "
                      f"frames")
     if data.get("tool_events"):
-        lines.append(f"tools      {len(data['tool_events'])} tool events (not driven: the "
-                     f"controller has no tool outputs): "
+        driven = data.get("tool_frames")
+        lines.append(f"tools      {len(data['tool_events'])} tool events ("
+                     + (f"{len(driven)} TOOL frames to the tool outputs" if driven else
+                        "not driven: the controller has no tool outputs") + "): "
                      + ", ".join(f"{e['text']} (line {e['line']})"
                                  for e in data["tool_events"][:6])
                      + (", ..." if len(data["tool_events"]) > 6 else ""))

@@ -29,9 +29,11 @@ from kontur import registry
 from kontur.sim.models.arc import check_arc
 from kontur.sim.models.errors import InputError
 from kontur.hdl.motion import protocol
+from kontur.hdl.motion.tools import tool_frame
 from kontur.gcode import sweep
 
-__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "dwell_clocks", "ProgramError",
+__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "dwell_clocks", "dwell_frames",
+           "ProgramError",
            "on_lattice",
            "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
            "planned_feed"]
@@ -409,7 +411,8 @@ def planned_feed(feed, machine):
 def plan(segments, machine):
     """The feed plan of ``segments``: a :class:`PlanItem` each.
 
-    A dwell (a segment of kind ``"dwell"``, G4) stops the machine: the moves before it end at
+    A dwell (a segment of kind ``"dwell"``: G4, or a tool change on a board with tool
+    outputs) stops the machine: the moves before it end at
     rest and those after it start from rest (each stretch between dwells is planned alone), and
     its item is its time.
 
@@ -510,9 +513,21 @@ def dwell_clocks(seconds, machine, compress=1):
     return [limit] * (clocks // limit) + ([clocks % limit] if clocks % limit else [])
 
 
+def dwell_frames(segment, machine, compress=1):
+    """The frames of a stop (a segment of kind ``"dwell"``): its DWELL frames
+    (:func:`dwell_clocks`), then the TOOL frame of a tool change (``payload["tool"]``, the
+    keywords of :func:`kontur.hdl.motion.tools.tool_frame`), which the controller's tool
+    outputs take in its turn, after the move before has ended."""
+    out = [protocol.dwell(clocks)
+           for clocks in dwell_clocks(segment.payload["seconds"], machine, compress)]
+    if "tool" in segment.payload:
+        out.append(tool_frame(**segment.payload["tool"]))
+    return out
+
+
 def frames(segments, items, machine, *, compress=1):
     """The frames of the program: the configuration, a FEED and a move for each segment (a
-    dwell's DWELL frames, :func:`dwell_clocks`), the STOP. A rapid's FEED (a segment of a G0
+    stop's DWELL and TOOL frames, :func:`dwell_frames`), the STOP. A rapid's FEED (a segment of a G0
     move) carries the rapid flag. Returns ``(frames, lines)``: the bytes of each frame, and the program line each
     frame comes from (``None`` for CONFIG and STOP).
 
@@ -535,10 +550,10 @@ def frames(segments, items, machine, *, compress=1):
                                  f"{accel} a clock (Q0.40), beyond CONFIG's 32-bit field")
     out, lines = [protocol.config(accel)], [None]
     for segment, item in zip(segments, items):
-        if segment.kind == "dwell":       # DWELL frames: the controller waits their clocks
-            for clocks in dwell_clocks(segment.payload["seconds"], machine, compress):
-                out.append(protocol.dwell(clocks))
-                lines.append(segment.line)
+        if segment.kind == "dwell":       # DWELL frames, a TOOL frame: between moves
+            stop = dwell_frames(segment, machine, compress)
+            out += stop
+            lines += [segment.line] * len(stop)
             continue
         if item.decelerate >= 1 << 24:
             raise ProgramError(segment.line, f"the move has {len(segment.steps)} steps: its "

@@ -26,6 +26,7 @@ from kontur.hdl.line import LineEngine
 from kontur.hdl.linear import LinearCore
 from kontur.hdl.motion.controller import MotionController
 from kontur.hdl.motion.homing import homing_row
+from kontur.hdl.motion.tools import tool_row
 from kontur.hdl.serial import SerialArcCore, SerialLineCore
 from kontur.hdl.spatial import SpatialLineCore
 from kontur.hdl.textbook import DdaCore, SeparateArcCore, SeparateLineCore
@@ -121,7 +122,10 @@ class Board:
     (see :func:`make_controller`); ``overrides`` whether its feed generator has the feed and
     rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`); ``homing`` whether it has
     the homing engine (:class:`kontur.hdl.motion.homing.HomingEngine`: HOME frames, homing to
-    the limit switches; a board without it reports HOME an unknown frame type)."""
+    the limit switches; a board without it reports HOME an unknown frame type); ``tools``
+    whether it has the tool outputs (:class:`kontur.hdl.motion.tools.ToolEngine`: TOOL frames,
+    the spindle/laser/torch and coolant pins; a board without them lists the program's tool
+    words in the summary and drives no pin)."""
     name: str
     help: str
     platform: object
@@ -133,6 +137,7 @@ class Board:
     profile: tuple = None
     overrides: bool = True
     homing: bool = False
+    tools: bool = False
 
 
 KINDS = {}
@@ -239,9 +244,12 @@ def make_controller(board_name, machine):
                          f"{item.clock_hz:g} Hz")
     profile = None if item.profile is None else \
         make_engine("profile", item.profile[0], width=item.profile[1])
+    engines = [homing_row()] if item.homing else []
+    if item.tools:
+        engines.append(tool_row(s_max=machine.s_max, period=machine.pwm_period))
     return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
                             arc=make_engine("arc", item.arc[0], width=item.arc[1]),
-                            profile=profile, engines=[homing_row()] if item.homing else (),
+                            profile=profile, engines=engines,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width, input_filter=machine.input_filter,
@@ -417,9 +425,11 @@ BOARD_TABLE = (
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
     # controller runs at half the board's clock, 12.5 MHz.
-    # It has the homing engine too (issue 25); the iCEBreaker has no room for it.
+    # It has the homing engine too (issue 25) and the tool outputs (issue 28); the iCEBreaker
+    # has no room for them.
     Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
-          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2, homing=True),
+          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2, homing=True,
+          tools=True),
 )
 
 for _item in KIND_TABLE + VARIANT_TABLE + BOARD_TABLE:

@@ -31,9 +31,9 @@ import signal
 import time
 import types
 
-from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATES, STATUS
-
+from kontur import registry
 from kontur.hdl.motion import protocol
+from kontur.hdl.motion.link import ERROR, ERRORS, OUTCOME, STATES, STATUS
 from kontur.sim import processes
 
 __all__ = ["send", "SendError", "SendInterrupted", "Stop", "open_port", "PACE", "ABORT_WAIT",
@@ -130,10 +130,13 @@ UNHONOURED = {
 
 def unhonoured(job):
     """``(line, reason)`` of the first event of ``job`` the board cannot honour (M3, M4, M7,
-    M8, M6, M0, M1; :data:`UNHONOURED`), or ``None``. M5, M9, M61, S, T, G43/G49 and messages
+    M8 on a board without tool outputs, M6, M0, M1; :data:`UNHONOURED`), or ``None``. M5, M9, M61, S, T, G43/G49 and messages
     ask nothing of the board."""
+    tools = registry.board(job.board).tools       # TOOL frames: the spindle and coolant
     for event in job.events:
         if event.text.split()[0] in ("M5", "M9", "M61"):     # off, or a tool number set
+            continue
+        if tools and event.kind in ("spindle", "coolant"):
             continue
         if event.kind in UNHONOURED:
             return event.line, (f"{event.text.split(' (')[0]} {UNHONOURED[event.kind]}: "
@@ -144,15 +147,15 @@ def unhonoured(job):
 def _durations(job, count):
     """The planned time (s) of each of the job's ``count`` frames: the move frames' their
     plan's, a dwell's its share of the dwell, the others' none (CONFIG, FEED and a move each,
-    DWELL frames, STOP; for any other layout every frame gets the whole program's time)."""
-    from kontur.planner import dwell_clocks
+    DWELL and TOOL frames, STOP; for any other layout every frame gets the whole program's time)."""
+    from kontur.planner import dwell_frames
     given = getattr(job, "durations", None)   # the frames' own (a homing cycle's)
     if given is not None and len(given) == count:
         return list(given)
     out = [0.0]
     for segment, item in zip(job.segments, job.items):
         if segment.kind == "dwell":
-            parts = len(dwell_clocks(segment.payload["seconds"], job.machine))
+            parts = len(dwell_frames(segment, job.machine))
             out += [item.seconds / parts] * parts
         else:
             out += [0.0, item.seconds]

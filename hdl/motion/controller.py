@@ -18,6 +18,7 @@ from .dispatch import (DWELL_UNIT, NONE_UNIT, Dispatcher, EngineUnit, Replies, T
                        UnitSignature, little, raw_bits)
 from .alarm import Alarm
 from .homing import connect_homing
+from .tools import connect_tools
 from .feed import OVERRIDE_ONE, FeedGenerator, rate_limit
 from .inputs import INPUTS, Inputs, check_polarity, idle_pins
 from .link import (ARC, CONFIG, DWELL, FEED, IMMEDIATE, LENGTHS, LINE, PROFILE,
@@ -319,6 +320,7 @@ class MotionController(wiring.Component):
         m.d.sync += self.enable.eq(1)
         self._safety(m)
         connect_homing(m, self)             # homing rows of the table, if any (.homing)
+        connect_tools(m, self)              # the tool outputs' row, if any (.tools)
 
         # Replies: outcomes, errors, status.
         wiring.connect(m, turns.outcome, replies.outcome)

@@ -46,6 +46,8 @@ class StepDirStage(wiring.Component):
         No new pulse (see above).
     made : :py:`Out(axes)`
         A pulse begins on the axis's step output in this clock.
+    idle : :py:`Out(1)`
+        No step in its set-up, on a pin or coming in: every pulse so far is over.
 
     Raises
     ------
@@ -59,7 +61,7 @@ class StepDirStage(wiring.Component):
         self._dir_setup = dir_setup
         self._step_width = step_width
         super().__init__({"i": In(MotionSignature(axes)), "o": Out(MotionSignature(axes)),
-                          "halt": In(1), "made": Out(axes)})
+                          "halt": In(1), "made": Out(axes), "idle": Out(1)})
 
     @property
     def dir_setup(self):
@@ -72,6 +74,7 @@ class StepDirStage(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         setup, width = self._dir_setup, self._step_width
+        busy = []
         for axis in range(self.i.signature.axes):
             left = Signal(range(setup + width + 1), name=f"left_{axis}")
             with m.If(self.halt & (left > width)):
@@ -85,4 +88,6 @@ class StepDirStage(wiring.Component):
                 m.d.sync += left.eq(left - 1)
             m.d.comb += [self.o.step[axis].eq((left != 0) & (left <= width)),
                          self.made[axis].eq(left == width)]
+            busy.append(left != 0)
+        m.d.comb += self.idle.eq(~Cat(*busy).any() & ~self.i.step.any())
         return m

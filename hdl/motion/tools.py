@@ -5,14 +5,35 @@ S, M7/M8/M9) and drives the pins: ``enable``, ``direction`` (M4), ``pwm`` (duty 
 fixed period), ``mist``, ``flood``. In Grbl's laser mode (``$32``, :py:`laser`) with M4 the
 duty follows the feed: S/s_max × rate/cruise, worked out once a PWM period by a sequential
 multiply-divide (:class:`ToolOutputs`' notes), so that a corner where the feed drops does not
-burn. Not yet wired into the controller (docs/tools.md).
+burn.
+
+:class:`ToolEngine` puts them in the controller: a row of its engine table (frame type
+:data:`TOOL`, turn :data:`TOOL_UNIT`) whose TOOL frames take effect in their turn, when every
+frame before them has ended and before any after them begins: between moves, never while the
+move before still runs (docs/tools.md).
 """
+
+import struct
 
 from amaranth import *
 from amaranth.lib import data, enum, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["Spindle", "ToolCommand", "ToolOutputs", "pwm_period", "min_period"]
+from ..engine import EngineSignature, Outcome, StatusUnit
+from .dispatch import EngineUnit, raw_bits
+from .link import SYNC, profile_bytes
+from .protocol import crc
+
+__all__ = ["Spindle", "ToolCommand", "ToolOutputs", "pwm_period", "min_period", "TOOL",
+           "TOOL_UNIT", "ToolFrame", "ToolEngine", "tool_row", "connect_tools", "tool_frame",
+           "TOOL_PINS", "tool_engine"]
+
+#: The TOOL frame's type and the tool engine's turn number (the built-in rows use 1 to 4,
+#: homing 5).
+TOOL, TOOL_UNIT = 0x1B, 7
+
+#: The tool engine's pins, in the order of the boards' ``tool`` resource.
+TOOL_PINS = ("enable", "direction", "pwm", "mist", "flood")
 
 
 class Spindle(enum.Enum, shape=2):
@@ -246,3 +267,128 @@ class ToolOutputs(wiring.Component):
         with m.Elif(first):
             m.d.sync += fresh.eq(enable)
         return q, fresh
+
+
+def ToolFrame():
+    """The tool state, as the TOOL frame's payload carries it (4 bytes, little-endian, least
+    significant bit first): the spindle (:class:`Spindle`: M5, M3, M4), mist (M7), flood (M8),
+    laser mode (Grbl's ``$32``), and S (an integer; above ``s_max`` taken as ``s_max``)."""
+    return data.StructLayout({"spindle": Spindle, "mist": 1, "flood": 1, "laser": 1,
+                              "reserved": 3, "s": unsigned(24)})
+
+
+class ToolEngine(wiring.Component):
+    """The tool outputs as a row of the controller's engine table: TOOL frames in their turn.
+
+    A TOOL frame is taken when the engine is idle (no frame in flight, no outcome waiting) and
+    ends ``DONE`` in its turn (the turn queue's readiness for its outcome, :py:`status.ready`)
+    once the step/dir stage is idle (:py:`settled`): the moves before it have made their last
+    pulse on the pins, those after it have not begun. In that
+    clock its state goes to :class:`ToolOutputs` (whole: spindle, S, mist, flood) and the laser
+    mode is set. It makes no step. :py:`abort` drops a frame not yet in its turn (it ends
+    ``ABORTED``, the outputs unchanged); the alarm's halt (:py:`halt`) turns every output off.
+
+    Parameters
+    ----------
+    s_max, period, laser_mode
+        As :class:`ToolOutputs`.
+    axes : :class:`int`
+        The controller's axes (its engines' motion width).
+
+    Members (besides :class:`~kontur.hdl.engine.EngineSignature`'s)
+    -------
+    rate, cruise : :py:`Signal(24)`, in
+        The feed generator's rate and the running move's cruise (for the laser mode's power).
+    halt : :py:`Signal(1)`, in
+        The alarm's halt.
+    settled : :py:`Signal(1)`, in
+        The step/dir stage is idle (:py:`~.stepdir.StepDirStage.idle`): the last pulse of the
+        move before is over on its pin; the frame ends only then.
+    enable, direction, pwm, mist, flood : :py:`Signal(1)`, out
+        The pins (:data:`TOOL_PINS`), :class:`ToolOutputs`'.
+    """
+
+    def __init__(self, *, s_max, period, laser_mode=True, axes=2):
+        self.outputs = ToolOutputs(s_max=s_max, period=period, laser_mode=laser_mode)
+        super().__init__(EngineSignature(ToolFrame(), axes=axes))
+        self._axes = axes
+        self.rate, self.cruise, self.halt = Signal(24), Signal(24), Signal()
+        self.settled = Signal()
+        for name in TOOL_PINS:
+            setattr(self, name, Signal(name=name))
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.unit = unit = StatusUnit(axes=self._axes)
+        m.submodules.outputs = outputs = self.outputs
+        state = Signal(ToolFrame())
+        run = Signal()
+        ending = Signal()
+        laser = Signal()
+        m.d.comb += [
+            ending.eq(run & self.status.ready & self.settled & ~unit.hold & ~self.abort),
+            self.feed.due.eq(0),
+            self.cmd.ready.eq(unit.idle & ~unit.flushing & ~self.abort),
+            unit.accept.eq(self.cmd.valid & self.cmd.ready),
+            unit.end.eq(ending),
+            unit.outcome.eq(Outcome.DONE),
+            unit.flush.eq(self.abort),
+            self.busy.eq(unit.busy),
+            outputs.cmd.valid.eq(ending),
+            outputs.cmd.payload.spindle.eq(state.spindle),
+            outputs.cmd.payload.s.eq(Mux(state.s > outputs.s_max, outputs.s_max, state.s)),
+            outputs.cmd.payload.mist.eq(state.mist),
+            outputs.cmd.payload.flood.eq(state.flood),
+            outputs.laser.eq(laser),
+            outputs.rate.eq(self.rate),
+            outputs.cruise.eq(self.cruise),
+            outputs.halt.eq(self.halt),
+        ]
+        m.d.comb += [getattr(self, name).eq(getattr(outputs, name)) for name in TOOL_PINS]
+        wiring.connect(m, unit.status, wiring.flipped(self.status))
+        with m.If(unit.accept):
+            m.d.sync += [run.eq(1), state.eq(self.cmd.payload)]
+        with m.Elif(ending | self.abort):
+            m.d.sync += run.eq(0)
+        with m.If(ending):
+            m.d.sync += laser.eq(state.laser)
+        return m
+
+
+def tool_frame(spindle=Spindle.OFF, s=0, *, mist=False, flood=False, laser=False):
+    """The TOOL frame of a tool state (the host's side): ``spindle`` a :class:`Spindle`, ``s``
+    an integer S (0 to 2**24 - 1), the coolant and Grbl's laser mode."""
+    spindle = Spindle(spindle)
+    if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s < 1 << 24:
+        raise ValueError(f"S must be an integer from 0 to 2**24 - 1, not {s!r}")
+    flags = spindle.value | bool(mist) << 2 | bool(flood) << 3 | bool(laser) << 4
+    payload = struct.pack("<I", flags | s << 8)
+    body = bytes([TOOL, len(payload)]) + payload
+    return bytes([SYNC]) + body + crc(body).to_bytes(2, "big")
+
+
+def tool_row(*, s_max, period, laser_mode=True, axes=2):
+    """The engine-table row of a tool engine: ``MotionController(engines=[tool_row(...)])``."""
+    engine = ToolEngine(s_max=s_max, period=period, laser_mode=laser_mode, axes=axes)
+    return EngineUnit("tools", TOOL_UNIT, TOOL, engine, profile_bytes(ToolFrame()), raw_bits)
+
+
+def tool_engine(controller):
+    """The tool engine of ``controller``'s table, or ``None``."""
+    return next((row.engine for row in controller.table if isinstance(row.engine, ToolEngine)),
+                None)
+
+
+def connect_tools(m, controller):
+    """Wire the tool engine of ``controller``'s table (none: nothing is built): the feed
+    generator's rate, the running move's cruise, the alarm's halt, the step/dir stage's
+    idleness."""
+    engine = tool_engine(controller)
+    if engine is None:
+        return
+    m.d.comb += [
+        engine.rate.eq(controller.feed.rate),
+        engine.cruise.eq(controller.turns.ramp.profile.cruise),
+        engine.halt.eq(controller.alarm_unit.halt),
+        engine.settled.eq(controller.stepdir.idle),
+    ]
