@@ -241,8 +241,13 @@ class FeedGenerator(wiring.Component):
             exit.eq(Mux(use & slower & (scaled < p.exit), scaled, p.exit)),
             wanted.eq(Mux(down, exit, cruise)),
         ]
+        # The target is a register, computed a clock ahead: the turn queue's output (its FIFO's
+        # read) never reaches the rate's adder in the same clock. So the rate follows a change
+        # of the target (a move's start, its ramp-down, a hold and its release) a clock late.
         target = Signal(40)
-        m.d.comb += target.eq(Mux(self.hold, 0, self._clamp(wanted) << 16))
+        holding = Signal()                      # the hold the target was computed under
+        m.d.sync += [target.eq(Mux(self.hold, 0, self._clamp(wanted) << 16)),
+                     holding.eq(self.hold)]
         # One step of the ramp toward the target, and the target itself where that step would
         # pass it: three carry chains (the direction, the step, the overshoot), not five.
         up = Signal()
@@ -254,9 +259,9 @@ class FeedGenerator(wiring.Component):
         m.d.sync += rate.eq(Mux(passed, target, moved[:40]))
         m.d.comb += [rose.eq(up), fell.eq(~up & ~passed)]
 
-        # Held: under hold in the clock before, whose step reached the target, zero.
+        # Held: the clock before moved toward the hold's target (zero) and reached it.
         zero = Signal()
-        m.d.sync += zero.eq(self.hold & passed)
+        m.d.sync += zero.eq(holding & passed)
         stopped = Signal()
         m.d.comb += stopped.eq(self.hold & zero)
         self._steps(m, rate, steps, stopped)
@@ -305,8 +310,15 @@ class FeedGenerator(wiring.Component):
         p, start = self.ramp.profile, self.ramp.start
         if not self._overrides:
             return steps >= p.decelerate
+        # This move's changes: not in its start's clock (toward the move before's target) nor
+        # in the clock after (toward the target computed in the start's clock, from the move
+        # before's step count), as the target is a clock behind.
+        after = Signal()                        # the clock after a move's start
+        m.d.sync += after.eq(start)
+        theirs = Signal()
+        m.d.comb += theirs.eq(start | after)
         rose_q, fell_q = Signal(), Signal()
-        m.d.sync += [rose_q.eq(rose & ~start), fell_q.eq(fell & ~start)]   # this move's
+        m.d.sync += [rose_q.eq(rose & ~theirs), fell_q.eq(fell & ~theirs)]
         extra = Signal(33, init=LOOKAHEAD_MARGIN << 16)
         above = Signal()                        # the rate rose above the cruise
         now = Signal(33)
