@@ -99,7 +99,8 @@ class FeedDivider(wiring.Component):
 OVERRIDE_ONE = 128
 
 #: Steps of margin in the ramp-down look-ahead of an overridden move
-#: (:class:`FeedGenerator`): the look-ahead's one-clock lag, the step counter's and the
+#: (:class:`FeedGenerator`): the look-ahead's lag (a clock, and a clock more for the target
+#: register), the step counter's and the
 #: accumulator's granularity, and the grid of the deceleration (docs/controller.md).
 LOOKAHEAD_MARGIN = 16
 
@@ -128,6 +129,11 @@ class FeedGenerator(wiring.Component):
     permission waits for the engine the accumulator stands still, so a wait never turns into
     a burst.
 
+    The target the rate moves toward is a register computed a clock ahead (from the move's
+    profile, its step count, the hold and the overrides of the clock before), so the turn
+    queue's output never reaches the rate's adder in one clock: the rate follows a move's
+    start, its ramp-down step, a hold and its release a clock after them.
+
     **Hold.** While :py:`hold` is high the rate ramps toward zero at the same acceleration:
     the steps go on, slower and slower, until the rate is zero (:py:`held`); then no
     permission is given (not even one already earned). When :py:`hold` drops the rate ramps
@@ -138,8 +144,8 @@ class FeedGenerator(wiring.Component):
     128 is 100 %), or for a rapid move (:py:`rapid`) by the rapid override
     (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by
     a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
-    rate's loop; until it is ready (10 clocks after a move's start or a change of the factor)
-    the rate ramps toward the unscaled cruise. Below 100 % the exit target is the lower of the
+    rate's loop; until it is ready (the rate's target takes it 11 clocks after a move's start
+    or a change of the factor) the rate ramps toward the unscaled cruise. Below 100 % the exit target is the lower of the
     exit and the scaled cruise. Above 100 % the rate passes the cruise the planner timed the
     ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
     the distance it takes to come back down to the cruise from the rate now (every clock the
@@ -303,8 +309,9 @@ class FeedGenerator(wiring.Component):
         come down to the cruise at the acceleration, plus :data:`LOOKAHEAD_MARGIN`: a clock
         later than the rate, on a rise it adds the rate (rounded up: exact or more for a full
         step, more for a part), on a full step down it takes the new rate off (a little less
-        than exact), and it stands on a part step down. Reset (to the margin) at a move's
-        start and while the rate (whole Q0.24) is not above the cruise. The ramp-down begins
+        than exact), and it stands on a part step down; the changes in a move's start clock and
+        the clock after (toward targets computed before the move's step count was reset) are
+        not counted. Reset (to the margin) at a move's start and while the rate (whole Q0.24) is not above the cruise. The ramp-down begins
         when the steps made and ``extra`` reach the planned step, or ``extra`` reaches 2**16
         steps; it is latched until the next move."""
         p, start = self.ramp.profile, self.ramp.start
