@@ -199,7 +199,8 @@ class HoldTestCase(Checks, unittest.TestCase):
         self.assertAlmostEqual(self.plateau(steps, 1420, 1500), 0.2, delta=0.004)
 
     def test_hold_at_rest_and_across_moves(self):
-        # A hold before the first step is held at once (the rate is zero) and gives nothing;
+        # A hold before the first step is held almost at once (the rate is zero) and gives
+        # nothing;
         # a hold late in a move brakes through the move's end into the next one: resumed at
         # clock 50, at clock 470 the rate is 0.168 and 35 of the first move's 40 steps are
         # made; braking covers 35 steps more.
@@ -209,8 +210,8 @@ class HoldTestCase(Checks, unittest.TestCase):
         steps, held = trace(moves, accel=accel_of(A), inputs=inputs)
         self.check_run(moves, steps, cap=0.2, held=held)
         runs = intervals(held)
-        # From clock 2: the target (zero) is a register, so the rate is seen at it a clock
-        # after the hold's target was computed.
+        # From clock 2 (clock 1 before issue 27): the target is a register, so the hold's
+        # target (zero) is the rate's in clock 1, and held says the rate reached it a clock later.
         self.assertEqual(runs[0], (2, 49))
         self.assertGreater(steps[0][0], 50)
         hold_moves = {move for clock, move, *_ in steps if 470 <= clock < runs[1][0]}
