@@ -146,8 +146,8 @@ class FeedGenerator(wiring.Component):
     a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
     rate's loop; until it is ready (the rate's target takes it 11 clocks after a move's start
     or a change of the factor) the rate ramps toward the unscaled cruise. Below 100 % the exit
-    target is the lower of the exit and the scaled cruise. Above 100 % the rate passes the cruise the planner timed the
-    ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
+    target is the lower of the exit and the scaled cruise. Above 100 % the rate passes the
+    cruise the planner timed the ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
     the distance it takes to come back down to the cruise from the rate now (every clock the
     rate rises above the cruise it adds the rate; every full step down it takes the rate
     off), and the ramp-down starts where that distance and a margin of
@@ -312,8 +312,9 @@ class FeedGenerator(wiring.Component):
         than exact), and it stands on a part step down; the changes in a move's start clock and
         the clock after (toward targets computed before the move's step count was reset) are
         not counted. Reset (to the margin) at a move's start and while the rate (whole Q0.24)
-        is not above the cruise. The ramp-down begins when the steps made and ``extra`` reach the planned step, or ``extra`` reaches 2**16
-        steps; it is latched until the next move."""
+        is not above the cruise. The ramp-down begins when the steps made and ``extra`` reach
+        the planned step, or ``extra`` reaches 2**16 steps; it is latched until the next
+        move."""
         p, start = self.ramp.profile, self.ramp.start
         if not self._overrides:
             return steps >= p.decelerate
