@@ -142,18 +142,18 @@ class FeedGenerator(wiring.Component):
 
     **Overrides.** The cruise rate is scaled by the feed override (:py:`feed_override`, Q2.7:
     128 is 100 %), or for a rapid move (:py:`rapid`) by the rapid override
-    (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by
-    a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
-    rate's loop; until it is ready (the rate's target takes it 11 clocks after a move's start
-    or a change of the factor) the rate ramps toward the unscaled cruise. Below 100 % the exit
+    (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by a
+    sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
+    rate's loop; until it is ready (the rate's target takes it 11 clocks after a move's start or
+    a change of the factor) the rate ramps toward the unscaled cruise. Below 100 % the exit
     target is the lower of the exit and the scaled cruise. Above 100 % the rate passes the
-    cruise the planner timed the ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
-    the distance it takes to come back down to the cruise from the rate now (every clock the
-    rate rises above the cruise it adds the rate; every full step down it takes the rate
-    off), and the ramp-down starts where that distance and a margin of
+    cruise the planner timed the ramp-down for, and the planned ramp-down step would come too
+    late: a look-ahead counts the distance it takes to come back down to the cruise from the
+    rate now (every clock the rate rises above the cruise it adds the rate; every full step down
+    it takes the rate off), and the ramp-down starts where that distance and a margin of
     :data:`LOOKAHEAD_MARGIN` steps reach the planned ramp-down step. So the move still reaches
-    its exit rate before its end. With :py:`hold` low and both overrides at 100 % the
-    generator is exactly the one without these inputs.
+    its exit rate before its end. With :py:`hold` low and both overrides at 100 % the generator
+    is exactly the one without these inputs.
 
     Parameters
     ----------
