@@ -415,12 +415,13 @@ BOARD_TABLE = (
     # The iCEBreaker's controller: the line engine at 16 bits (moves up to 65 535 steps, 819 mm
     # at 80 steps/mm) and the arc engine at its default 24 bits (radii up to 2**23 steps) fill
     # 90 % of the UP5K (4753 LC, since issue 8 made the arc engine smaller; before, only a
-    # 16-bit one fitted). Its longest path (the turn queue's read into the feed generator's
-    # rate) closes at 11.58 MHz, not at the board's 12 MHz: the controller runs at 6 MHz.
+    # 16-bit one fitted). It runs at the board's 12 MHz, undivided: its longest path, the turn
+    # queue's read into the feed generator's rate, closed at 11.58 MHz until the generator's
+    # target became a register (issue 27); before, the controller ran at 6 MHz.
     # With the safety inputs and feed hold it is 97 % full; the feed and rapid overrides (their
     # multiplier and look-ahead, about 315 LUT4) do not fit beside them (5452 of 5280 LC).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
-          clock_hz=6e6, arc=("fast", 24), divide=2, overrides=False),
+          clock_hz=12e6, arc=("fast", 24), overrides=False),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the

@@ -50,9 +50,13 @@ def test_machine_file_sets_the_controllers_link_and_queue(board, built, tmp_path
         in out
 
 
+#: The iCEBreaker's controller clock, as the registry builds it.
+ICEBREAKER_HZ = registry.BOARDS["icebreaker"].clock_hz
+
 BAD = {"queue_frames = 1\n": "queue_frames must be an integer from 2 to 255",
        "queue_frames = 256\n": "queue_frames must be an integer from 2 to 255",
-       "baud = 100000000\n": "baud 1e+08 cannot be made from the 6 MHz clock",
+       "baud = 100000000\n": f"baud 1e+08 cannot be made from the {ICEBREAKER_HZ / 1e6:g} MHz "
+                              f"clock",
        "bauds = 9600\n": "unknown key 'bauds'",
        "queue_frames = 2.5\n": "queue_frames must be an integer"}
 
@@ -85,7 +89,8 @@ def test_make_bitstream_passes_the_machine_file():
 # The build record (`kontur build --report`), read from the logs of a real build: the files under
 # tests/golden/build_icebreaker_seed1/ are those `kontur build --board icebreaker --seed 1` wrote
 # (nextpnr's top.tim and the pin file top.pcf, copied unchanged; top.stat is the tail of Yosys's
-# top.rpt holding its last `stat`), not written by hand.
+# top.rpt from its last "Printing statistics." on), not written by hand: regenerated from
+# build/bench-controllers/icebreaker-s1 when the iCEBreaker went to 12 MHz (issue 27).
 REAL = ROOT / "tests" / "golden" / "build_icebreaker_seed1"
 
 
@@ -108,10 +113,13 @@ def test_report_of_a_real_icebreaker_build(tmp_path):
     assert rec["device"] == "iCE40UP5K" and rec["logic_cell"] == "ICESTORM_LC"
     assert rec["cells_available"] == 5280                 # the UP5K's logic cells
     assert 0 < rec["cells_used"] <= 5280
-    assert rec["clock_mhz"] == 6                           # the board's 12 MHz halved
+    assert rec["clock_mhz"] == ICEBREAKER_HZ / 1e6         # the board's 12 MHz, undivided
     assert rec["fmax_mhz"] > rec["clock_mhz"]
-    # Defaults: 1 µs set-up and 2 µs width at 6 MHz are 6 + 12 clocks, one more between pulses.
-    assert rec["clocks_per_step"] == 19 and round(rec["steps_per_s"]) == round(6e6 / 19)
+    # Defaults: 1 µs set-up and 2 µs width, one clock more between pulses (at 12 MHz, 12 + 24
+    # + 1 clocks).
+    clocks = round(1e-6 * ICEBREAKER_HZ) + round(2e-6 * ICEBREAKER_HZ) + 1
+    assert rec["clocks_per_step"] == clocks
+    assert round(rec["steps_per_s"]) == round(ICEBREAKER_HZ / clocks)
     assert rec["axes"] == 2                                # X and Y step pins
     assert "uart_0__rx__io" in rec["ports"] and "stepper_0__enable__io" in rec["ports"]
     assert [e["kind"] for e in rec["engines"]] == ["line", "arc"]

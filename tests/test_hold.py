@@ -199,7 +199,8 @@ class HoldTestCase(Checks, unittest.TestCase):
         self.assertAlmostEqual(self.plateau(steps, 1420, 1500), 0.2, delta=0.004)
 
     def test_hold_at_rest_and_across_moves(self):
-        # A hold before the first step is held at once (the rate is zero) and gives nothing;
+        # A hold before the first step is held almost at once (the rate is zero) and gives
+        # nothing;
         # a hold late in a move brakes through the move's end into the next one: resumed at
         # clock 50, at clock 470 the rate is 0.168 and 35 of the first move's 40 steps are
         # made; braking covers 35 steps more.
@@ -209,7 +210,9 @@ class HoldTestCase(Checks, unittest.TestCase):
         steps, held = trace(moves, accel=accel_of(A), inputs=inputs)
         self.check_run(moves, steps, cap=0.2, held=held)
         runs = intervals(held)
-        self.assertEqual(runs[0], (1, 49))
+        # From clock 2 (clock 1 before issue 27): the target is a register, so the hold's
+        # target (zero) is the rate's in clock 1, and held says the rate reached it a clock later.
+        self.assertEqual(runs[0], (2, 49))
         self.assertGreater(steps[0][0], 50)
         hold_moves = {move for clock, move, *_ in steps if 470 <= clock < runs[1][0]}
         self.assertEqual(hold_moves, {0, 1})
@@ -317,14 +320,15 @@ class OverrideTestCase(Checks, unittest.TestCase):
 
 def before(moves, *, accel, due, diagonal, max_rate):
     """The feed generator as it was before hold and the overrides (its model then, kept here as
-    the reference): the clocks of its permissions."""
-    rate = distance = steps = 0
+    the reference, with the target a register computed a clock ahead as the generator has it
+    since it runs at the iCEBreaker's 12 MHz): the clocks of its permissions."""
+    rate = distance = steps = target = 0
     index, made, starting, clock, ticks = 0, 0, True, 0, []
     while index < len(moves):
         p, count = moves[index]
         d, diag = due(clock), diagonal(clock)
         wanted = p["cruise"] if steps < p["decelerate"] else p["exit"]
-        target = min(wanted, max_rate) << 16
+        aim, target = target, min(wanted, max_rate) << 16    # the rate moves toward aim
         length = round(math.sqrt(2) * Q24) if diag else Q24
         tick = distance >= length
         step = tick and d
@@ -333,8 +337,8 @@ def before(moves, *, accel, due, diagonal, max_rate):
             distance = grown - length
         elif not tick:
             distance = grown
-        diff = target - rate
-        rate = target if abs(diff) <= accel else rate + (accel if diff > 0 else -accel)
+        diff = aim - rate
+        rate = aim if abs(diff) <= accel else rate + (accel if diff > 0 else -accel)
         steps = int(step) if starting else steps + step
         starting = False
         if tick:

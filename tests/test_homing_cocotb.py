@@ -57,8 +57,13 @@ def test_homing_pass_on_the_switch(simulator):
     # (negative): the directions change exactly twice, near the switch's changes.
     changes = [i for i in range(1, len(ways)) if ways[i] != ways[i - 1]]
     assert ways[0] == 1 and len(changes) == 2
-    # The seek's last step at most a step before the switch closed (the pass sees it within a
-    # step, the pin's filter and synchroniser being 3 clocks); the approach's likewise.
-    assert closes - 20 <= clocks[changes[0] - 1] - first <= closes
-    assert opens - 20 <= clocks[changes[1] - 1] - first <= opens
-    assert again - 20 <= clocks[-1] - first <= again
+    # Each pass's last step at most a step before the switch changed, or after it by no more
+    # than the latency: the pass sees the pin F + 2 = 3 clocks after it changed (the filter
+    # and the synchroniser; a clock more on Icarus, whose driver sets the pins a clock late),
+    # and a step permitted before then still reaches the step pin, dir_setup + 1 clocks later.
+    # Where in it a step falls depends on the steps' phase (a clock's shift of the feed
+    # generator's timing, issue 27, moved Icarus's back-off step from 1486 to 1505).
+    late = 3 + (simulator == "icarus") + 1 + 1
+    assert closes - 20 <= clocks[changes[0] - 1] - first <= closes + late
+    assert opens - 20 <= clocks[changes[1] - 1] - first <= opens + late
+    assert again - 20 <= clocks[-1] - first <= again + late

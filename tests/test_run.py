@@ -189,7 +189,7 @@ class RTLTestCase(unittest.TestCase):
 
     def test_low_feed_on_amaranth(self):
         # A millimetre at 10 mm/min: 6 s at the feed, and a little longer as the feed generator
-        # makes it (10 steps/mm at 6 MHz: a rate of 1 in Q0.24 is 2.146 mm/min, so F10 runs at 4
+        # makes it (10 steps/mm at 12 MHz: a rate of 1 in Q0.24 is 4.29 mm/min, so F10 runs at 2
         # of them, 8.58 mm/min). The RTL's every step at the model's time (time compressed
         # x4096: the rates 4096 times as many units, the acceleration within its 32 bits).
         machine = Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000)

@@ -32,12 +32,13 @@ from pathlib import Path
 
 from hypothesis import given, settings, strategies as st
 
+from kontur import registry
 from kontur.cli import main
 from kontur.machine import Machine
 from kontur.machining import deviation, execute, prepare, summary, summary_text
 from kontur.planner import ProgramError
 
-MACHINE = Machine(clock_hz=6e6)             # the iCEBreaker's clock, the default machine
+MACHINE = Machine(clock_hz=registry.board("icebreaker").clock_hz)   # the default machine
 SPM = 80
 STEP = 1 / SPM
 #: The feed generator's speed resolution: a rate of 1 (Q0.24 step lengths a clock), mm/s.
@@ -362,7 +363,8 @@ class RegressionTestCase(unittest.TestCase):
         self.assertLessEqual(job.seconds, 5 / (10 / 60 - UNIT) + 1)
         result = execute(job, "model")
         self.assertAlmostEqual(result.times[-1], job.seconds, delta=0.01)
-        # The summary says what is planned: F10 as the generator's 37 rates of 0.268 mm/min.
+        # The summary says what is planned: F10 as a whole number of the generator's rates
+        # (at 12 MHz, 18 of 0.536 mm/min).
         planned = math.floor(10 / (UNIT * 60)) * UNIT * 60
         self.assertIn(f"feeds 10 mm/min programmed, planned at {planned:.3f} mm/min",
                       summary_text(summary(job, result)))
@@ -370,10 +372,11 @@ class RegressionTestCase(unittest.TestCase):
         self.assertIn("feeds 600 mm/min\n", summary_text(summary(job, execute(job, "model"))))
 
     def test_feed_below_the_generators_lowest_is_refused(self):
-        lowest = UNIT * 60                                  # 0.268 mm/min at 6 MHz, 80 steps/mm
+        lowest = UNIT * 60                                  # 0.536 mm/min at 12 MHz, 80 steps/mm
         prepare(f"G1 X1 F{lowest * 1.01:.6f}\n", machine=MACHINE)
         with self.assertRaisesRegex(ProgramError, r"^line 2: the feed 0\.25 mm/min is below the "
-                                                  r"lowest the feed generator makes, 0\.2682"):
+                                                  r"lowest the feed generator makes, "
+                                                  + re.escape(f"{lowest:.4f}")):
             prepare("G1 X1 F100\nG1 X2 F0.25\n", machine=MACHINE)
 
     def test_feed_move_without_a_feed_is_refused(self):

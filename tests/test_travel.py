@@ -8,6 +8,7 @@ import tempfile
 import unittest
 from pathlib import Path
 
+from kontur import registry
 from kontur.cli import main
 from kontur.machine import Machine, MachineError
 from kontur.machining import prepare
@@ -33,7 +34,7 @@ G1 X5 Y15
 
 
 def machine(**keys):
-    return Machine(clock_hz=6e6, steps_per_mm=10, **keys)
+    return Machine(clock_hz=registry.board("icebreaker").clock_hz, steps_per_mm=10, **keys)
 
 
 class TravelTestCase(unittest.TestCase):

@@ -99,7 +99,8 @@ class FeedDivider(wiring.Component):
 OVERRIDE_ONE = 128
 
 #: Steps of margin in the ramp-down look-ahead of an overridden move
-#: (:class:`FeedGenerator`): the look-ahead's one-clock lag, the step counter's and the
+#: (:class:`FeedGenerator`): the look-ahead's lag (a clock, and a clock more for the target
+#: register), the step counter's and the
 #: accumulator's granularity, and the grid of the deceleration (docs/controller.md).
 LOOKAHEAD_MARGIN = 16
 
@@ -128,6 +129,11 @@ class FeedGenerator(wiring.Component):
     permission waits for the engine the accumulator stands still, so a wait never turns into
     a burst.
 
+    The target the rate moves toward is a register computed a clock ahead (from the move's
+    profile, its step count, the hold and the overrides of the clock before), so the turn
+    queue's output never reaches the rate's adder in one clock: the rate follows a move's
+    start, its ramp-down step, a hold and its release a clock after them.
+
     **Hold.** While :py:`hold` is high the rate ramps toward zero at the same acceleration:
     the steps go on, slower and slower, until the rate is zero (:py:`held`); then no
     permission is given (not even one already earned). When :py:`hold` drops the rate ramps
@@ -136,18 +142,18 @@ class FeedGenerator(wiring.Component):
 
     **Overrides.** The cruise rate is scaled by the feed override (:py:`feed_override`, Q2.7:
     128 is 100 %), or for a rapid move (:py:`rapid`) by the rapid override
-    (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by
-    a sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
-    rate's loop; until it is ready (10 clocks after a move's start or a change of the factor)
-    the rate ramps toward the unscaled cruise. Below 100 % the exit target is the lower of the
-    exit and the scaled cruise. Above 100 % the rate passes the cruise the planner timed the
-    ramp-down for, and the planned ramp-down step would come too late: a look-ahead counts
-    the distance it takes to come back down to the cruise from the rate now (every clock the
-    rate rises above the cruise it adds the rate; every full step down it takes the rate
-    off), and the ramp-down starts where that distance and a margin of
+    (:py:`rapid_override`: 100 %, 50 %, 25 % for 0, 1, 2). The scaled cruise is worked out by a
+    sequential multiplier (9 clocks) when a move starts or the factor changes, never in the
+    rate's loop; until it is ready (the rate's target takes it 11 clocks after a move's start or
+    a change of the factor) the rate ramps toward the unscaled cruise. Below 100 % the exit
+    target is the lower of the exit and the scaled cruise. Above 100 % the rate passes the
+    cruise the planner timed the ramp-down for, and the planned ramp-down step would come too
+    late: a look-ahead counts the distance it takes to come back down to the cruise from the
+    rate now (every clock the rate rises above the cruise it adds the rate; every full step down
+    it takes the rate off), and the ramp-down starts where that distance and a margin of
     :data:`LOOKAHEAD_MARGIN` steps reach the planned ramp-down step. So the move still reaches
-    its exit rate before its end. With :py:`hold` low and both overrides at 100 % the
-    generator is exactly the one without these inputs.
+    its exit rate before its end. With :py:`hold` low and both overrides at 100 % the generator
+    is exactly the one without these inputs.
 
     Parameters
     ----------
@@ -241,8 +247,13 @@ class FeedGenerator(wiring.Component):
             exit.eq(Mux(use & slower & (scaled < p.exit), scaled, p.exit)),
             wanted.eq(Mux(down, exit, cruise)),
         ]
+        # The target is a register, computed a clock ahead: the turn queue's output (its FIFO's
+        # read) never reaches the rate's adder in the same clock. So the rate follows a change
+        # of the target (a move's start, its ramp-down, a hold and its release) a clock late.
         target = Signal(40)
-        m.d.comb += target.eq(Mux(self.hold, 0, self._clamp(wanted) << 16))
+        holding = Signal()                      # the hold the target was computed under
+        m.d.sync += [target.eq(Mux(self.hold, 0, self._clamp(wanted) << 16)),
+                     holding.eq(self.hold)]
         # One step of the ramp toward the target, and the target itself where that step would
         # pass it: three carry chains (the direction, the step, the overshoot), not five.
         up = Signal()
@@ -254,9 +265,9 @@ class FeedGenerator(wiring.Component):
         m.d.sync += rate.eq(Mux(passed, target, moved[:40]))
         m.d.comb += [rose.eq(up), fell.eq(~up & ~passed)]
 
-        # Held: under hold in the clock before, whose step reached the target, zero.
+        # Held: the clock before moved toward the hold's target (zero) and reached it.
         zero = Signal()
-        m.d.sync += zero.eq(self.hold & passed)
+        m.d.sync += zero.eq(holding & passed)
         stopped = Signal()
         m.d.comb += stopped.eq(self.hold & zero)
         self._steps(m, rate, steps, stopped)
@@ -298,15 +309,24 @@ class FeedGenerator(wiring.Component):
         come down to the cruise at the acceleration, plus :data:`LOOKAHEAD_MARGIN`: a clock
         later than the rate, on a rise it adds the rate (rounded up: exact or more for a full
         step, more for a part), on a full step down it takes the new rate off (a little less
-        than exact), and it stands on a part step down. Reset (to the margin) at a move's
-        start and while the rate (whole Q0.24) is not above the cruise. The ramp-down begins
-        when the steps made and ``extra`` reach the planned step, or ``extra`` reaches 2**16
-        steps; it is latched until the next move."""
+        than exact), and it stands on a part step down; the changes in a move's start clock and
+        the clock after (toward targets computed before the move's step count was reset) are
+        not counted. Reset (to the margin) at a move's start and while the rate (whole Q0.24)
+        is not above the cruise. The ramp-down begins when the steps made and ``extra`` reach
+        the planned step, or ``extra`` reaches 2**16 steps; it is latched until the next
+        move."""
         p, start = self.ramp.profile, self.ramp.start
         if not self._overrides:
             return steps >= p.decelerate
+        # This move's changes: not in its start's clock (toward the move before's target) nor
+        # in the clock after (toward the target computed in the start's clock, from the move
+        # before's step count), as the target is a clock behind.
+        after = Signal()                        # the clock after a move's start
+        m.d.sync += after.eq(start)
+        theirs = Signal()
+        m.d.comb += theirs.eq(start | after)
         rose_q, fell_q = Signal(), Signal()
-        m.d.sync += [rose_q.eq(rose & ~start), fell_q.eq(fell & ~start)]   # this move's
+        m.d.sync += [rose_q.eq(rose & ~theirs), fell_q.eq(fell & ~theirs)]
         extra = Signal(33, init=LOOKAHEAD_MARGIN << 16)
         above = Signal()                        # the rate rose above the cruise
         now = Signal(33)

@@ -30,7 +30,9 @@ class FeedGeneratorModel:
         self.rate = 0                     # Q0.40
         self.distance = 0                 # Q2.24
         self.steps = 0
-        self.zero = False                 # the last clock was under hold and reached zero
+        self.zero = False                 # the last clock moved toward hold's zero, reached it
+        self.target = 0                   # the rate's target: a register, a clock ahead
+        self.holding = False              # the hold the target was computed under
         self.held = False
         # The scaled cruise: the sequential multiplier.
         self.used = self.ONE_FACTOR
@@ -40,6 +42,7 @@ class FeedGeneratorModel:
         self.ready = False
         # The ramp-down look-ahead.
         self.rose = self.fell = False
+        self.after = False                # the last clock was a move's start
         self.extra = self.MARGIN
         self.above = False
         self.latched = False
@@ -100,7 +103,9 @@ class FeedGeneratorModel:
             wanted = scaled if use and slower and scaled < p["exit"] else p["exit"]
         else:
             wanted = scaled if use else p["cruise"]
-        target = 0 if hold else min(wanted, self.max_rate) << 16
+        target = self.target              # computed in the clock before
+        self.target = 0 if hold else min(wanted, self.max_rate) << 16
+        holding, self.holding = self.holding, bool(hold)
 
         # The distance and the permission (from this clock's rate).
         stopped = self.held = bool(hold and self.zero)
@@ -121,8 +126,10 @@ class FeedGeneratorModel:
         up = self.rate < target
         moved = self.rate + accel if up else self.rate - accel
         passed = moved >= target if up else moved <= target
-        self.rose, self.fell = up and not start, not up and not passed and not start
-        self.zero = bool(hold and passed)
+        theirs = start or self.after      # the rate moved toward the move before's target
+        self.rose, self.fell = up and not theirs, not up and not passed and not theirs
+        self.after = bool(start)
+        self.zero = bool(holding and passed)
         self.rate = target if passed else moved
         return tick
 
