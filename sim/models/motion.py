@@ -1,6 +1,6 @@
 """Models of the motion side (``hdl/motion/``): the feed generator, clock by clock."""
 
-from kontur.hdl.spec import ONE, SQRT2
+from kontur.hdl.spec import STEP_LENGTHS
 
 __all__ = ["FeedGeneratorModel", "INPUTS", "STATES", "InputFilterModel", "StepDirModel",
            "AlarmModel", "EVENTS", "FRAME_EVENTS", "event_kind", "safety_run"]
@@ -104,7 +104,7 @@ class FeedGeneratorModel:
 
         # The distance and the permission (from this clock's rate).
         stopped = self.held = bool(hold and self.zero)
-        length = SQRT2 if diagonal else ONE
+        length = STEP_LENGTHS[diagonal]           # 1, √2, √3 (diagonal 2: on three axes)
         tick = int(not stopped and self.distance >= length)
         step = bool(tick and due)
         grown = self.distance + (self.rate >> 16)
