@@ -525,7 +525,7 @@ def _homing(args):
                          f"{list(machine.homing_order)}: the program would start where the "
                          f"axes not homed happen to be")
     try:
-        job = homing_job(machine, (0, 0))
+        job = homing_job(machine, (0,) * registry.board(args.board).axes)
     except MachineError as error:
         raise UsageError(f"--home: {error}") from None
     spm = Fraction(machine.steps_per_mm)
