@@ -33,12 +33,13 @@ def crc(body):
 
 def frame(kind, payload=b""):
     """The bytes of a frame of type ``kind`` with ``payload`` (a PROFILE frame's length is its
-    engine's: any from 1 to 255 bytes)."""
+    engine's: any from 1 to 255 bytes; a STATUS's 20 or 24 bytes, by the controller's axes)."""
     payload = bytes(payload)
     if kind == PROFILE:
         if not 1 <= len(payload) <= 255:
             raise ValueError(f"A PROFILE frame has 1 to 255 payload bytes, not {len(payload)}")
-    elif LENGTHS.get(kind) != len(payload):
+    elif LENGTHS.get(kind) != len(payload) and not (
+            kind == STATUS and len(payload) in STATUS_LENGTHS.values()):   # 2 or 3 axes
         raise ValueError(f"A frame of type {kind:#04x} has {LENGTHS.get(kind)} payload bytes, "
                          f"not {len(payload)}")
     body = bytes([kind, len(payload)]) + payload
