@@ -511,7 +511,8 @@ def _schedule(events, machine, compress, *, job=None, held=False):
         elif kind[0] == "pins":
             _, switch, press = kind
             (pressed.add if press else pressed.discard)(switch)
-            schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity))))
+            schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity,
+                                                         len(job.start) if job else 2))))
         elif kind[0] in ("hold", "resume"):
             schedule.append((offset, ("frame", getattr(protocol, kind[0])())))
         else:

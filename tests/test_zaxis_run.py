@@ -248,3 +248,30 @@ def test_compensated_program_stays_planar():
                                            r"compensation"):
         prepare("G21 G90\nG0 X-5 Y-5 Z1\nG41 G1 X0 Y0 F300\nG1 X10 Z-1\nG40 G1 X20 Y-5\n"
                 "M2\n", machine=machine, board=BOARD)
+
+
+def test_z_limit_event(tmp_path, capsys):
+    # --event limit-z@SECONDS (the ULX3S's Z limit, input bit 6) stops the program in ALARM
+    # with limit_z its cause; the iCEBreaker has no Z limit: status 2, one line.
+    status, out, err = _run(tmp_path, capsys, PROGRAM, "--board", BOARD, "--event",
+                            "limit-z@2")
+    assert status == 0, err
+    data = json.loads((tmp_path / "out" / "summary.json").read_text())
+    job, _ = _job()
+    assert data["final_state"] == "ALARM" and data["alarm"] == ["limit_z"]
+    assert 0 < data["steps"] < len(job.steps)
+    status, out, err = _run(tmp_path, capsys, PROGRAM, "--event", "limit-z@2", out="o2")
+    assert status == 2 and err.splitlines() == [
+        "kontur: --event limit-z: the icebreaker's controller has no Z axis (no Z limit switch)"]
+
+
+@pytest.mark.cocotb
+def test_z_limit_event_on_verilator(tmp_path):
+    # The RTL's Z limit against the model's (kontur.machining._check_events): the steps made
+    # are the program's first, none after the bound, ALARM with limit_z (bit 6) its cause.
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    job, _ = _job()
+    result = execute(job, "verilator", events=[(2.0, "limit-z")])
+    assert result.final_state == "ALARM" and result.alarm == ["limit_z"]
+    assert 0 < len(result.steps) < len(job.steps)

@@ -218,7 +218,11 @@ class AlarmModel:
 EVENTS = {"estop": ("estop", True), "estop-release": ("estop", False),
           "limit-x": ("limit_x", True), "limit-x-release": ("limit_x", False),
           "limit-y": ("limit_y", True), "limit-y-release": ("limit_y", False),
+          "limit-z": ("limit_z", True), "limit-z-release": ("limit_z", False),
           "unlock": (None, None)}
+
+#: The events of a 3-axis controller's Z limit (input bit 6): refused on a 2-axis board.
+Z_EVENTS = ("limit-z", "limit-z-release")
 
 #: The events that are the host's frames besides UNLOCK: feed hold and resume (HOLD,
 #: RESUME), and the overrides (OVERRIDE): ``feed=PCT`` (10 to 200 %) and ``rapid=PCT`` (100,
@@ -322,4 +326,4 @@ def safety_run(times, events, *, braking=None):
         shifted.append(t + sum(d for plan, d in delays if t > plan))
     return {"steps": limit, "times": shifted, "stopped": stopped,
             "state": "ALARM" if alarm else "HOLD" if held is not None else "IDLE",
-            "alarm": [name for name in INPUTS if name in cause], "events": taken}
+            "alarm": [name for name in INPUTS + ("limit_z",) if name in cause], "events": taken}
