@@ -351,6 +351,22 @@ class SendTestCase(unittest.TestCase):
                                                r"end \(0, 0\)"):
             send(job, FakeMachine(4, offset=(1, 0)))
 
+    def test_three_axes(self):
+        # On the ULX3S's 3-axis controller a program that moves Z streams as LINE3 and HELIX
+        # frames, and the position read back (X, Y and Z) is its end; a 2-axis board's
+        # STATUS (X, Y) is no 3-axis program's start: refused before anything is sent.
+        board = registry.board("ulx3s")
+        job = prepare((ROOT / "tests" / "programs" / "xyz" / "zaxis.ngc").read_text(),
+                      machine=Machine(clock_hz=board.clock_hz, queue_frames=4), board="ulx3s")
+        port = FakeMachine(4, axes=3)
+        self.assertEqual(send(job, port), (0, 0, 240))
+        self.assertEqual(tuple(port.position), (0, 0, 240))
+        self.assertEqual({LINE3, HELIX} & set(port.kinds), {LINE3, HELIX})
+        self.assertFalse({LINE, ARC} & set(port.kinds))
+        with self.assertRaisesRegex(SendError, r"^the board is at \(0, 0\) steps, not at the "
+                                               r"program's start \(0, 0, 0\)"):
+            send(job, FakeMachine(4))
+
     def test_compensated_program(self):
         # A G42 contour's PROFILE frames stream under the same window; the machine behind the
         # port moves by their steps (the equidistant engine's, here given as an offset).
