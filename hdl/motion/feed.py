@@ -6,7 +6,7 @@ from amaranth.lib.wiring import In, Out
 
 from ..elements._checks import check_width
 from ..engine import FeedSignature
-from ..spec import ONE, SQRT2, STEP_LENGTHS   # one axial and one diagonal step (Q2.24)
+from ..spec import ONE, SQRT2, STEP_LENGTHS   # the steps' lengths (Q2.24)
 
 __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "SQRT2",
            "rate_limit", "override", "OVERRIDE_ONE", "LOOKAHEAD_MARGIN"]
@@ -342,7 +342,6 @@ class FeedGenerator(wiring.Component):
         distance = Signal(26)                   # Q2.24: below √3 + 1
         length = Mux(self.feed.diagonal, SQRT2, ONE) if self._axes == 2 else \
             Array(C(n, 26) for n in STEP_LENGTHS)[self.feed.diagonal]   # 1, √2, √3
-
         tick = Signal()
         step = Signal()
         grown = distance + rate[16:]
