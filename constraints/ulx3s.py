@@ -4,15 +4,16 @@ Two uses, one resource set each:
 
 * :func:`platform`, the machine controller (:class:`~kontur.hdl.top.ControllerTop`): ``stepper`` on
   the GPIO header J1 (``gpio`` connector 0): step X on ``0+`` (GP0, B11), step Y on ``1+``
-  (GP1, A10), dir X on ``0-`` (GN0, C11), dir Y on ``1-`` (GN1, A11), enable (active low) on
-  ``2+`` (GP2, A9); ``led_g`` (busy) and ``led_r`` (error) on the board's LEDs 0 and 1 (B2,
+  (GP1, A10), step Z on ``6+`` (GP6, C6), dir X on ``0-`` (GN0, C11), dir Y on ``1-`` (GN1, A11),
+  dir Z on ``6-`` (GN6, C7), enable (active low) on ``2+`` (GP2, A9); ``led_g`` (busy) and ``led_r`` (error) on the board's LEDs 0 and 1 (B2,
   C2); the serial line is the board's own ``uart`` (the FTDI's USB serial port: rx M1, tx L4);
-  ``switches``, the six inputs of :data:`kontur.hdl.motion.inputs.INPUTS` on J1 with the
+  ``switches``, the seven inputs of :data:`kontur.hdl.motion.inputs.INPUTS3` on J1 with the
   ECP5's pull-ups: e-stop ``3+`` (GP3), limit X ``3-`` (GN3), limit Y ``4+`` (GP4), probe
-  ``4-`` (GN4), cycle start ``5+`` (GP5), feed hold ``5-`` (GN5); a switch connects its pin to
-  ground; ``tool``, the tool outputs (:data:`kontur.hdl.motion.tools.TOOL_PINS`, active high):
-  spindle/laser/torch enable ``8+`` (GP8), direction (M4) ``8-`` (GN8), PWM ``9+`` (GP9), mist
-  ``9-`` (GN9), flood ``10+`` (GP10);
+  ``4-`` (GN4), cycle start ``5+`` (GP5), feed hold ``5-`` (GN5), limit Z ``7+`` (GP7, A6); a
+  switch connects its pin to ground (the controller has three axes: issue 28); ``tool``, the
+  tool outputs (:data:`kontur.hdl.motion.tools.TOOL_PINS`, active high): spindle/laser/torch
+  enable ``8+`` (GP8), direction (M4) ``8-`` (GN8), PWM ``9+`` (GP9), mist ``9-`` (GN9), flood
+  ``10+`` (GP10);
 * :func:`bench_platform`, the place-and-route benchmarks: a ``shift_in`` resource for any
   :class:`~kontur.hdl.top.ShiftInTop` on the first pins of the GPIO header (``0+``, ``0-``, ``1+``,
   ...).
@@ -32,8 +33,8 @@ _LVCMOS33 = Attrs(IO_TYPE="LVCMOS33")
 
 STEPPER = [
     Resource("stepper", 0,
-             Subsignal("step", Pins("0+ 1+", dir="o", conn=_GPIO)),     # X, Y
-             Subsignal("dir", Pins("0- 1-", dir="o", conn=_GPIO)),      # X, Y; 1 = negative
+             Subsignal("step", Pins("0+ 1+ 6+", dir="o", conn=_GPIO)),  # X, Y, Z
+             Subsignal("dir", Pins("0- 1- 6-", dir="o", conn=_GPIO)),   # X, Y, Z; 1 = negative
              Subsignal("enable", PinsN("2+", dir="o", conn=_GPIO)),     # low: drivers on
              _LVCMOS33),
     Resource("led_g", 0, Pins("B2", dir="o"), Attrs(IO_TYPE="LVCMOS33", DRIVE="4")),   # LED 0
@@ -41,9 +42,9 @@ STEPPER = [
 ]
 
 
-#: The switch inputs, in the order of :data:`kontur.hdl.motion.inputs.INPUTS`.
+#: The switch inputs, in the order of :data:`kontur.hdl.motion.inputs.INPUTS3`.
 SWITCHES = [
-    Resource("switches", 0, Pins("3+ 3- 4+ 4- 5+ 5-", dir="i", conn=_GPIO),
+    Resource("switches", 0, Pins("3+ 3- 4+ 4- 5+ 5- 7+", dir="i", conn=_GPIO),
              Attrs(IO_TYPE="LVCMOS33", PULLMODE="UP")),
 ]
 

@@ -254,7 +254,8 @@ def _add_machining(commands):
     run.add_argument("--event", action="append", default=[], metavar="WHAT@SECONDS",
                      help="a scripted event at that much machining time after the first step "
                           "(repeatable): estop, estop-release, limit-x, limit-y, "
-                          "limit-x-release, limit-y-release (the switch inputs), unlock (an "
+                          "limit-x-release, limit-y-release, limit-z, limit-z-release "
+                          "(ulx3s) (the switch inputs), unlock (an "
                           "UNLOCK frame), hold, resume (feed hold: HOLD, RESUME frames), "
                           "feed=PCT (feed override, 10-200), rapid=PCT (rapid override: 25, "
                           "50, 100); the e-stop or a limit stops the program in ALARM, a hold "
@@ -442,6 +443,10 @@ def _run(args, out):
     if args.vcd and args.engine == "model":
         raise UsageError("--vcd needs an RTL engine (amaranth, icarus, verilator)")
     events = _events(args.event)
+    from kontur.sim.models.motion import Z_EVENTS
+    if registry.board(args.board).axes == 2 and any(name in Z_EVENTS for _, name in events):
+        raise UsageError(f"--event {next(n for _, n in events if n in Z_EVENTS)}: the "
+                         f"{args.board}'s controller has no Z axis (no Z limit switch)")
     if any(name.startswith(("feed=", "rapid=")) for _, name in events):
         _check_overrides(args.board, "--event " + next(
             name for _, name in events if name.startswith(("feed=", "rapid="))))
@@ -525,7 +530,7 @@ def _homing(args):
                          f"{list(machine.homing_order)}: the program would start where the "
                          f"axes not homed happen to be")
     try:
-        job = homing_job(machine, (0, 0))
+        job = homing_job(machine, (0,) * registry.board(args.board).axes)
     except MachineError as error:
         raise UsageError(f"--home: {error}") from None
     spm = Fraction(machine.steps_per_mm)

@@ -41,7 +41,8 @@ from typing import NamedTuple
 from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
-           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL"]
+           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL",
+           "Z_COMPENSATED"]
 
 
 class GCodeError(ValueError):
@@ -302,7 +303,12 @@ _LATTICE = "this program is read in lattice units (steps), without G20/G21"
 _SCALE = {200: Fraction(254, 10), 210: Fraction(1)}
 UNITS = (None, "mm")
 #: Why a move that changes Z is refused (:func:`planar`).
-Z_REFUSAL = "Z moves need the third axis, which this controller does not have yet"
+Z_REFUSAL = ("Z moves need the third axis, which this board's controller does not have "
+             "(the ulx3s's has it)")
+
+#: A 3-axis board's refusal of Z moves in a program with cutter-radius compensation.
+Z_COMPENSATED = ("Z moves in a program with cutter-radius compensation (G41/G42), whose "
+                 "contours the equidistant engine traces on X and Y only")
 #: Blocks a program may run at most (loops and subroutines): about a minute of reading.
 MAX_BLOCKS = 5_000_000
 #: Subroutine calls nested at most.
@@ -1149,17 +1155,19 @@ class Stream:
                 "g92": tuple(state.g92), "home": {n: tuple(v) for n, v in state.home.items()}}
 
 
-def planar(moves, *, name=None, unit="mm"):
+def planar(moves, *, name=None, unit="mm", axes=2):
     """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`, the Z values in ``unit``)
-    at the first move that changes Z from where the program first put it: kontur drives X
-    and Y only; Z is read, and where the program first gives it is where the operator has
-    set the tool."""
+    at the first move that changes Z from where the program first put it: a 2-axis controller
+    drives X and Y only; Z is read, and where the program first gives it is where the operator
+    has set the tool. With ``axes=3`` (a compensated program on a 3-axis board) the message is
+    :data:`Z_COMPENSATED`."""
     z = None
     for move in moves:
         if move.z is None:
             continue
         if z is not None and move.z != z:
-            raise GCodeError(move.line, f"{Z_REFUSAL} (Z from {float(z):g} to "
+            raise GCodeError(move.line, f"{Z_REFUSAL if axes == 2 else Z_COMPENSATED} "
+                                        f"(Z from {float(z):g} to "
                                         f"{float(move.z):g} {unit})", name=name)
         z = move.z
 

@@ -63,13 +63,14 @@ def _travel(machine, axis):
     return travel
 
 
-def homing_frames(machine):
+def homing_frames(machine, axes=2):
     """The frames of the homing cycle (CONFIG first, STOP last) and, for each, a description
-    (the axis and pass: ``"x seek"`` ...; ``None`` for CONFIG and STOP).
+    (the axis and pass: ``"x seek"`` ...; ``None`` for CONFIG and STOP); ``axes=3`` for a
+    3-axis controller (its pull-offs are LINE3 frames; Z is not homed).
 
     Raises :exc:`~kontur.machine.MachineError` if an axis homed has no travel, or a rate does
     not fit the feed generator."""
-    frames, names, _ = _cycle(machine)
+    frames, names, _ = _cycle(machine, axes)
     return frames, names
 
 
@@ -95,7 +96,7 @@ def homed_position(machine, position):
     return tuple(out)
 
 
-def _cycle(machine):
+def _cycle(machine, axes=2):
     """:func:`homing_frames`'s frames and names, and each frame's longest time (s): a pass its
     most steps at its rate, a DWELL its clocks, a pull-off its steps at the seek rate."""
     spm, clock = machine.steps_per_mm, machine.clock_hz
@@ -133,7 +134,9 @@ def _cycle(machine):
         if pulloff:
             add(_pulloff_feed(machine, seek, pulloff), f"{name} pull-off")
             delta = pulloff if negative else -pulloff     # away from the switch
-            add(protocol.line(*((delta, 0) if axis == 0 else (0, delta))), f"{name} pull-off",
+            move = (delta, 0) if axis == 0 else (0, delta)
+            add(protocol.line3(*move, 0) if axes == 3 else protocol.line(*move),
+                f"{name} pull-off",
                 at(machine.rate(math.sqrt(2 * machine.accel / spm)) or 1, pulloff))
     add(protocol.stop(), None)
     return frames, names, seconds
@@ -142,10 +145,10 @@ def _cycle(machine):
 def homing_job(machine, position):
     """The homing cycle as :func:`kontur.send.send` streams a program's job: its frames with
     their passes (:func:`homing_frames`) and longest times, from anywhere (no start), ending
-    at :func:`homed_position` from ``position`` (steps); a pass ``REFUSED`` is worded by
-    :func:`failure`."""
+    at :func:`homed_position` from ``position`` (steps: ``(x, y, z)`` for a 3-axis controller,
+    whose frames it then makes); a pass ``REFUSED`` is worded by :func:`failure`."""
     import types
-    frames, names, seconds = _cycle(machine)
+    frames, names, seconds = _cycle(machine, len(position))
     return types.SimpleNamespace(
         name="the homing cycle", machine=machine, start=None,
         end=homed_position(machine, position), segments=[], items=[], seconds=sum(seconds),

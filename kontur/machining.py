@@ -18,7 +18,7 @@ compress time (``compress``: every rate that many times the planned one, the acc
 square; see :func:`kontur.planner.frames`): the steps do not change, and the summary states
 both the simulated time and the machining time it stands for.
 
-:func:`write_outputs` writes ``steps.txt`` (one ``dx dy`` line per step, the format of ``kontur
+:func:`write_outputs` writes ``steps.txt`` (one ``dx dy`` line per step, ``dx dy dz`` on three axes; the format of ``kontur
 trace``), ``toolpath.png`` (the programmed contour, the traced steps coloured by feed) and
 ``summary.json``; :func:`summary_text` is what ``kontur run`` prints.
 
@@ -40,8 +40,8 @@ from kontur import registry
 from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, planar, read, sweep
 from kontur.machine import Machine, MachineError
-from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, plan,
-                            planned_feed, step_seconds)
+from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, lift,
+                            plan, planned_feed, step_length, step_seconds)
 from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -83,7 +83,7 @@ class Job:
     moves: list                       # the program's moves (mm), kontur.gcode.Move
     segments: list                    # on the lattice, kontur.planner.Segment
     items: list                       # the feed plan, kontur.planner.PlanItem
-    start: tuple = (0, 0)             # steps
+    start: tuple = (0, 0)             # steps ((x, y, z) on a 3-axis board)
     contours: list = field(default_factory=list)    # kontur.compensation.Contour
     events: list = field(default_factory=list)      # kontur.gcode.Event: tools, pauses, ...
 
@@ -135,7 +135,7 @@ class Result:
 def _move_steps(move, spm):
     """An upper bound on the steps of a move (mm) on a lattice of ``spm`` steps/mm, computed
     exactly (a coordinate may have thousands of digits): a line's ``|dx| + |dy|`` steps (and 2
-    for the rounding of its ends); an arc's share of a full circle's ``8R + 8`` (``R`` its
+    for the rounding of its ends; a Z move's steps apart, :func:`estimate_steps`); an arc's share of a full circle's ``8R + 8`` (``R`` its
     radius in steps, rounded up) by its programmed sweep (:attr:`kontur.gcode.Move.sweep`),
     and 16 more (the lattice's sweep is the programmed one within the rounding)."""
     if move.kind == "dwell":
@@ -186,8 +186,12 @@ def estimate_steps(moves, machine, *, max_steps=None):
     limit = MAX_STEPS if max_steps is None else max_steps
     spm = machine.steps_per_mm
     total = 0
+    z = 0
     for move in moves:
         total += _move_steps(move, spm)
+        if move.z is not None and move.z != z:       # at most its Z steps more (a 3D line's)
+            total += math.ceil(abs(Fraction(move.z) - Fraction(z)) * Fraction(spm)) + 2
+            z = move.z
         if total > limit:
             raise ProgramError(
                 move.line, f"the program reaches about {_figure(total)} steps by this line, more "
@@ -206,7 +210,11 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     ``tools`` is the tool table (``{tool: diameter, mm}``, :func:`kontur.gcode.
     read_tool_table`) for the program's D words and loaded tools; the machine's G28 and G30
     positions are the program's parameters 5161-5163 and 5181-5183. A move that changes Z is
-    refused (:func:`kontur.gcode.planar`): the controller has X and Y. With the machine's
+    refused (:func:`kontur.gcode.planar`) on a board whose controller has X and Y only (the
+    iCEBreaker's); on a 3-axis board (the ULX3S's) Z moves, from 0 at the program's first Z
+    word, lines in XYZ and helical arcs (:func:`kontur.planner.lattice` with ``axes=3``:
+    the steps are ``(dx, dy, dz)``), but within a compensated program, which stays planar.
+    With the machine's
     travel (``travel_x``, ``travel_y``) a move that leaves it is refused
     (:func:`check_travel`: every step point, an arc's bulge and a compensated contour's cutter
     path too).
@@ -236,7 +244,8 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     try:
         program = read(text, name=name, units="mm", tools=tools, start=start,
                        parameters=machine.parameters)
-        planar(program.moves)
+        if item.axes == 2 or any(move.side is not None for move in program.moves):
+            planar(program.moves, axes=item.axes)
     except GCodeError as error:
         raise ProgramError(error.line, error.reason) from None
     moves = list(program.moves)
@@ -251,12 +260,14 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     contours = []
     if any(move.side is not None for move in moves):
         segments, contours = program_segments(moves, machine, board)
+        if item.axes == 3:
+            segments = lift(segments)
     else:
         segments = lattice(moves, machine, variants=(item.line[0], item.arc[0]),
-                           widths=(item.line[1], item.arc[1]))
+                           widths=(item.line[1], item.arc[1]), axes=item.axes)
     if item.tools:
         segments, contours = tool_stops(segments, contours, moves, program.events, machine)
-    start = segments[0].start if segments else (0, 0)
+    start = segments[0].start if segments else (0,) * item.axes
     check_travel(segments, machine, start)
     return Job(name or "program", board, machine, moves, segments, plan(segments, machine),
                start, contours, list(program.events))
@@ -501,7 +512,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
             return Result("model", expected, times, job.end)
         model = safety_run(times, events, braking=_braking(job, times))
         steps = expected[:model["steps"]]
-        end = (job.start[0] + sum(dx for dx, _ in steps), job.start[1] + sum(dy for _, dy in steps))
+        end = _made(job.start, steps)
         return Result("model", steps, model["times"], end, final_state=model["state"],
                       alarm=model["alarm"], events=model["events"])
     from kontur.sim.testbench.hostlink import steps_of
@@ -552,7 +563,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
                                    max_clocks=max_clocks, vcd=vcd, schedule=schedule,
                                    idle=controller.idle_inputs)
     wall = time.monotonic() - started
-    steps = steps_of(run)
+    steps = steps_of(run, len(job.start))
     if model is not None and (model["stopped"] is not None or model["state"] == "HOLD"):
         slack = 1 if engine == "icarus" else 0        # cocotb drives the pins a clock later
         _check_events(job, run, steps, expected, model, machine.input_filter + 2 + slack)
@@ -563,7 +574,7 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     times = [t - first for t in times]
     status = [reply for _, reply in run.replies if reply.kind == 0x81][-1]
     from kontur.hdl.motion.protocol import input_names
-    result = Result(engine, steps, times, (status.fields[0], status.fields[1]), compress,
+    result = Result(engine, steps, times, status.position, compress,
                     run.clocks, wall, run.clocks / machine.clock_hz, final_state=status.state,
                     alarm=input_names(status.fields[5]))
     if model is not None:
@@ -594,7 +605,8 @@ def _schedule(events, machine, compress, *, job=None, held=False):
         elif kind[0] == "pins":
             _, switch, press = kind
             (pressed.add if press else pressed.discard)(switch)
-            schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity))))
+            schedule.append((offset, ("pins", pin_levels(pressed, machine.polarity,
+                                                         len(job.start) if job else 2))))
         elif kind[0] in ("hold", "resume"):
             schedule.append((offset, ("frame", getattr(protocol, kind[0])())))
         else:
@@ -675,14 +687,20 @@ def _check_events(job, run, steps, expected, model, bound):
             raise RunError(f"the RTL reports {reply.state} where the model says "
                            f"{'ALARM' if taken['alarm'] else 'no ALARM'}")
     final = status[-1].fields
+    position = status[-1].position
     if (status[-1].state == "HOLD") != (model["state"] == "HOLD"):
         raise RunError(f"the RTL ends in {status[-1].state}, the model in {model['state']}")
     if model["state"] == "ALARM" and input_names(final[5]) != model["alarm"]:
         raise RunError(f"the RTL's ALARM cause {input_names(final[5])} is not the model's "
                        f"{model['alarm']}")
-    end = (job.start[0] + sum(dx for dx, _ in steps), job.start[1] + sum(dy for _, dy in steps))
-    if final[:2] != end:
-        raise RunError(f"the position read back, {final[:2]}, is not the steps made {end}")
+    end = _made(job.start, steps)
+    if position != end:
+        raise RunError(f"the position read back, {position}, is not the steps made {end}")
+
+
+def _made(start, steps):
+    """Where ``steps`` take the machine from ``start`` (every axis of it)."""
+    return tuple(c + sum(step[axis] for step in steps) for axis, c in enumerate(start))
 
 
 def _check(job, run, steps, expected, count, model=None):
@@ -704,9 +722,9 @@ def _check(job, run, steps, expected, count, model=None):
         bad = next((o for n, o in enumerate(outcomes) if o != (n % 256, 0)), None)
         raise RunError(f"not every frame ended DONE: {len(outcomes)} outcomes of {count}, "
                        f"first unexpected {bad}")
-    status = [reply.fields for _, reply in run.replies if reply.kind == STATUS]
-    if not status or (status[-1][0], status[-1][1]) != tuple(job.end):
-        raise RunError(f"the position read back, {status[-1][:2] if status else None}, is "
+    status = [reply.position for _, reply in run.replies if reply.kind == STATUS]
+    if not status or status[-1] != tuple(job.end):
+        raise RunError(f"the position read back, {status[-1] if status else None}, is "
                        f"not the program's end {tuple(job.end)}")
     final = [reply for _, reply in run.replies if reply.kind == STATUS][-1]
     if model is not None and final.state != model["state"]:
@@ -747,7 +765,8 @@ def deviation(job, steps):
     each segment's points, from its program move (a line segment, or the programmed arc: its
     circle within its programmed sweep, its nearer end outside it, so a turn traced where a
     sliver was programmed is far from it); a compensated contour's, from its exact equidistant
-    (the approach to it from its own line)."""
+    (the approach to it from its own line). On three axes this is the XY deviation (the
+    steps' X and Y; Z is checked against rs274 in the tests)."""
     moves = {move.line: move for move in job.moves if move.kind != "dwell"}
     ids = {id(move) for move in job.moves}
     special = references(job)
@@ -755,13 +774,13 @@ def deviation(job, steps):
     worst = 0.0
     index = 0
     for number, segment in enumerate(job.segments):
-        x, y = segment.start
+        x, y = segment.start[:2]
         if segment.kind == "dwell":
             continue
         if number in special:
             measure = special[number] or (lambda p, a=segment.start, b=segment.end:
                                           _distance_to_segment(p, a, b) / spm)
-            for dx, dy in steps[index:index + len(segment.steps)]:
+            for dx, dy, *_ in steps[index:index + len(segment.steps)]:
                 x, y = x + dx, y + dy
                 worst = max(worst, measure((x, y)))
             index += len(segment.steps)
@@ -771,7 +790,7 @@ def deviation(job, steps):
         move = segment.source if id(segment.source) in ids else moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
-        for dx, dy in steps[index:index + len(segment.steps)]:
+        for dx, dy, *_ in steps[index:index + len(segment.steps)]:
             x, y = x + dx, y + dy
             p = (x / spm, y / spm)
             if move.kind == "arc":
@@ -788,11 +807,9 @@ def _speeds(steps, times, spm):
     for none); an ``array('d')``, 8 bytes a step."""
     from array import array
     speeds, previous = array("d"), 0.0
-    axial, diagonal = 60 / spm, 60 * math.sqrt(2) / spm
-    for (dx, dy), t in zip(steps, times):
+    for step, t in zip(steps, times):
         interval = t - previous
-        speeds.append((diagonal if dx and dy else axial) / interval if interval > 0
-                      else math.nan)
+        speeds.append(step_length(step) * 60 / spm / interval if interval > 0 else math.nan)
         previous = t
     return speeds
 
@@ -814,11 +831,12 @@ def summary(job, result):
         "arcs": sum(1 for s in job.segments if s.kind == "arc"
                     or s.kind == "profile" and s.radius is not None),
         "steps": len(steps),
-        "diagonal_steps": sum(1 for dx, dy in steps if dx and dy),
+        "diagonal_steps": sum(1 for step in steps if step[0] and step[1]),
+        "axes": len(job.start),
         "machining_seconds": job.seconds,
         "max_deviation_mm": deviation(job, steps),
         "end_steps": list(end),
-        "end_mm": [end[0] / spm, end[1] / spm],
+        "end_mm": [c / spm for c in end],
         "programmed_end_steps": list(job.end),
         "steps_per_mm": spm,
         "feeds_mm_min": sorted({round(float(m.feed), 3) for m in moves
@@ -847,6 +865,9 @@ def summary(job, result):
         "pauses": [event.as_dict() for event in job.events if event.kind == "pause"],
         "messages": [event.as_dict() for event in job.events if event.kind == "message"],
     }
+    if len(job.start) == 3:
+        data["z_steps"] = sum(1 for step in steps if step[2])
+        data["helices"] = sum(1 for s in job.segments if s.kind == "arc" and s.payload.get("z"))
     if job.contours:
         data["cutter_radius_mm"] = float(job.contours[0].radius_mm)
         data["cutter_radius_steps"] = float(job.contours[0].radius)
@@ -900,6 +921,9 @@ def summary_text(data, out_dir=None):
                      f"engine, cutter radius {contour['radius_mm']:g} mm "
                      f"({contour['radius_steps']} steps, {contour['radius_from']}), "
                      f"{contour['steps']} steps")
+    if data.get("axes") == 3:
+        lines.append(f"z          {data['z_steps']} steps move Z, {data['helices']} helices "
+                     f"(HELIX frames: Z spread over the arc's steps)")
     if data.get("dwells"):
         lines.append(f"dwells     {data['dwells']} (G4), {data['dwell_seconds']:g} s, as DWELL "
                      f"frames")
@@ -916,9 +940,10 @@ def summary_text(data, out_dir=None):
                      f"simulated operator)")
     lines += [
         f"deviation  {data['max_deviation_mm']:.4f} mm at most from the programmed contour"
-        + (" (a compensated one's: from its equidistant)" if data.get("contours") else ""),
-        f"end        ({data['end_mm'][0]:.4f}, {data['end_mm'][1]:.4f}) mm = "
-        f"({data['end_steps'][0]}, {data['end_steps'][1]}) steps"
+        + (" (a compensated one's: from its equidistant)" if data.get("contours") else "")
+        + (" in XY" if data.get("axes") == 3 else ""),
+        f"end        ({', '.join(f'{c:.4f}' for c in data['end_mm'])}) mm = "
+        f"({', '.join(str(c) for c in data['end_steps'])}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]
            else f", stopped short of the programmed end {tuple(data['programmed_end_steps'])}"
            if any(e["alarm"] or e.get("hold") for e in data.get("events", ()))
@@ -1007,6 +1032,8 @@ def write_outputs(job, result, out_dir, *, staging=None, plot=True, extra=None):
     out_dir = Path(out_dir)
     staging = staging_dir(out_dir) if staging is None else Path(staging)
     lines = {(dx, dy): f"{dx} {dy}\n" for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+    lines |= {(dx, dy, dz): f"{dx} {dy} {dz}\n" for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+              for dz in (-1, 0, 1)}
     with open(staging / "steps.txt", "w") as handle:
         handle.writelines(map(lines.__getitem__, result.steps))
     data = summary(job, result)

@@ -28,12 +28,14 @@ from fractions import Fraction
 from kontur import registry
 from kontur.sim.models.arc import check_arc
 from kontur.sim.models.errors import InputError
+from kontur.sim.models.helix import ride
+from kontur.sim.models.spatial import line_steps as spatial_line_steps
 from kontur.hdl.motion import protocol
 from kontur.hdl.motion.tools import tool_frame
 from kontur.gcode import sweep
 
-__all__ = ["Segment", "PlanItem", "lattice", "plan", "frames", "dwell_clocks", "dwell_frames",
-           "ProgramError",
+__all__ = ["Segment", "PlanItem", "lattice", "step_length", "lift", "plan", "frames",
+           "dwell_clocks", "dwell_frames", "ProgramError",
            "on_lattice",
            "check_arc_radii", "check_sweep", "sweep_slack", "min_feed",
            "planned_feed"]
@@ -53,6 +55,15 @@ def _round(value):
     return math.floor(value + Fraction(1, 2)) if value >= 0 else -math.floor(-value + Fraction(1, 2))
 
 
+#: A step's length by the number of axes it moves (a step moves one to three).
+_STEP_LENGTHS = (0.0, 1.0, math.sqrt(2), math.sqrt(3))
+
+
+def step_length(step):
+    """The length of a step (``(dx, dy)`` or ``(dx, dy, dz)``): 1, √2 or √3 step lengths."""
+    return _STEP_LENGTHS[sum(1 for d in step if d)]
+
+
 @dataclass
 class Segment:
     """One move on the step lattice: its engine frame, where it starts and ends (steps,
@@ -70,8 +81,9 @@ class Segment:
 
     @property
     def length(self):
-        """Contour length in step lengths (a diagonal step is √2 long)."""
-        return sum(math.sqrt(2) if dx and dy else 1.0 for dx, dy in self.steps)
+        """Path length in step lengths (a diagonal step is √2 long, one on three axes √3):
+        on three axes the true 3D length, along which the feed applies."""
+        return sum(step_length(step) for step in self.steps)
 
 
 def on_lattice(point, machine):
@@ -126,9 +138,9 @@ def check_arc_radii(line, start, end, machine):
     return r_start
 
 
-def _unit(x, y):
-    norm = math.hypot(x, y)
-    return (x / norm, y / norm)
+def _unit(*vector):
+    norm = math.hypot(*vector)
+    return tuple(c / norm for c in vector)
 
 
 def _path_point(x0, y0, x1, y1, width):
@@ -248,8 +260,16 @@ def check_sweep(move, start, end, radius):
                                       f"step lattice: too short for a compensated contour")
 
 
-def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), start=None):
+def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), start=None,
+            axes=2):
     """The moves on the step lattice: a list of :class:`Segment`.
+
+    With ``axes=3`` (a 3-axis controller's) every point is ``(x, y, z)`` (steps; Z from 0
+    until the program's first Z word, then where the moves put it: ``move.z``), a line is a
+    LINE3 frame (``x``, ``y``, ``z``) traced by the spatial core's model, and an arc a HELIX
+    frame: the plain arc's XY steps with the move's Z spread over them (``z``, and ``n`` the
+    arc's step count: :func:`kontur.sim.models.helix.ride`); its finishing line (below) moves
+    XY only. The steps are ``(dx, dy, dz)``.
 
     ``moves`` have ``line``, ``kind`` (``"rapid"``, ``"line"``, ``"arc"``), ``start``,
     ``end``, ``centre``, ``cw`` and ``feed`` (mm/min, ``None`` for the machine's maximum), in
@@ -261,24 +281,41 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     ------
     ProgramError
         For an arc whose radii differ by more than the tolerance, an arc of radius zero, or an
-        arc the engines cannot make (too wide for their registers). A line longer than the
-        line engine's registers is made in pieces (:func:`line_pieces`).
+        arc the engines cannot make (too wide for their registers); on three axes a helix
+        steeper than one Z step per XY step. A line longer than the line engine's registers is
+        made in pieces (:func:`line_pieces`).
     """
     segments = []
     position = None if start is None else tuple(start)
+    if position is not None and len(position) < axes:
+        position += (0,) * (axes - len(position))
 
     source = None
 
     def add(line, kind, payload, start, end, feed, tangents=None, radius=None):
         variant, width = (variants[0], widths[0]) if kind == "line" else (variants[1], widths[1])
         try:
-            steps = registry.steps(kind, payload, variant, width=width)
+            if axes == 3 and kind == "line":
+                steps = spatial_line_steps(payload["x"], payload["y"], payload["z"],
+                                           width=width)
+            elif axes == 3:
+                arc = {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")}
+                xy = registry.steps(kind, arc, variant, width=width)
+                payload["n"] = len(xy)
+                if abs(payload["z"]) > len(xy):
+                    raise ProgramError(line, f"the helix moves Z {payload['z']} steps over an "
+                                             f"arc of {len(xy)} XY steps: steeper than one Z "
+                                             f"step per XY step, which the helix engine "
+                                             f"refuses (give it more turns, or move Z apart)")
+                steps = ride(xy, payload["z"], width=width)
+            else:
+                steps = registry.steps(kind, payload, variant, width=width)
         except InputError as error:
             raise ProgramError(line, str(error)) from None
         if not steps:
             return
         if tangents is None:
-            direction = _unit(end[0] - start[0], end[1] - start[1])
+            direction = _unit(*(b - a for a, b in zip(start, end)))
             tangents = (direction, direction)
         segments.append(Segment(line, kind, payload, start, end, feed, steps, tangents,
                                 radius, source))
@@ -286,7 +323,7 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     for move in moves:
         source = move
         if position is None:
-            position = on_lattice(move.start, machine)
+            position = on_lattice(move.start, machine) + (0,) * (axes - 2)
         if move.kind == "dwell":          # G4: the machine waits where it is
             segments.append(Segment(move.line, "dwell", {"seconds": move.seconds}, position,
                                     position, 0.0, [], None, None, move))
@@ -295,10 +332,12 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             min(float(move.feed), machine.max_feed)
         feed = speed / 60
         end = on_lattice(move.end, machine)
+        if axes == 3:                     # Z where the move ends (it stays before a Z word)
+            end += (position[2] if move.z is None else on_lattice((move.z,), machine)[0],)
         if move.kind in ("rapid", "line"):   # a line longer than the registers: in pieces
             for piece in line_pieces(position, end, (1 << widths[0]) - 1):
-                add(move.line, "line", {"x": piece[0] - position[0],
-                                        "y": piece[1] - position[1]}, position, piece, feed)
+                add(move.line, "line", dict(zip("xyz", (b - a for a, b in zip(position, piece)))),
+                    position, piece, feed)
                 position = piece
             continue
         # The program's arc, its centre rounded to the nearest step: refused as before (radius
@@ -318,21 +357,29 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             raise ProgramError(move.line, str(error)) from None
         reach = _on_sweep(move, (x0, y0), reach, r_start)
         if reach is None:                 # a sweep that rounds to nothing: a line to the end
-            add(move.line, "line", {"x": end[0] - position[0], "y": end[1] - position[1]},
+            add(move.line, "line", dict(zip("xyz", (b - a for a, b in zip(position, end)))),
                 position, end, feed)
             position = end
             continue
         cw = int(bool(move.cw))
         sign = -1 if cw else 1
+        rise = end[2] - position[2] if axes == 3 else 0
+        # On three axes the tangents have Z: the helix's rise over its XY length.
+        run = r_start * max(_sweeps(move, (x0, y0), reach)[1], 1e-9)
 
         def tangent(x, y):
+            if axes == 3:
+                return _unit(-sign * y / r_start * run, sign * x / r_start * run, rise)
             return _unit(-sign * y, sign * x)
 
-        arrive = (centre[0] + reach[0], centre[1] + reach[1])
-        add(move.line, "arc", {"x0": x0, "y0": y0, "x1": reach[0], "y1": reach[1], "cw": cw},
-            position, arrive, feed, (tangent(x0, y0), tangent(*reach)), r_start)
+        arrive = (centre[0] + reach[0], centre[1] + reach[1]) + tuple(end[2:])
+        payload = {"x0": x0, "y0": y0, "x1": reach[0], "y1": reach[1], "cw": cw}
+        if axes == 3:
+            payload["z"] = rise
+        add(move.line, "arc", payload, position, arrive, feed,
+            (tangent(x0, y0), tangent(*reach)), r_start)
         if arrive != end:                 # finish exactly on the programmed end
-            add(move.line, "line", {"x": end[0] - arrive[0], "y": end[1] - arrive[1]},
+            add(move.line, "line", dict(zip("xyz", (b - a for a, b in zip(arrive, end)))),
                 arrive, end, feed)
         position = end
     return segments
@@ -364,8 +411,8 @@ def step_seconds(segment, item, machine):
     total = segment.length / spm
     ramp_end = max(total - MARGIN_STEPS / spm, 0)
     out, covered = [], 0.0
-    for dx, dy in segment.steps:
-        step = (math.sqrt(2) if dx and dy else 1.0) / spm
+    for each in segment.steps:
+        step = step_length(each) / spm
         middle = covered + step / 2
         speed = min(math.sqrt(item.entry ** 2 + 2 * a * middle), item.cruise,
                     math.sqrt(item.exit ** 2 + 2 * a * max(ramp_end - middle, 0)))
@@ -377,7 +424,7 @@ def step_seconds(segment, item, machine):
 def _junction(previous, following, machine):
     """The highest speed (mm/s) through the corner from ``previous`` into ``following``."""
     a, b = previous.tangents[1], following.tangents[0]
-    cos_theta = -(a[0] * b[0] + a[1] * b[1])
+    cos_theta = -sum(p * q for p, q in zip(a, b))
     if cos_theta > 0.999999:             # a reversal
         return 0.0
     if cos_theta < -0.999999:            # straight on
@@ -482,11 +529,11 @@ def _plan(segments, machine):
         down = max((vc * vc - v1 * v1) / (2 * a), 0) * spm + MARGIN_STEPS   # step lengths
         remaining = s.length
         decelerate = 0
-        for index, (dx, dy) in enumerate(s.steps):
+        for index, step in enumerate(s.steps):
             if remaining < down:
                 break
             decelerate = index
-            remaining -= math.sqrt(2) if dx and dy else 1.0
+            remaining -= step_length(step)
         item = PlanItem(v0, vc, v1, decelerate, 0.0)
         item.seconds = sum(step_seconds(s, item, machine))
         items.append(item)
@@ -494,13 +541,35 @@ def _plan(segments, machine):
     return items
 
 
+def lift(segments):
+    """2-axis segments (a compensated program's, which keeps Z where it is) for a 3-axis
+    controller: every point and step with Z 0, a line a LINE3 frame's, an arc a HELIX frame's
+    with no Z move (``n`` its step count); a PROFILE segment keeps its frame (its engine is on
+    two axes)."""
+    out = []
+    for s in segments:
+        payload = dict(s.payload)
+        if s.kind == "line":
+            payload["z"] = 0
+        elif s.kind == "arc":
+            payload |= {"z": 0, "n": len(s.steps)}
+        tangents = None if s.tangents is None else tuple(tuple(t) + (0.0,) for t in s.tangents)
+        out.append(Segment(s.line, s.kind, payload, tuple(s.start) + (0,), tuple(s.end) + (0,),
+                           s.feed, [tuple(step) + (0,) for step in s.steps], tangents,
+                           s.radius, s.source))
+    return out
+
+
 def _move_frame(segment):
-    """The frame of a segment: a LINE, an ARC, or a PROFILE (one frame of the equidistant
+    """The frame of a segment: a LINE (LINE3 on three axes), an ARC (HELIX), or a PROFILE (one frame of the equidistant
     engine: ``payload`` is ``{"frame": its fields, "width": the engine's width}``)."""
     p = segment.payload
     if segment.kind == "line":
-        return protocol.line(p["x"], p["y"])
+        return protocol.line3(p["x"], p["y"], p["z"]) if "z" in p else \
+            protocol.line(p["x"], p["y"])
     if segment.kind == "arc":
+        if "n" in p:                      # a 3-axis controller's: a helix (Z may be 0)
+            return protocol.helix(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"], p["z"], p["n"])
         return protocol.arc(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"])
     return protocol.profile(p["frame"], width=p["width"])
 

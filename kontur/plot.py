@@ -137,7 +137,8 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
     in a program that switches the spindle, laser or torch, its feed moves with the tool off
     grey), the offset path of every compensated contour (its exact equidistant, blue,
     dashed), and the traced steps (a line through the points visited) coloured by the feed
-    (mm/min), in millimetres.
+    (mm/min), in millimetres. On a 3-axis board (steps ``(dx, dy, dz)``) a second view below
+    shows Z (mm) against the steps, coloured by the feed likewise.
 
     Drawn in bounded time and memory whatever the program's length: one collection for each
     class (feed moves, rapid moves, offset paths, steps), each of at most about
@@ -150,7 +151,13 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
     from matplotlib.collections import LineCollection
 
     spm = job.machine.steps_per_mm
-    figure, axes = pyplot.subplots(figsize=(9, 8))
+    width = len(job.start)
+    if width == 3:
+        figure, (axes, z_axes) = pyplot.subplots(
+            2, 1, figsize=(9, 10), gridspec_kw={"height_ratios": (4, 1)})
+    else:
+        figure, axes = pyplot.subplots(figsize=(9, 8))
+        z_axes = None
     tool = tool_states(job.moves, getattr(job, "events", ()))
     for kind, style, colour, label in (
             ("feed", "-", "black", "programmed contour" if tool is None else
@@ -181,7 +188,7 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
                                            label="offset path"))
     import itertools
     moves = numpy.fromiter(itertools.chain.from_iterable(steps), dtype=numpy.int8,
-                           count=2 * len(steps)).reshape(-1, 2)
+                           count=width * len(steps)).reshape(-1, width)
     positions = numpy.cumsum(moves, axis=0, dtype=numpy.int64)
     del moves
     start = numpy.array([job.start], dtype=numpy.int64)
@@ -191,7 +198,7 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
         ends = numpy.append(numpy.arange(0, len(steps), stride), len(steps))
         kept = numpy.vstack([start, start + positions[ends[1:] - 1]]) / spm
         del positions
-        segments = numpy.stack([kept[:-1], kept[1:]], axis=1)
+        segments = numpy.stack([kept[:-1, :2], kept[1:, :2]], axis=1)
         feed = numpy.nan_to_num(numpy.asarray(speeds, dtype=float), nan=0.0)
         colours = numpy.minimum.reduceat(feed, ends[:-1]) if len(feed) else \
             numpy.zeros(len(segments))
@@ -202,6 +209,18 @@ def plot_toolpath(job, steps, speeds, path, *, title=None):
             lines.set_clim(0, finite.max())
         axes.add_collection(lines)
         figure.colorbar(lines, ax=axes, label="feed (mm/min)", shrink=0.8)
+        if z_axes is not None:
+            z_lines = LineCollection(numpy.stack([numpy.column_stack([ends[:-1], kept[:-1, 2]]),
+                                                  numpy.column_stack([ends[1:], kept[1:, 2]])],
+                                                 axis=1), cmap="viridis", linewidths=2.0)
+            z_lines.set_array(colours)
+            z_lines.set_clim(*lines.get_clim())
+            z_axes.add_collection(z_lines)
+    if z_axes is not None:
+        z_axes.autoscale_view()
+        z_axes.grid(True, linewidth=0.3)
+        z_axes.set_xlabel("step")
+        z_axes.set_ylabel("Z (mm)")
     axes.plot([points[0][0]], [points[0][1]], marker="o", color="tab:red", label="start")
     axes.plot([points[-1][0]], [points[-1][1]], marker="x", color="tab:red", label="end")
     axes.set_aspect("equal")

@@ -125,7 +125,10 @@ class Board:
     the limit switches; a board without it reports HOME an unknown frame type); ``tools``
     whether it has the tool outputs (:class:`kontur.hdl.motion.tools.ToolEngine`: TOOL frames,
     the spindle/laser/torch and coolant pins; a board without them lists the program's tool
-    words in the summary and drives no pin)."""
+    words in the summary and drives no pin); ``axes`` 2 or
+    3: with 3 the controller has Z (its line engine the spatial core on three axes, its arc
+    engine a :class:`kontur.hdl.helix.HelixEngine` around the ``arc`` engine: LINE3 and HELIX
+    frames)."""
     name: str
     help: str
     platform: object
@@ -138,6 +141,7 @@ class Board:
     overrides: bool = True
     homing: bool = False
     tools: bool = False
+    axes: int = 2
 
 
 KINDS = {}
@@ -244,12 +248,18 @@ def make_controller(board_name, machine):
                          f"{item.clock_hz:g} Hz")
     profile = None if item.profile is None else \
         make_engine("profile", item.profile[0], width=item.profile[1])
-    engines = [homing_row()] if item.homing else []
+    if item.axes == 3:
+        from kontur.hdl.helix import HelixEngine
+        line = LineEngine(SpatialLineCore(width=item.line[1], axes=3))
+        arc = HelixEngine(make_engine("arc", item.arc[0], width=item.arc[1]))
+    else:
+        line = make_engine("line", item.line[0], width=item.line[1])
+        arc = make_engine("arc", item.arc[0], width=item.arc[1])
+    engines = [homing_row(axes=item.axes)] if item.homing else []
     if item.tools:
-        engines.append(tool_row(s_max=machine.s_max, period=machine.pwm_period))
-    return MotionController(line=make_engine("line", item.line[0], width=item.line[1]),
-                            arc=make_engine("arc", item.arc[0], width=item.arc[1]),
-                            profile=profile, engines=engines,
+        engines.append(tool_row(s_max=machine.s_max, period=machine.pwm_period,
+                                axes=item.axes))
+    return MotionController(line=line, arc=arc, profile=profile, engines=engines,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
                             step_width=machine.step_width, input_filter=machine.input_filter,
@@ -427,10 +437,12 @@ BOARD_TABLE = (
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
     # controller runs at half the board's clock, 12.5 MHz.
     # It has the homing engine too (issue 25) and the tool outputs (issue 28); the iCEBreaker
-    # has no room for them.
+    # has no room for them. It has the third axis, Z (issue 28: lines in XYZ by the spatial
+    # core, helices by the helix engine around the arc engine); the iCEBreaker stays on two
+    # (no room).
     Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
           line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2, homing=True,
-          tools=True),
+          tools=True, axes=3),
 )
 
 for _item in KIND_TABLE + VARIANT_TABLE + BOARD_TABLE:

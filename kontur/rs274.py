@@ -268,9 +268,9 @@ def check_program(text, *, tools=None, steps_per_mm=80, engine="model", name=Non
     if result["rs274"] is not None:
         return result
     ran = execute(job, engine)
-    x, y = job.start
+    x, y = job.start[:2]
     points = [(x, y)]
-    for dx, dy in ran.steps:
+    for dx, dy, *_ in ran.steps:
         x, y = x + dx, y + dy
         points.append((x, y))
     result["out"], result["back"] = compare_steps(points, moves, (0.0, 0.0), steps_per_mm)

@@ -305,7 +305,7 @@ class _Sender:
             self.check_interrupt()
             for reply, _ in self.read():
                 if reply.kind == STATUS:
-                    return self.check_board(reply.fields)
+                    return self.check_board(reply.fields, reply.position)
                 if reply.kind == OUTCOME:
                     self.fail("the board answered a frame before any was sent: it is running "
                               "another program; wait for its end or reset the board",
@@ -318,8 +318,10 @@ class _Sender:
                 self.fail(f"no answer from the board at {baud} baud in {self.timeout:g} s{heard} "
                           f"(is the baud of the bitstream's machine file the same?)", abort=False)
 
-    def check_board(self, fields):
+    def check_board(self, fields, position=None):
+        # (the position by the board's axes: a 3-axis controller's STATUS has Z too)
         x, y, free, flags = fields[:4]
+        position = tuple(fields[:2]) if position is None else tuple(position)
         self.check_flags(fields, abort=False)
         if STATES[fields[4]] == "ALARM":
             tripped = ", ".join(protocol.input_names(fields[5])) or "nothing"
@@ -337,8 +339,8 @@ class _Sender:
                       f"{self.window}: build the bitstream with --machine FILE (kontur build "
                       f"--machine FILE, make bitstream MACHINE=FILE)", abort=False)
         start = self.job.start                  # None: anywhere (a homing cycle)
-        if start is not None and (x, y) != tuple(start):
-            self.fail(f"the board is at ({x}, {y}) steps, not at the program's start {tuple(start)}: "
+        if start is not None and position != tuple(start):
+            self.fail(f"the board is at {position} steps, not at the program's start {tuple(start)}: "
                       f"its coordinates count from where the board was reset; reset it there",
                       abort=False)
 
@@ -414,11 +416,11 @@ class _Sender:
             for reply, _ in self.read():
                 if reply.kind == STATUS:
                     self.check_status(reply.fields)
-                    x, y = reply.fields[:2]
-                    if (x, y) != tuple(self.job.end):
-                        raise SendError(f"the machine ended at ({x}, {y}) steps, not at the "
+                    position = reply.position
+                    if position != tuple(self.job.end):
+                        raise SendError(f"the machine ended at {position} steps, not at the "
                                         f"program's end {tuple(self.job.end)}")
-                    return (x, y)
+                    return position
                 if reply.kind == OUTCOME:
                     self.outcome(*reply.fields)        # fails: every frame was answered
                 elif reply.kind == ERROR:
@@ -542,11 +544,12 @@ class Feeder(_Sender):
         self.homing = None                      # the homing cycle's job while it runs
         self.homing_failed = None               # why the homing cycle failed (a pass)
 
-    def check_board(self, fields):
-        self.job.start = tuple(fields[:2])      # wherever it is: the session starts there
+    def check_board(self, fields, position=None):
+        position = tuple(fields[:2]) if position is None else tuple(position)
+        self.job.start = position               # wherever it is: the session starts there
         self.check_flags(fields, abort=False)
         if STATES[fields[4]] != "ALARM":        # in ALARM: the caller's to say (and unlock)
-            super().check_board(fields)
+            super().check_board(fields, position)
         self.status = fields
         self.reports += 1
 

@@ -56,8 +56,8 @@ def contour_points(job):
         if index == contour.approach:
             continue
         segment = job.segments[index]
-        x, y = segment.start
-        for dx, dy in segment.steps:
+        x, y = segment.start[:2]                 # (the ULX3S's: three axes, Z still)
+        for dx, dy, *_ in segment.steps:
             x, y = x + dx, y + dy
             points.append((x, y))
     return points
@@ -80,17 +80,17 @@ class ModelTestCase(unittest.TestCase):
                     for x, y in points)
         # The engine's bound: every point within 0.85 steps of the exact equidistant.
         self.assertLess(worst, 0.85 / spm)
-        self.assertTrue(all(abs(dx) <= 1 and abs(dy) <= 1 and (dx or dy)
-                            for dx, dy in job.steps))
+        self.assertTrue(all(abs(dx) <= 1 and abs(dy) <= 1 and (dx or dy) and dz == 0
+                            for dx, dy, dz in job.steps))
         # A closed outline: the contour's last point is its first.
         (contour,) = job.contours
         first = job.segments[contour.first + 1 + (contour.approach is not None)]
-        self.assertEqual(points[-1], first.start)
+        self.assertEqual(points[-1], first.start[:2])
 
     def test_outside_with_g42(self):
         job = plate_job(cutter_radius=3)
         result = execute(job, "model")
-        self.assertEqual(result.end, (0, 0))
+        self.assertEqual(result.end, (0, 0, 0))
         self.check_offset(job, +1, 3)
         self.assertLess(deviation(job, result.steps), 0.85 / 80)
 
@@ -98,7 +98,7 @@ class ModelTestCase(unittest.TestCase):
         for radius in (1, 4.5):
             with self.subTest(radius=radius):
                 job = plate_job(PLATE.read_text().replace("G42", "G41"), cutter_radius=radius)
-                self.assertEqual(execute(job, "model").end, (0, 0))
+                self.assertEqual(execute(job, "model").end, (0, 0, 0))
                 self.check_offset(job, -1, radius)
 
     def test_radius_zero_is_the_outline(self):
@@ -175,7 +175,7 @@ class RTLTestCase(unittest.TestCase):
             with self.subTest(engine=engine):
                 result = execute(job, engine)
                 self.assertEqual(result.steps, job.steps)
-                self.assertEqual(result.end, (0, -10))
+                self.assertEqual(result.end, (0, -10, 0))
 
     def test_plate_on_verilator(self):
         if "verilator" not in selected_simulators():
@@ -183,7 +183,7 @@ class RTLTestCase(unittest.TestCase):
         job = plate_job(cutter_radius=3)
         result = execute(job, "verilator")
         self.assertEqual(result.steps, job.steps)
-        self.assertEqual(result.end, (0, 0))
+        self.assertEqual(result.end, (0, 0, 0))
         self.assertAlmostEqual(result.times[-1], job.seconds, delta=0.02 * job.seconds)
 
 

@@ -120,6 +120,99 @@ class ControllerTestCase(unittest.TestCase):
         self.assertEqual(status[:2], (sum(dx for _, dx, _ in pins), sum(dy for _, _, dy in pins)))
 
 
+def controller3(**kwargs):
+    """A 3-axis controller (issue 28): the spatial line core on X, Y, Z and the helix engine
+    around the fast arc engine, 12 bits wide."""
+    from kontur.hdl.helix import HelixEngine
+    from kontur.hdl.line import LineEngine
+    from kontur.hdl.spatial import SpatialLineCore
+    return MotionController(line=LineEngine(SpatialLineCore(width=12, axes=3)),
+                            arc=HelixEngine(registry.make_engine("arc", "fast", width=12)),
+                            clock_hz=CLOCK, baud=BAUD, dir_setup=1, step_width=2, **kwargs)
+
+
+def run3(frames, *, clocks, depth=8, name, schedule=()):
+    """:func:`run` on :func:`controller3`: ``(clock, dx, dy, dz)`` for every step pulse."""
+    trace = []
+    result = run_amaranth(controller3(queue_frames=depth), frames, divisor=BIT, window=depth,
+                          max_clocks=clocks, levels=trace, vcd=waves_path(name),
+                          schedule=schedule)
+    moves = [(clock, *step) for (clock, _, _), step in zip(result.steps, steps_of(result, 3))]
+    return moves, [reply for _, reply in result.replies], trace
+
+
+class ThreeAxesTestCase(unittest.TestCase):
+    """The controller on three axes: LINE3 and HELIX frames, Z on the pins, STATUS of 24
+    bytes, Z's limit (input bit 6); against the step-level models of the spatial line core
+    and the helix (sim/models/spatial.py, sim/models/helix.py), which are checked against
+    geometry in tests/test_spatial.py and tests/test_helix.py."""
+
+    def test_lines_and_helices(self):
+        from kontur.sim.models.helix import helix_frame, helix_steps
+        from kontur.sim.models.spatial import line_steps
+        rate = round(0.05 * Q24)
+        feed = protocol.feed(rate, rate, 1 << 20)
+        lines = [(7, -3, 5), (0, 0, -9), (-6, 11, 2)]
+        helices = [helix_frame(0, -6, 6, 0, 5, cw=0, width=12),        # a quarter, Z up
+                   helix_frame(4, 3, 4, 3, -20, cw=1, width=12)]       # a turn, Z down
+        steep = {**helix_frame(0, 5, 5, 0, 0, cw=1, width=12), "z": 40}   # |z| > n
+        frames = [protocol.config((1 << 32) - 1),
+                  feed, protocol.line3(*lines[0]), feed, protocol.helix(**helices[0]),
+                  feed, protocol.line3(*lines[1]), protocol.dwell(100),
+                  feed, protocol.helix(**steep),
+                  feed, protocol.helix(**helices[1]), feed, protocol.line3(*lines[2]),
+                  protocol.stop(), protocol.query()]
+        pins, replies, trace = run3(frames, clocks=80_000, name="controller3_program")
+        expected = (line_steps(*lines[0], width=12) + helix_steps(**helices[0], width=12)
+                    + line_steps(*lines[1], width=12) + helix_steps(**helices[1], width=12)
+                    + line_steps(*lines[2], width=12))
+        self.assertEqual([tuple(step) for _, *step in pins], [tuple(s) for s in expected])
+        self.assertEqual(sum(1 for _, _, _, dz in pins if dz), 5 + 5 + 9 + 20 + 2)
+        refused = frames.index(protocol.helix(**steep))
+        self.assertEqual([r.fields for r in replies if r.kind == OUTCOME],
+                         [(n, 1 if n == refused else 0) for n in range(len(frames) - 1)])
+        (status,) = [r for r in replies if r.kind == STATUS]
+        self.assertEqual(status.position, tuple(sum(step[axis] for _, *step in pins)
+                                                for axis in range(3)))
+        self.assertEqual(status.position[2], 5 + 5 - 9 - 20 + 2)
+        self.assertEqual(status.fields[2], 8)
+        # Z's pulses are timed as X's and Y's: 2 clocks, the direction set up a clock before.
+        level = [(s >> 2) & 1 for s, _ in trace]
+        ways = [(d >> 2) & 1 for _, d in trace]
+        edges = [c for c in range(1, len(level)) if level[c] and not level[c - 1]]
+        self.assertEqual(len(edges), 41)
+        for c in edges:
+            self.assertEqual(level[c:c + 3], [1, 1, 0])
+            self.assertEqual(len(set(ways[c - 1:c + 2])), 1)
+
+    def test_z_limit_trips(self):
+        # Z's limit switch (input bit 6, normally closed) trips the ALARM like X's and Y's:
+        # the move stops, STATUS says ALARM with bit 6 in its cause and its inputs.
+        from kontur.hdl.motion.inputs import pin_levels
+        rate = round(0.05 * Q24)
+        frames = [protocol.config((1 << 32) - 1), protocol.feed(rate, rate, 1 << 20),
+                  protocol.line3(0, 0, 200), protocol.stop(), protocol.query()]
+        pins, replies, _ = run3(frames, clocks=40_000, name="controller3_limit",
+                                schedule=[(400, ("pins", pin_levels(("limit_z",), axes=3)))])
+        self.assertLess(len(pins), 200)
+        status = [r for r in replies if r.kind == STATUS][-1]
+        self.assertEqual((status.state, status.fields[5], status.fields[6]),
+                         ("ALARM", 1 << 6, 1 << 6))
+        self.assertEqual(status.position, (0, 0, len(pins)))
+
+    def test_frames_of_the_other_axes_are_unknown(self):
+        # A 3-axis controller takes LINE3 and HELIX, not LINE and ARC (ERROR 2), and a 2-axis
+        # one the reverse.
+        rate = round(0.05 * Q24)
+        frames = [protocol.feed(rate, rate, 1 << 20), protocol.line(3, 4), protocol.query()]
+        _, replies, _ = run3(frames, clocks=20_000, name="controller3_unknown")
+        self.assertEqual([r.fields for r in replies if r.kind == ERROR], [(2,)])
+        _, replies, _ = run([protocol.line3(1, 2, 3), protocol.query()], clocks=20_000,
+                            name="controller_unknown3")
+        self.assertEqual([r.fields for r in replies if r.kind == ERROR], [(2,)])
+        self.assertIsNone([r for r in replies if r.kind == STATUS][0].z)
+
+
 #: The stand-in engine's frame type and turn number: free ones (the protocol's next type).
 STANDIN, STANDIN_UNIT = 0x17, 5
 

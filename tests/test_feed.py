@@ -24,7 +24,7 @@ def accel_of(steps_per_clock2):
 
 
 def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clocks=None,
-          max_rate=None, inputs=lambda clock: {}, overrides=True):
+          max_rate=None, inputs=lambda clock: {}, overrides=True, axes=2):
     """Run ``moves`` (profiles, each for its step count) through the RTL and the model at the
     acceleration ``accel`` (Q0.40), every output compared in every clock. The moves follow one
     another (start at each move's first clock); ``inputs(clock)`` gives the other inputs of a
@@ -34,7 +34,7 @@ def trace(moves, *, accel=0, due=lambda clock: 1, diagonal=lambda step: 0, clock
     kwargs = {"overrides": overrides}
     if max_rate is not None:
         kwargs["max_rate"] = max_rate
-    dut = FeedGenerator(**kwargs)
+    dut = FeedGenerator(**kwargs, axes=axes)
     model = FeedGeneratorModel(**kwargs)
     plan = [(p, count) for p, count in moves]
     stepped, held = [], []
@@ -89,6 +89,20 @@ class FeedGeneratorTestCase(unittest.TestCase):
         self.assertEqual(set(gaps[20:]), {4})
         diagonal = run([(fast, 200)], accel=big, diagonal=lambda step: 1)
         self.assertAlmostEqual((diagonal[-1] - diagonal[20]) / 179, 4 * math.sqrt(2), places=2)
+
+    def test_three_axes(self):
+        # On three axes a step is 1, √2 or √3 long (diagonal 0, 1, 2): at a quarter step a
+        # clock the √3 steps come every 4√3 clocks; a random mix follows the model clock for
+        # clock within the rate limit.
+        fast = profile(cruise=0.25, exit=0.25, decelerate=10_000)
+        spatial = run([(fast, 200)], accel=(1 << 32) - 1, diagonal=lambda step: 2, axes=3)
+        self.assertAlmostEqual((spatial[-1] - spatial[20]) / 179, 4 * math.sqrt(3), places=2)
+        rng = random.Random(28)
+        moves = [(profile(rng.random() * 0.5, rng.random() * 0.3, rng.randrange(50)),
+                  rng.randrange(1, 60)) for _ in range(12)]
+        clocks = run(moves, accel=accel_of(1e-5), due=lambda clock: int(rng.random() < 0.8),
+                     diagonal=lambda step: step % 3, max_rate=rate_limit(5), axes=3)
+        self.assertGreaterEqual(min(b - a for a, b in zip(clocks, clocks[1:])), 5)
 
     def test_ramp_up_cruise_down(self):
         # From rest, accelerate to cruise, hold it, decelerate to rest over the last steps;

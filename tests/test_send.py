@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from kontur.hdl.motion.link import ARC, LINE
+from kontur.hdl.motion.link import ARC, HELIX, LINE, LINE3
 from kontur import registry
 from kontur.hdl.motion import protocol
 from kontur.machine import Machine
@@ -58,13 +58,15 @@ class FakeMachine:
     that are no frame at every read), ``"crc"`` (the answers with a bad CRC), ``"eof"`` (the
     port reads nothing), ``"close"`` (reading and writing the port raise), ``"write"``
     (writing the port raises), ``"dead"`` (nothing more at all: no answers, no STATUS, an
-    ABORT ends nothing). ``mute``: QUERY is never answered."""
+    ABORT ends nothing). ``mute``: QUERY is never answered. ``axes=3``: a 3-axis controller's
+    (LINE3 and HELIX frames, STATUS with Z; ``at`` then has Z too)."""
 
     def __init__(self, window, *, outcome=None, drop=None, error_code=1, offset=(0, 0),
                  silent_after=None, profile=None, free=None, flags=0, at=(0, 0), first=0,
-                 misbehave=None, after=0, mute=False, state=0, alarm=0, inputs=0):
+                 misbehave=None, after=0, mute=False, state=0, alarm=0, inputs=0, axes=2):
         self.window = window
-        self.parser = protocol.CommandParser(profile=profile)
+        self.axes = axes
+        self.parser = protocol.CommandParser(profile=profile, axes=axes)
         self.kinds = []
         self.outcome = outcome or {}
         self.drop = drop
@@ -83,7 +85,7 @@ class FakeMachine:
         self.first = first
         self.pending = bytearray()
         self.later = []
-        self.position = list(at)
+        self.position = list(at) + [0] * (axes - len(at))
         self.count = 0                              # frames received
         self.released = 0                           # answers given
         self.unanswered = 0
@@ -98,10 +100,11 @@ class FakeMachine:
         return self.misbehave is not None and self.released >= self.after
 
     def status(self):
-        x, y = self.position
+        position = list(self.position)
         if self.count:
-            x, y = x + self.offset[0], y + self.offset[1]
-        return protocol.frame(0x81, struct.pack("<iiBBBBBIHB", x, y,
+            position = [c + o for c, o in zip(position, self.offset)] + position[len(self.offset):]
+        return protocol.frame(0x81, struct.pack("<" + "i" * len(position) + "BBBBBIHB",
+                                                *position,
                                                 max(self.free - self.unanswered, 0), self.flags,
                                                 self.state, self.alarm, self.inputs, 0, 128,
                                                 100))
@@ -157,6 +160,11 @@ class FakeMachine:
         elif outcome == 0 and kind == ARC:
             x0, y0, x1, y1, _ = struct.unpack("<iiiiB", payload)
             self.position = [self.position[0] + x1 - x0, self.position[1] + y1 - y0]
+        elif outcome == 0 and kind == LINE3:
+            self.position = [c + d for c, d in zip(self.position, struct.unpack("<iii", payload))]
+        elif outcome == 0 and kind == HELIX:
+            x0, y0, x1, y1, _, z, _ = struct.unpack("<iiiiBiI", payload)
+            self.position = [c + d for c, d in zip(self.position, (x1 - x0, y1 - y0, z))]
         reply = protocol.frame(0x80, bytes([(number + self.first) % 256, outcome]))
         if bad_crc:
             reply = reply[:-1] + bytes([reply[-1] ^ 0x5A])
@@ -343,6 +351,22 @@ class SendTestCase(unittest.TestCase):
                                                r"end \(0, 0\)"):
             send(job, FakeMachine(4, offset=(1, 0)))
 
+    def test_three_axes(self):
+        # On the ULX3S's 3-axis controller a program that moves Z streams as LINE3 and HELIX
+        # frames, and the position read back (X, Y and Z) is its end; a 2-axis board's
+        # STATUS (X, Y) is no 3-axis program's start: refused before anything is sent.
+        board = registry.board("ulx3s")
+        job = prepare((ROOT / "tests" / "programs" / "xyz" / "zaxis.ngc").read_text(),
+                      machine=Machine(clock_hz=board.clock_hz, queue_frames=4), board="ulx3s")
+        port = FakeMachine(4, axes=3)
+        self.assertEqual(send(job, port), (0, 0, 240))
+        self.assertEqual(tuple(port.position), (0, 0, 240))
+        self.assertEqual({LINE3, HELIX} & set(port.kinds), {LINE3, HELIX})
+        self.assertFalse({LINE, ARC} & set(port.kinds))
+        with self.assertRaisesRegex(SendError, r"^the board is at \(0, 0\) steps, not at the "
+                                               r"program's start \(0, 0, 0\)"):
+            send(job, FakeMachine(4))
+
     def test_compensated_program(self):
         # A G42 contour's PROFILE frames stream under the same window; the machine behind the
         # port moves by their steps (the equidistant engine's, here given as an offset).
@@ -355,7 +379,8 @@ class SendTestCase(unittest.TestCase):
                  for i in (0, 1)]
         from kontur.hdl.motion.link import profile_bytes
         engine = registry.make_engine("profile", board.profile[0], width=board.profile[1])
-        port = FakeMachine(4, profile=profile_bytes(engine.signature.frame), offset=moved)
+        port = FakeMachine(4, profile=profile_bytes(engine.signature.frame), offset=moved,
+                           axes=3)
         self.assertEqual(send(job, port), tuple(job.end))
         frames, _ = job.frames()
         self.assertEqual(port.count, len(frames))

@@ -60,7 +60,8 @@ class SwitchedMachine(FakeMachine):
         made, outcome = pass_steps(self.steps, item, self.switches)
         for dx, dy in made:
             self.steps = [self.steps[0] + dx, self.steps[1] + dy]
-            self.position = [self.position[0] + dx, self.position[1] + dy]
+            self.position = [self.position[0] + dx, self.position[1] + dy,
+                             *self.position[2:]]
         if outcome == 0 and flags & 8:
             self.position[item["axis"]] = value
         self.pending += protocol.frame(0x80, bytes([(number + self.first) % 256, outcome]))
@@ -68,8 +69,9 @@ class SwitchedMachine(FakeMachine):
 
 def _board(**options):
     # X's switch 5000 steps from where the board starts (+), Y's 3000 below it (-).
+    # (the ULX3S's controller: three axes, Z never moved here)
     return SwitchedMachine(32, switches=BenchSwitches((5000, -3000), negative=(False, True)),
-                           **options)
+                           axes=3, **options)
 
 
 PROGRAM = "G21 G90\nG0 X10 Y10\nG1 X20 F600\nG1 Y20\nM30\n"
@@ -97,7 +99,7 @@ def test_home_then_the_program(tmp_path, capsys):
     assert lines[0] == f"homed: the machine at {HOMED} steps"
     assert lines[1].startswith("sent ") and "ended at (1600, 1600) steps" in lines[1]
     assert machine.homes == 6
-    assert tuple(machine.position) == (1600, 1600)
+    assert tuple(machine.position) == (1600, 1600, 0)
     # The axes really went to their switches and back off by the pull-off.
     assert machine.steps[0] == 5000 - 80 + (1600 - HOMED[0])
     assert machine.steps[1] == -3000 + 80 + (1600 - HOMED[1])
@@ -106,7 +108,8 @@ def test_home_then_the_program(tmp_path, capsys):
 def test_a_switch_never_found(tmp_path, capsys):
     """Y's switch beyond 1.5 travels: its seek ends REFUSED, the send ends in one line naming
     the pass (status 1), the program is never sent."""
-    machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)))
+    machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)),
+                              axes=3)
     status = _send_home(tmp_path, machine)
     captured = capsys.readouterr()
     assert status == 1 and captured.out == ""
@@ -168,7 +171,7 @@ def test_serve_home_then_a_move(tmp_path):
         assert port.wait_idle(10) == (HOMED[0] / 80, HOMED[1] / 80, 0.0)
         assert port.command("G0 X10 Y10") == ["ok"]
         assert port.wait_idle(10) == (10.0, 10.0, 0.0)
-        assert tuple(machine.position) == (800, 800)
+        assert tuple(machine.position) == (800, 800, 0)
         assert machine.steps == [5000 - 80 + (800 - HOMED[0]), -3000 + 80 + (800 - HOMED[1])]
         port.close()
         process.stdout.close()
@@ -177,7 +180,8 @@ def test_serve_home_then_a_move(tmp_path):
 def test_serve_home_without_the_switch(tmp_path):
     """Y's switch never found: ``ALARM:9`` with the pass named, the board ABORTed; ``$X``
     leaves the lock."""
-    machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)))
+    machine = SwitchedMachine(32, switches=BenchSwitches((5000, -20000), negative=(False, True)),
+                              axes=3)
     board, child, link, connect = _serve_home(tmp_path, machine)
     with board, child as process:
         port = connect(process, link)

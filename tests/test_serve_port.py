@@ -29,7 +29,7 @@ class Recording(FakeMachine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.received = []
-        self.recorder = protocol.CommandParser()
+        self.recorder = protocol.CommandParser(axes=self.axes)
 
     def write(self, data):
         for event in self.recorder.feed(data):
@@ -143,7 +143,7 @@ def test_hold_resume_and_overrides_reach_the_board(tmp_path):
     status, the board ends no frame while held), ``~`` its RESUME, and the feed and rapid
     override bytes OVERRIDE frames with both overrides as they stand (Grbl's steps: +10 %,
     rapid 50 %); the program still ends at its end."""
-    board = PtyBoard(Recording(WINDOW), pace=0.05)
+    board = PtyBoard(Recording(WINDOW, axes=3), pace=0.05)     # the ULX3S's: 3 axes
     child, link, _ = _serve(tmp_path, board, "--board", "ulx3s")
     with board, child as process:
         port = _connect(process, link)
@@ -161,7 +161,7 @@ def test_hold_resume_and_overrides_reach_the_board(tmp_path):
         assert [o[:2] for o in board.machine.overrides] == \
             [_override_fields(110, 100), _override_fields(110, 50)]
         assert port.wait_idle(60)[:2] == (20.0, 10.0)
-        assert tuple(board.machine.position) == (20 * 80, 10 * 80)
+        assert tuple(board.machine.position) == (20 * 80, 10 * 80, 0)
         port.close()
         process.stdout.close()
 

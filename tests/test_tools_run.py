@@ -66,7 +66,7 @@ def rs274_changes(text):
 
 
 def kontur_changes(job):
-    return [(segment.start, _pins({**segment.payload["tool"],
+    return [(tuple(segment.start[:2]), _pins({**segment.payload["tool"],
                                    "spindle": segment.payload["tool"]["spindle"].name.lower()}))
             for segment in job.segments if "tool" in segment.payload]
 

@@ -14,7 +14,7 @@ from amaranth import *
 from amaranth.lib import enum, wiring
 from amaranth.lib.wiring import In, Out
 
-from .inputs import INPUTS
+from .inputs import INPUTS, inputs_of
 
 __all__ = ["State", "CAUSES", "Alarm"]
 
@@ -44,8 +44,8 @@ class Alarm(wiring.Component):
     busy, hold, homing : :py:`In(1)`
         Frames are queued or running; the feed is held; the machine is homing (the states
         below ALARM, in this order of precedence: HOMING, HOLD, RUN, IDLE).
-    mask : :py:`In(2)`
-        The limits that do not trip (bit 0 X, bit 1 Y): the axis a homing pass runs on
+    mask : :py:`In(axes)`
+        The limits that do not trip (bit 0 X, bit 1 Y, bit 2 Z): the axis a homing pass runs on
         (:class:`~.homing.HomingEngine`); the e-stop always trips.
     enter : :py:`Out(1)`
         ALARM begins in this clock (an input tripped, and the controller was not in ALARM).
@@ -53,33 +53,44 @@ class Alarm(wiring.Component):
         In ALARM, or entering it: no new step on the pins.
     alarm : :py:`Out(1)`
         In ALARM (registered: from the clock after :py:`enter`).
-    cause : :py:`Out(3)`
-        The inputs of :data:`CAUSES` that tripped since the ALARM began (0 out of ALARM).
+    cause : :py:`Out(3)` (:py:`Out(7)` on three axes)
+        The inputs of :data:`CAUSES` that tripped since the ALARM began (0 out of ALARM); on
+        three axes bit 6 is Z's limit (the inputs' bit).
     state : :py:`Out(State)`
+
+    Parameters
+    ----------
+    axes : :class:`int`
+        2 (default) or 3: the limits watched (Z's is input bit 6).
     """
 
-    def __init__(self):
+    def __init__(self, axes=2):
+        self._axes = axes
         super().__init__({
-            "active": In(len(INPUTS)),
+            "active": In(len(inputs_of(axes))),
             "unlock": In(1),
             "busy":   In(1),
             "hold":   In(1),
             "homing": In(1),
-            "mask":   In(2),
+            "mask":   In(axes),
             "enter":  Out(1),
             "halt":   Out(1),
             "alarm":  Out(1),
-            "cause":  Out(len(CAUSES)),
+            "cause":  Out(len(CAUSES) if axes == 2 else 7),
             "state":  Out(State),
         })
 
     def elaborate(self, platform):
         m = Module()
-        estop = self.active[INPUTS.index("estop")]
-        limits = Cat(self.active[INPUTS.index("limit_x")], self.active[INPUTS.index("limit_y")])
-        pressed = Signal(2)                       # the limits' levels a clock before
+        names = inputs_of(self._axes)
+        estop = self.active[names.index("estop")]
+        limits = Cat(*(self.active[names.index(f"limit_{axis}")]
+                       for axis in "xyz"[:self._axes]))
+        pressed = Signal(self._axes)              # the limits' levels a clock before
         m.d.sync += pressed.eq(limits)
-        tripped = Cat(estop, limits & ~pressed & ~self.mask)
+        fresh = limits & ~pressed & ~self.mask
+        tripped = Cat(estop, fresh) if self._axes == 2 else \
+            Cat(estop, fresh[:2], C(0, 3), fresh[2])
         trip = tripped.any()
         m.d.comb += [self.enter.eq(trip & ~self.alarm), self.halt.eq(trip | self.alarm)]
         with m.If(trip):

@@ -20,8 +20,8 @@ from .alarm import Alarm
 from .homing import connect_homing
 from .tools import connect_tools
 from .feed import OVERRIDE_ONE, FeedGenerator, rate_limit
-from .inputs import INPUTS, Inputs, check_polarity, idle_pins
-from .link import (ARC, CONFIG, DWELL, FEED, IMMEDIATE, LENGTHS, LINE, PROFILE,
+from .inputs import Inputs, check_polarity, idle_pins, inputs_of
+from .link import (ARC, CONFIG, DWELL, FEED, HELIX, IMMEDIATE, LENGTHS, LINE, LINE3, PROFILE,
                    RAPID_PERCENT, STOP, FrameDecoder, FrameEncoder, profile_bytes)
 from .player import check_engine
 from .queue import FrameQueue
@@ -49,6 +49,17 @@ def _arc_cmd(cmd, payload):
             cmd.x1.eq(little(payload, 8, 4, signed_value=True)),
             cmd.y1.eq(little(payload, 12, 4, signed_value=True)),
             cmd.cw.eq(payload[16][0])]
+
+
+def _line3_cmd(cmd, payload):
+    return _line_cmd(cmd, payload) + [cmd.z.eq(little(payload, 8, 4, signed_value=True))]
+
+
+def _helix_cmd(cmd, payload):
+    # n is unsigned 32 in the frame; the engine's field is narrower: a larger n is cut, and
+    # the host never sends one (it is the arc's step count, below 8·2**w + 8).
+    return _arc_cmd(cmd, payload) + [cmd.z.eq(little(payload, 17, 4, signed_value=True)),
+                                      cmd.n.eq(little(payload, 21, 4))]
 
 
 class MotionController(wiring.Component):
@@ -113,10 +124,17 @@ class MotionController(wiring.Component):
     types and lengths, the dispatcher offers each such frame to its row's engine, and the turn
     queue gives that engine the feed in its turn; nothing else names an engine.
 
+    **Three axes.** With a line engine on three axes (``LineEngine(SpatialLineCore(axes=3))``)
+    the controller is a 3-axis one: its arc engine must be a :class:`~kontur.hdl.helix.
+    HelixEngine`, the line and arc rows take LINE3 and HELIX frames (not LINE and ARC), the
+    feed generator knows a step of √3, the step/dir stage, the position and STATUS (24 bytes)
+    have Z, and Z's limit switch is input bit 6.
+
     Parameters
     ----------
     line, arc : :class:`~amaranth.lib.wiring.Component`
-        The engines (``LineEngine`` and ``ArcEngine`` with 32-bit frame coordinates).
+        The engines (``LineEngine`` and ``ArcEngine`` with 32-bit frame coordinates; on three
+        axes a 3-axis ``LineEngine`` and a ``HelixEngine``).
     profile : :class:`~amaranth.lib.wiring.Component` or ``None``
         The equidistant engine (or any engine: its frame layout's bits are the PROFILE
         payload, :func:`~.link.profile_bytes`), or ``None`` (the default) for none.
@@ -144,15 +162,16 @@ class MotionController(wiring.Component):
     -------
     rx : :py:`In(1, init=1)`
         Serial line from the host.
-    inputs : :py:`In(6, init=idle)`
-        The switch pins (:data:`~.inputs.INPUTS`), every one idle by default.
+    inputs : :py:`In(6, init=idle)` (7 on three axes)
+        The switch pins (:data:`~.inputs.INPUTS`, :data:`~.inputs.INPUTS3`), every one idle by
+        default.
     tx : :py:`Out(1, init=1)`
         Serial line to the host.
-    motion : :py:`Out(MotionSignature(2))`
+    motion : :py:`Out(MotionSignature(axes))`
         Step/dir pins, timed for drivers.
     enable : :py:`Out(1)`
         Driver enable (high once out of reset).
-    position : :py:`Out(data.ArrayLayout(signed(32), 2))`
+    position : :py:`Out(data.ArrayLayout(signed(32), axes))`
         Absolute position, steps per axis since reset.
     busy : :py:`Out(1)`
         Frames are queued or running.
@@ -178,8 +197,21 @@ class MotionController(wiring.Component):
         check_engine(arc)
         if profile is not None:
             check_engine(profile)
-        table = [EngineUnit("line", LINE_UNIT, LINE, line, LENGTHS[LINE], _line_cmd),
-                 EngineUnit("arc", ARC_UNIT, ARC, arc, LENGTHS[ARC], _arc_cmd)]
+        axes = line.signature.axes
+        if axes == 3:
+            from ..helix import HelixEngine
+            if not isinstance(arc, HelixEngine):
+                raise TypeError(f"A 3-axis controller's arc engine must be a HelixEngine, "
+                                f"not {arc!r}")
+            table = [EngineUnit("line", LINE_UNIT, LINE3, line, LENGTHS[LINE3], _line3_cmd),
+                     EngineUnit("arc", ARC_UNIT, HELIX, arc, LENGTHS[HELIX], _helix_cmd)]
+        else:
+            if arc.signature.axes != 2:
+                raise TypeError(f"A 2-axis controller's arc engine must be on two axes, "
+                                f"not {arc!r}")
+            table = [EngineUnit("line", LINE_UNIT, LINE, line, LENGTHS[LINE], _line_cmd),
+                     EngineUnit("arc", ARC_UNIT, ARC, arc, LENGTHS[ARC], _arc_cmd)]
+        self._axes = axes
         if profile is not None:
             table.append(EngineUnit("profile", PROFILE_UNIT, PROFILE, profile,
                                     profile_bytes(profile.signature.frame), raw_bits))
@@ -202,7 +234,7 @@ class MotionController(wiring.Component):
             raise TypeError(f"Overrides must be True or False, not {overrides!r}")
         self._overrides = overrides
         self._polarity = check_polarity(polarity)
-        self._idle = idle_pins(self._polarity)
+        self._idle = idle_pins(self._polarity, axes)
         self._table = tuple(table)
         self._profile = profile
         self._queue_frames = queue_frames
@@ -214,15 +246,20 @@ class MotionController(wiring.Component):
         self._lengths = dict(sorted(lengths.items()))       # the queued types, by type
         super().__init__({
             "rx":       In(1, init=1),
-            "inputs":   In(len(INPUTS), init=self._idle),
+            "inputs":   In(len(inputs_of(axes)), init=self._idle),
             "tx":       Out(1, init=1),
-            "motion":   Out(MotionSignature(2)),
+            "motion":   Out(MotionSignature(axes)),
             "enable":   Out(1),
-            "position": Out(data.ArrayLayout(signed(32), 2)),
+            "position": Out(data.ArrayLayout(signed(32), axes)),
             "busy":     Out(1),
             "error":    Out(1),
             "alarm":    Out(1),
         })
+
+    @property
+    def axes(self):
+        """2 or 3 (the line engine's)."""
+        return self._axes
 
     @property
     def queue_frames(self):
@@ -270,14 +307,16 @@ class MotionController(wiring.Component):
         self.decoder = FrameDecoder(queued=self._lengths)
         self.queue = FrameQueue(1 << (self._queue_frames * longest - 1).bit_length())
         self.dispatcher = Dispatcher(self._table, self._lengths, queue_frames=self._queue_frames)
-        self.turns = TurnQueue(self._table)
-        self.replies = Replies()
-        self.encoder = FrameEncoder()
+        axes = self._axes
+        self.turns = TurnQueue(self._table, axes)
+        self.replies = Replies(axes)
+        self.encoder = FrameEncoder(axes)
         self.feed = FeedGenerator(max_rate=rate_limit(self._min_interval),
-                                  overrides=self._overrides)
-        self.stepdir = StepDirStage(dir_setup=self._dir_setup, step_width=self._step_width)
-        self.input_stage = Inputs(filter=self._input_filter, polarity=self._polarity)
-        self.alarm_unit = Alarm()
+                                  overrides=self._overrides, axes=axes)
+        self.stepdir = StepDirStage(axes=axes, dir_setup=self._dir_setup,
+                                    step_width=self._step_width)
+        self.input_stage = Inputs(filter=self._input_filter, polarity=self._polarity, axes=axes)
+        self.alarm_unit = Alarm(axes)
         for name in ("uart_rx", "uart_tx", "decoder", "queue", "dispatcher", "turns", "replies",
                      "encoder", "feed", "stepdir", "input_stage", "alarm_unit"):
             m.submodules[name] = getattr(self, name)
@@ -313,7 +352,7 @@ class MotionController(wiring.Component):
         # Motion: the pins, and the position: the pulses on them.
         wiring.connect(m, turns.motion, self.stepdir.i)
         wiring.connect(m, self.stepdir.o, wiring.flipped(self.motion))
-        for axis in range(2):
+        for axis in range(axes):
             with m.If(self.stepdir.made[axis]):
                 m.d.sync += self.position[axis].eq(
                     self.position[axis] + Mux(self.stepdir.o.dir[axis], -1, 1))
@@ -365,7 +404,8 @@ class MotionController(wiring.Component):
         """Feed hold and the overrides: the HOLD, RESUME and OVERRIDE frames, the feed-hold and
         cycle-start buttons (their presses), to the feed generator."""
         decoder, feed, active = self.decoder, self.feed, self.input_stage.active
-        buttons = Cat(active[INPUTS.index("feed_hold")], active[INPUTS.index("cycle_start")])
+        names = inputs_of(self._axes)
+        buttons = Cat(active[names.index("feed_hold")], active[names.index("cycle_start")])
         before = Signal(2)                          # the buttons' levels a clock before
         m.d.sync += before.eq(buttons)
         pressed = buttons & ~before

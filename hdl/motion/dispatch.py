@@ -88,7 +88,7 @@ class UnitSignature(wiring.Signature):
 
     Members
     -------
-    feed : :py:`Out(FeedSignature())`
+    feed : :py:`Out(FeedSignature(axes))`
     motion : :py:`Out(MotionSignature(axes))`
     status : :py:`Out(stream.Signature(status_layout))`
     abort : :py:`In(1)`
@@ -96,7 +96,7 @@ class UnitSignature(wiring.Signature):
 
     def __init__(self, status_layout, axes=2):
         super().__init__({
-            "feed":   Out(FeedSignature()),
+            "feed":   Out(FeedSignature(axes)),
             "motion": Out(MotionSignature(axes)),
             "status": Out(stream.Signature(status_layout)),
             "abort":  In(1),
@@ -115,13 +115,14 @@ class _UnitPort:
             setattr(self, name, getattr(engine, name))
 
 
-def StatusFields():
-    """The STATUS reply's fields that come from outside the replies: the position, the free
+def StatusFields(axes=2):
+    """The STATUS reply's fields that come from outside the replies: the position (``axes``
+    of them), the free
     queue slots, whether a turn is queued or running; the state, the alarm's cause and the
     inputs active (their bytes, as the reply has them); whether the feed is held at a
     standstill, the feed generator's rate (Q0.24), the feed override (Q2.7) and the rapid
     override (percent)."""
-    return data.StructLayout({"position": data.ArrayLayout(signed(32), 2), "free": 8,
+    return data.StructLayout({"position": data.ArrayLayout(signed(32), axes), "free": 8,
                               "moving": 1, "state": 8, "cause": 8, "inputs": 8, "held": 1,
                               "rate": 24, "feed": 9, "rapid": 8})
 
@@ -285,6 +286,9 @@ class TurnQueue(wiring.Component):
     ----------
     units : :class:`list` of :class:`EngineUnit`
         The engine table.
+    axes : :class:`int`
+        The controller's axes, 2 (default) or 3: a 2-axis engine's steps on three axes leave
+        Z still (its diagonal, one bit, means the same there: √2).
 
     Members
     -------
@@ -296,18 +300,18 @@ class TurnQueue(wiring.Component):
         Stop now: to every engine, and the end of a dwell.
     outcome : :py:`Out(stream.Signature(Outcome))`
         The outcome of each turn, in order.
-    feed : :py:`Out(FeedSignature())`
+    feed : :py:`Out(FeedSignature(axes))`
         To the feed generator: the engine whose turn it is.
     ramp : :py:`Out(RampSignature())`
         To the feed generator (:class:`~.feed.RampSignature`): the running move's profile,
         and its start.
-    motion : :py:`Out(MotionSignature(2))`
+    motion : :py:`Out(MotionSignature(axes))`
         The engines' steps.
     busy : :py:`Out(1)`
         A turn is queued or running.
     """
 
-    def __init__(self, units):
+    def __init__(self, units, axes=2):
         self._units = list(units)
         highest = max([DWELL_UNIT] + [unit.unit for unit in self._units])
         self._layout = Turn(highest)
@@ -319,9 +323,9 @@ class TurnQueue(wiring.Component):
                 for unit in self._units})),
             "abort":   In(1),
             "outcome": Out(stream.Signature(Outcome)),
-            "feed":    Out(FeedSignature()),
+            "feed":    Out(FeedSignature(axes)),
             "ramp":    Out(RampSignature()),
-            "motion":  Out(MotionSignature(2)),
+            "motion":  Out(MotionSignature(axes)),
             "busy":    Out(1),
         })
 
@@ -424,21 +428,22 @@ class Replies(wiring.Component):
         The decoder's error codes.
     query : :py:`In(1)`
         A checked QUERY frame ended in this clock.
-    status : :py:`In(StatusFields())`
-        What a STATUS reply carries (but the error flag, :py:`error_sent`).
-    o : :py:`Out(stream.Signature(FrameEncoder.Reply()))`
+    status : :py:`In(StatusFields(axes))`
+        What a STATUS reply carries (but the error flag, :py:`error_sent`); on three axes
+        the position has Z too (STATUS is 24 bytes).
+    o : :py:`Out(stream.Signature(FrameEncoder.Reply(axes)))`
         To the frame encoder.
     error_sent : :py:`Out(1)`
         An ``ERROR`` has been sent since reset (sticky).
     """
 
-    def __init__(self):
+    def __init__(self, axes=2):
         super().__init__({
             "outcome":    In(stream.Signature(Outcome)),
             "error":      In(stream.Signature(8)),
             "query":      In(1),
-            "status":     In(StatusFields()),
-            "o":          Out(stream.Signature(FrameEncoder.Reply())),
+            "status":     In(StatusFields(axes)),
+            "o":          Out(stream.Signature(FrameEncoder.Reply(axes))),
             "error_sent": Out(1),
         })
 

@@ -6,7 +6,7 @@ from amaranth.lib.wiring import In, Out
 
 from ..elements._checks import check_width
 from ..engine import FeedSignature
-from ..spec import ONE, SQRT2          # one axial and one diagonal step (Q2.24)
+from ..spec import ONE, SQRT2, STEP_LENGTHS   # the steps' lengths (Q2.24)
 
 __all__ = ["FeedDivider", "FeedGenerator", "Profile", "RampSignature", "ONE", "SQRT2",
            "rate_limit", "override", "OVERRIDE_ONE", "LOOKAHEAD_MARGIN"]
@@ -162,10 +162,13 @@ class FeedGenerator(wiring.Component):
     overrides : :class:`bool`
         With ``False`` the override inputs are ignored (always 100 %) and their multiplier
         and look-ahead are not built; hold works the same (for a device too small for them).
+    axes : :class:`int`
+        2 (default) or 3: the engines' axes; on three a step is 1, √2 or √3 long
+        (:py:`feed.diagonal` 0, 1, 2; :data:`~kontur.hdl.spec.STEP_LENGTHS`).
 
     Members
     -------
-    feed : :py:`In(FeedSignature())`
+    feed : :py:`In(FeedSignature(axes))`
         To the engine.
     ramp : :py:`In(RampSignature())`
         The running move's feed (:py:`ramp.profile`), and its start (:py:`ramp.start`).
@@ -196,7 +199,10 @@ class FeedGenerator(wiring.Component):
         :class:`bool`.
     """
 
-    def __init__(self, *, max_rate=(1 << 24) - 1, overrides=True):
+    def __init__(self, *, max_rate=(1 << 24) - 1, overrides=True, axes=2):
+        if axes not in (2, 3):
+            raise ValueError(f"Axes must be 2 or 3, not {axes!r}")
+        self._axes = axes
         check_width("Highest rate", max_rate)
         if max_rate >= 1 << 24:
             raise TypeError(f"Highest rate must be below 2**24 (one step a clock), "
@@ -206,7 +212,7 @@ class FeedGenerator(wiring.Component):
         self._max_rate = max_rate
         self._overrides = overrides
         super().__init__({
-            "feed":           In(FeedSignature()),
+            "feed":           In(FeedSignature(axes)),
             "ramp":           In(RampSignature()),
             "accel":          In(32),
             "hold":           In(1),
@@ -353,8 +359,9 @@ class FeedGenerator(wiring.Component):
 
     def _steps(self, m, rate, steps, stopped):
         """The distance accumulator, the permissions and the move's step count."""
-        distance = Signal(26)                   # Q2.24: below √2 + 1
-        length = Mux(self.feed.diagonal, SQRT2, ONE)
+        distance = Signal(26)                   # Q2.24: below √3 + 1
+        length = Mux(self.feed.diagonal, SQRT2, ONE) if self._axes == 2 else \
+            Array(C(n, 26) for n in STEP_LENGTHS)[self.feed.diagonal]   # 1, √2, √3
         tick = Signal()
         step = Signal()
         grown = distance + rate[16:]

@@ -21,11 +21,20 @@ from amaranth.lib.wiring import In, Out
 
 from ..elements._checks import check_width
 
-__all__ = ["INPUTS", "POLARITIES", "DEFAULT_POLARITY", "LATENCY", "check_polarity", "idle_pins", "pin_levels",
+__all__ = ["INPUTS", "INPUTS3", "inputs_of", "POLARITIES", "DEFAULT_POLARITY", "LATENCY", "check_polarity", "idle_pins", "pin_levels",
            "InputFilter", "Inputs"]
 
 #: The inputs, bit by bit.
 INPUTS = ("estop", "limit_x", "limit_y", "probe", "cycle_start", "feed_hold")
+
+#: A 3-axis controller's inputs: Z's limit switch is bit 6 (normally closed: its polarity is
+#: not in the machine file yet).
+INPUTS3 = INPUTS + ("limit_z",)
+
+
+def inputs_of(axes):
+    """The inputs of a controller on ``axes`` axes (2 or 3), bit by bit."""
+    return INPUTS3 if axes == 3 else INPUTS
 
 #: The two kinds of switch.
 POLARITIES = ("nc", "no")
@@ -51,21 +60,21 @@ def check_polarity(polarity):
     return table
 
 
-def pin_levels(active, polarity=None):
+def pin_levels(active, polarity=None, axes=2):
     """The pin word (bit ``n`` for ``INPUTS[n]``) with the inputs named in ``active`` active
     and the others idle, for switches of ``polarity`` (a dict; defaults
     :data:`DEFAULT_POLARITY`)."""
-    table = check_polarity(polarity)
+    table = check_polarity(polarity) | {"limit_z": "nc"}
     word = 0
-    for bit, name in enumerate(INPUTS):
+    for bit, name in enumerate(inputs_of(axes)):
         high = (name in active) == (table[name] == "nc")
         word |= int(high) << bit
     return word
 
 
-def idle_pins(polarity=None):
+def idle_pins(polarity=None, axes=2):
     """The pin word with every input idle."""
-    return pin_levels((), polarity)
+    return pin_levels((), polarity, axes)
 
 
 class InputFilter(wiring.Component):
@@ -110,7 +119,8 @@ class InputFilter(wiring.Component):
 
 
 class Inputs(wiring.Component):
-    """The six inputs (:data:`INPUTS`): pins in, active levels out.
+    """The six inputs (:data:`INPUTS`; seven on three axes, :data:`INPUTS3`): pins in, active
+    levels out.
 
     Parameters
     ----------
@@ -118,6 +128,8 @@ class Inputs(wiring.Component):
         The glitch filter, clocks (see :class:`InputFilter`).
     polarity : :class:`dict`
         ``"nc"`` or ``"no"`` for any input (the others at :data:`DEFAULT_POLARITY`).
+    axes : :class:`int`
+        2 (default) or 3: with 3, Z's limit (bit 6, normally closed).
 
     Members
     -------
@@ -127,13 +139,15 @@ class Inputs(wiring.Component):
         The inputs active (pressed, tripped), filtered.
     """
 
-    def __init__(self, *, filter=1, polarity=None):
+    def __init__(self, *, filter=1, polarity=None, axes=2):
         check_width("Input filter", filter)
         self._filter = filter
         self._polarity = check_polarity(polarity)
-        self._idle = idle_pins(self._polarity)
-        super().__init__({"pins": In(len(INPUTS), init=self._idle),
-                          "active": Out(len(INPUTS))})
+        self._axes = axes
+        self._idle = idle_pins(self._polarity, axes)
+        names = inputs_of(axes)
+        super().__init__({"pins": In(len(names), init=self._idle),
+                          "active": Out(len(names))})
 
     @property
     def filter(self):
@@ -150,7 +164,7 @@ class Inputs(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        for bit, name in enumerate(INPUTS):
+        for bit, name in enumerate(inputs_of(self._axes)):
             idle = (self._idle >> bit) & 1
             m.submodules[name] = stage = InputFilter(self._filter, init=idle)
             m.d.comb += [stage.i.eq(self.pins[bit]),

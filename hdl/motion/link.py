@@ -25,6 +25,12 @@ FEED      0x13  cruise, exit: uint24 step rates (steps a clock, Q0.24);    yes
 STOP      0x14  (none): the end of a program                               yes
 CONFIG    0x15  accel: uint32, the rate's change a clock (Q0.40); takes    yes
                 effect when dispatched: send it while nothing moves
+LINE3     0x18  x, y, z: int32: a relative move on three axes (only a      yes
+                3-axis controller knows the type: ERROR 2 on others)
+HELIX     0x19  x0, y0, x1, y1: int32, cw: uint8 (ARC's fields); z:       yes
+                int32, the Z move; n: uint32, the arc's step count (Z's
+                steps are spread over the arc's n steps; |z| > n is
+                REFUSED); only on a 3-axis controller
 PROFILE   0x16  one frame of the controller's equidistant engine (cutter    yes
                 compensation, :class:`kontur.hdl.equidistant.EquidistantEngine`):
                 the bits of its ``Frame(formats)`` layout, least
@@ -53,15 +59,17 @@ frame     type  payload
 ========  ====  ==========================================================
 OUTCOME   0x80  number: uint8 (the queued frame's, counted from 0 after
                 reset); outcome: uint8 (0 done, 1 refused, 2 aborted)
-STATUS    0x81  x, y: int32 absolute position (the steps made on the pins);
+STATUS    0x81  x, y: int32 absolute position (the steps made on the pins;
+                on a 3-axis controller x, y, z: 24 bytes in all);
                 free: uint8 queue slots; flags: uint8 (bit 0 moving, bit 1
                 an error was reported, bit 2 at a standstill under feed
                 hold); state: uint8 (:data:`STATES`);
                 alarm: uint8, the inputs that tripped since ALARM began
-                (bit 0 e-stop, 1 limit X, 2 limit Y; 0 out of ALARM);
+                (bit 0 e-stop, 1 limit X, 2 limit Y, 6 limit Z; 0 out of
+                ALARM);
                 inputs: uint8, the inputs active now, filtered (bit 0
                 e-stop, 1 limit X, 2 limit Y, 3 probe, 4 cycle start, 5
-                feed hold); rate: uint32, the feed generator's rate
+                feed hold, 6 limit Z on 3 axes); rate: uint32, the feed generator's rate
                 now (steps a clock, Q0.24); feed: uint16, the feed
                 override (Q2.7); rapid: uint8, the rapid override (%)
 ERROR     0x82  code: uint8 (:data:`ERRORS`); a frame was dropped, never executed
@@ -91,7 +99,7 @@ from amaranth.lib.wiring import In, Out
 
 from .queue import QueueWriteSignature
 
-__all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
+__all__ = ["SYNC", "LINE", "ARC", "LINE3", "HELIX", "STATUS_LENGTHS", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
            "ABORT", "UNLOCK", "HOLD", "RESUME", "OVERRIDE", "IMMEDIATE", "RAPID_PERCENT",
            "FEED_OVERRIDE_RANGE", "OUTCOME", "STATUS", "ERROR", "STATES",
            "QUEUED", "LENGTHS", "ERRORS", "PAYLOAD_BYTES",
@@ -99,6 +107,8 @@ __all__ = ["SYNC", "LINE", "ARC", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", 
 
 SYNC = 0xA5
 LINE, ARC, DWELL, FEED, STOP, CONFIG, PROFILE = 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16
+#: The third axis's moves (issue 28): known only to a 3-axis controller (its engine table's).
+LINE3, HELIX = 0x18, 0x19
 QUERY, ABORT, UNLOCK, HOLD, RESUME, OVERRIDE = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
 OUTCOME, STATUS, ERROR = 0x80, 0x81, 0x82
 
@@ -117,7 +127,11 @@ FEED_OVERRIDE_RANGE = (13, 256)
 #: Payload length of every frame type of fixed length, both directions (PROFILE's is the
 #: controller's: :func:`host_lengths`).
 LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 10, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
-           UNLOCK: 0, HOLD: 0, RESUME: 0, OVERRIDE: 3, OUTCOME: 2, STATUS: 20, ERROR: 1}
+           UNLOCK: 0, HOLD: 0, RESUME: 0, OVERRIDE: 3, OUTCOME: 2, STATUS: 20, ERROR: 1,
+           LINE3: 12, HELIX: 25}
+
+#: STATUS's payload length by the controller's axes (a position of 4 bytes per axis).
+STATUS_LENGTHS = {2: 20, 3: 24}
 
 #: STATUS's state codes (:class:`kontur.hdl.motion.alarm.State`).
 STATES = ("IDLE", "RUN", "HOLD", "HOMING", "ALARM")
@@ -373,31 +387,38 @@ class FrameDecoder(wiring.Component):
 class FrameEncoder(wiring.Component):
     """Replies out as frames: one reply in, its bytes (sync, type, length, payload, CRC) out.
 
+    ``axes`` (2 or 3) sets STATUS's length (:data:`STATUS_LENGTHS`).
+
     Members
     -------
-    i : :py:`In(stream.Signature(Reply()))`
+    i : :py:`In(stream.Signature(Reply(axes)))`
         A reply: its type and payload bytes (only the type's length of them is sent).
     o : :py:`Out(stream.Signature(8))`
         The bytes, one frame after another.
     """
 
     @staticmethod
-    def Reply():
+    def Reply(axes=2):
         return data.StructLayout({"kind": 8, "payload": data.ArrayLayout(
-            8, max(LENGTHS[kind] for kind in (OUTCOME, STATUS, ERROR)))})
+            8, max(LENGTHS[OUTCOME], STATUS_LENGTHS[axes], LENGTHS[ERROR]))})
 
-    def __init__(self):
-        super().__init__({"i": In(stream.Signature(self.Reply())), "o": Out(stream.Signature(8))})
+    def __init__(self, axes=2):
+        if axes not in STATUS_LENGTHS:
+            raise ValueError(f"Axes must be 2 or 3, not {axes!r}")
+        self._axes = axes
+        super().__init__({"i": In(stream.Signature(self.Reply(axes))),
+                          "o": Out(stream.Signature(8))})
 
     def elaborate(self, platform):
         m = Module()
-        reply = Signal(self.Reply())
+        reply = Signal(self.Reply(self._axes))
         length = Signal(8)
         index = Signal(range(len(reply.payload) + 1))
         crc = Signal(16)
         sent = self.o.valid & self.o.ready
         crc_next = crc16_byte(m, crc, self.o.payload)
-        lengths = {kind: LENGTHS[kind] for kind in (OUTCOME, STATUS, ERROR)}
+        lengths = {OUTCOME: LENGTHS[OUTCOME], STATUS: STATUS_LENGTHS[self._axes],
+                   ERROR: LENGTHS[ERROR]}
         length_of = Signal(8)
         with m.Switch(self.i.payload.kind):
             for kind, count in lengths.items():

@@ -16,11 +16,12 @@ import struct
 from dataclasses import dataclass
 
 from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, ERRORS, FEED,
-                                    FEED_OVERRIDE_RANGE, HOLD, LENGTHS, LINE, OUTCOME, OVERRIDE,
-                                    PROFILE, QUERY, RAPID_PERCENT, RESUME, STATES, STATUS, STOP,
-                                    SYNC, UNLOCK, host_lengths, profile_bytes)
+                                    FEED_OVERRIDE_RANGE, HELIX, HOLD, LENGTHS, LINE, LINE3,
+                                    OUTCOME, OVERRIDE, PROFILE, QUERY, RAPID_PERCENT, RESUME,
+                                    STATES, STATUS, STATUS_LENGTHS, STOP, SYNC, UNLOCK,
+                                    host_lengths, profile_bytes)
 
-__all__ = ["frame", "line", "arc", "dwell", "feed", "stop", "config", "profile",
+__all__ = ["frame", "line", "arc", "line3", "helix", "dwell", "parse_reply", "feed", "stop", "config", "profile",
            "profile_layout", "query", "abort", "unlock", "hold", "resume", "override",
            "feed_factor", "FEED_PERCENT", "Reply", "ReplyParser", "CommandParser", "crc"]
 
@@ -32,12 +33,13 @@ def crc(body):
 
 def frame(kind, payload=b""):
     """The bytes of a frame of type ``kind`` with ``payload`` (a PROFILE frame's length is its
-    engine's: any from 1 to 255 bytes)."""
+    engine's: any from 1 to 255 bytes; a STATUS's 20 or 24 bytes, by the controller's axes)."""
     payload = bytes(payload)
     if kind == PROFILE:
         if not 1 <= len(payload) <= 255:
             raise ValueError(f"A PROFILE frame has 1 to 255 payload bytes, not {len(payload)}")
-    elif LENGTHS.get(kind) != len(payload):
+    elif LENGTHS.get(kind) != len(payload) and not (
+            kind == STATUS and len(payload) in STATUS_LENGTHS.values()):   # 2 or 3 axes
         raise ValueError(f"A frame of type {kind:#04x} has {LENGTHS.get(kind)} payload bytes, "
                          f"not {len(payload)}")
     body = bytes([kind, len(payload)]) + payload
@@ -50,6 +52,17 @@ def line(x, y):
 
 def arc(x0, y0, x1, y1, cw):
     return frame(ARC, struct.pack("<iiiiB", x0, y0, x1, y1, int(bool(cw))))
+
+
+def line3(x, y, z):
+    """A LINE3 frame: a relative move on three axes (a 3-axis controller's)."""
+    return frame(LINE3, struct.pack("<iii", x, y, z))
+
+
+def helix(x0, y0, x1, y1, cw, z, n):
+    """A HELIX frame: an ARC's fields, the Z move ``z`` (steps) and the arc's step count ``n``
+    over which the Z steps are spread (a 3-axis controller's; ``|z| > n`` is refused)."""
+    return frame(HELIX, struct.pack("<iiiiBiI", x0, y0, x1, y1, int(bool(cw)), z, n))
 
 
 def dwell(clocks):
@@ -157,8 +170,9 @@ def override(feed=100, rapid=100):
     return frame(OVERRIDE, feed_factor(feed).to_bytes(2, "little") + bytes([rapid]))
 
 
-#: The bits of STATUS's inputs byte and alarm byte (:data:`kontur.hdl.motion.inputs.INPUTS`).
-INPUT_NAMES = ("estop", "limit_x", "limit_y", "probe", "cycle_start", "feed_hold")
+#: The bits of STATUS's inputs byte and alarm byte (:data:`kontur.hdl.motion.inputs.INPUTS3`:
+#: bit 6 is Z's limit, on a 3-axis controller).
+INPUT_NAMES = ("estop", "limit_x", "limit_y", "probe", "cycle_start", "feed_hold", "limit_z")
 
 
 def input_names(bits):
@@ -169,9 +183,22 @@ def input_names(bits):
 @dataclass(frozen=True)
 class Reply:
     """A reply from the machine: ``kind`` (OUTCOME, STATUS, ERROR) and its fields (a STATUS's:
-    ``x, y, free, flags, state, alarm, inputs, rate, feed, rapid``)."""
+    ``x, y, free, flags, state, alarm, inputs, rate, feed, rapid``); a 3-axis controller's
+    STATUS (24 bytes) has ``z`` too, apart, so the fields are the same on both."""
     kind: int
     fields: tuple
+    z: int = None
+
+    @property
+    def position(self):
+        """A STATUS's position: ``(x, y)``, or ``(x, y, z)`` from a 3-axis controller."""
+        return tuple(self.fields[:2]) + (() if self.z is None else (self.z,))
+
+    def payload(self):
+        """The reply's payload bytes (the inverse of :func:`parse_reply`)."""
+        if self.kind == STATUS and self.z is not None:
+            return struct.pack(STATUS3_FORMAT, *self.fields[:2], self.z, *self.fields[2:])
+        return struct.pack(ReplyParser.FORMATS[self.kind], *self.fields)
 
     @property
     def state(self):
@@ -186,7 +213,8 @@ class Reply:
             return f"frame {number}: {('done', 'refused', 'aborted')[outcome]}"
         if self.kind == STATUS:
             x, y, free, flags, _, alarm, inputs, rate, feed, rapid = self.fields
-            text = f"{self.state} at ({x}, {y}), {free} queue slots free, flags {flags:#04x}"
+            at = f"({x}, {y})" if self.z is None else f"({x}, {y}, {self.z})"
+            text = f"{self.state} at {at}, {free} queue slots free, flags {flags:#04x}"
             text += f", rate {rate / (1 << 24):.6f} steps/clock, feed {feed * 100 / 128:.0f} %" \
                     f", rapid {rapid} %"
             if alarm:
@@ -195,6 +223,18 @@ class Reply:
                 text += f", active: {', '.join(input_names(inputs))}"
             return text
         return f"error: {ERRORS.get(self.fields[0], self.fields[0])}"
+
+
+#: A 3-axis controller's STATUS: ``x, y, z`` then the rest as on two axes.
+STATUS3_FORMAT = "<iiiBBBBBIHB"
+
+
+def parse_reply(kind, payload):
+    """The :class:`Reply` of type ``kind`` with ``payload`` (bytes; a STATUS of 20 or 24)."""
+    if kind == STATUS and len(payload) == STATUS_LENGTHS[3]:
+        x, y, z, *rest = struct.unpack(STATUS3_FORMAT, payload)
+        return Reply(kind, (x, y, *rest), z)
+    return Reply(kind, struct.unpack(ReplyParser.FORMATS[kind], payload))
 
 
 class ReplyParser:
@@ -225,7 +265,8 @@ class ReplyParser:
             if len(self.buffer) < 3:
                 return replies
             kind, length = self.buffer[1], self.buffer[2]
-            if kind not in self.FORMATS or LENGTHS[kind] != length:
+            if kind not in self.FORMATS or (LENGTHS[kind] != length and not (
+                    kind == STATUS and length in STATUS_LENGTHS.values())):
                 self.dropped += 1
                 del self.buffer[:1]
                 continue
@@ -237,7 +278,7 @@ class ReplyParser:
                 self.dropped += 1
                 del self.buffer[:1]
                 continue
-            replies.append(Reply(kind, struct.unpack(self.FORMATS[kind], body[2:])))
+            replies.append(parse_reply(kind, body[2:]))
             del self.buffer[:5 + length]
 
 
@@ -251,11 +292,15 @@ class CommandParser:
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
     the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
-    and PROFILE is unknown), as :class:`~kontur.hdl.motion.link.FrameDecoder` takes it.
+    and PROFILE is unknown), as :class:`~kontur.hdl.motion.link.FrameDecoder` takes it;
+    ``axes=3`` a 3-axis controller's (LINE3 and HELIX known, LINE and ARC not).
     """
 
-    def __init__(self, *, profile=None):
+    def __init__(self, *, profile=None, axes=2):
         self.lengths = host_lengths(profile)
+        if axes == 3:
+            del self.lengths[LINE], self.lengths[ARC]
+            self.lengths |= {LINE3: LENGTHS[LINE3], HELIX: LENGTHS[HELIX]}
         self.state = "hunt"
         self.kind = self.length = 0
         self.body = bytearray()

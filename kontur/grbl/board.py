@@ -32,7 +32,7 @@ import types
 from kontur import registry
 from kontur.grbl.motion import Motion
 from kontur.grbl.protocol import PLANNER_BLOCKS
-from kontur.planner import frames as program_frames, plan
+from kontur.planner import frames as program_frames, lift, plan
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
 __all__ = ["PortMotion", "reach", "SETTLE", "POLL"]
@@ -97,7 +97,9 @@ class PortMotion(Motion):
         stops the board (``ABORT``) and is ``ALARM:9``. Raises
         :exc:`kontur.machine.MachineError` for a machine file homing cannot use."""
         from kontur.homing import homing_job
-        job = homing_job(self.machine, self.position)
+        # (a 3-axis board's cycle: Z is not homed, and a served session never moves it)
+        job = homing_job(self.machine, tuple(self.position)
+                         + (0,) * (registry.board(self.board).axes - 2))
         if self.failed is not None:
             return
         status = self.feeder.status
@@ -118,7 +120,7 @@ class PortMotion(Motion):
             self.say(f"[MSG:{reason}]")
             self.alarm(9)
         elif not feeder.in_flight:
-            self.position = feeder.homing.end
+            self.position = tuple(feeder.homing.end[:2])
             feeder.homing = None
 
     @property
@@ -207,7 +209,10 @@ class PortMotion(Motion):
         items = plan(window, self.machine)[len(self.context):]
         sent, self.pending = self.pending[:count], self.pending[count:]
         batch = [segment for segment, _ in sent]
-        frames, lines = program_frames(batch, items[:count], self.machine)
+        # A 3-axis board takes LINE3 and HELIX frames: the served moves keep Z (the session
+        # refuses a Z move), so they go as such with no Z move (planner.lift).
+        frames, lines = program_frames(lift(batch) if registry.board(self.board).axes == 3
+                                       else batch, items[:count], self.machine)
         times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
                                                  seconds=0.0), len(frames))
         first = 0 if not self.running else 1

@@ -1,6 +1,6 @@
 """Models of the motion side (``hdl/motion/``): the feed generator, clock by clock."""
 
-from kontur.hdl.spec import ONE, SQRT2
+from kontur.hdl.spec import STEP_LENGTHS
 
 __all__ = ["FeedGeneratorModel", "INPUTS", "STATES", "InputFilterModel", "StepDirModel",
            "AlarmModel", "EVENTS", "FRAME_EVENTS", "event_kind", "safety_run"]
@@ -109,7 +109,7 @@ class FeedGeneratorModel:
 
         # The distance and the permission (from this clock's rate).
         stopped = self.held = bool(hold and self.zero)
-        length = SQRT2 if diagonal else ONE
+        length = STEP_LENGTHS[diagonal]           # 1, √2, √3 (diagonal 2: on three axes)
         tick = int(not stopped and self.distance >= length)
         step = bool(tick and due)
         grown = self.distance + (self.rate >> 16)
@@ -225,7 +225,11 @@ class AlarmModel:
 EVENTS = {"estop": ("estop", True), "estop-release": ("estop", False),
           "limit-x": ("limit_x", True), "limit-x-release": ("limit_x", False),
           "limit-y": ("limit_y", True), "limit-y-release": ("limit_y", False),
+          "limit-z": ("limit_z", True), "limit-z-release": ("limit_z", False),
           "unlock": (None, None)}
+
+#: The events of a 3-axis controller's Z limit (input bit 6): refused on a 2-axis board.
+Z_EVENTS = ("limit-z", "limit-z-release")
 
 #: The events that are the host's frames besides UNLOCK: feed hold and resume (HOLD,
 #: RESUME), and the overrides (OVERRIDE): ``feed=PCT`` (10 to 200 %) and ``rapid=PCT`` (100,
@@ -329,4 +333,4 @@ def safety_run(times, events, *, braking=None):
         shifted.append(t + sum(d for plan, d in delays if t > plan))
     return {"steps": limit, "times": shifted, "stopped": stopped,
             "state": "ALARM" if alarm else "HOLD" if held is not None else "IDLE",
-            "alarm": [name for name in INPUTS if name in cause], "events": taken}
+            "alarm": [name for name in INPUTS + ("limit_z",) if name in cause], "events": taken}

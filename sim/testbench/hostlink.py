@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 from kontur.hdl.motion.link import ABORT, ERROR, OUTCOME, QUERY, UNLOCK
 
-from kontur.hdl.motion.protocol import Reply, ReplyParser, unlock
+from kontur.hdl.motion.protocol import Reply, ReplyParser, parse_reply, unlock
 from kontur.sim.processes import SimulatorError
 
 __all__ = ["Run", "HostLink", "parse_events", "format_events", "steps_of", "run_amaranth",
@@ -64,8 +64,7 @@ def parse_events(text, applied=None):
         elif kind == "R":
             reply_kind = int(fields[1], 16)
             payload = bytes(int(f, 16) for f in fields[2:])
-            replies.append((int(fields[0]), Reply(reply_kind, struct.unpack(
-                ReplyParser.FORMATS[reply_kind], payload))))
+            replies.append((int(fields[0]), parse_reply(reply_kind, payload)))
         elif kind == "E":
             clocks = int(fields[0])
     return steps, replies, clocks
@@ -91,8 +90,7 @@ def _event_text(event):
 def format_events(run):
     """The text of an events file for ``run`` (the inverse of :func:`parse_events`)."""
     lines = [f"S {clock} {step} {direction}" for clock, step, direction in run.steps]
-    lines += [f"R {clock} {reply.kind:02x}" + "".join(
-                  f" {b:02x}" for b in struct.pack(ReplyParser.FORMATS[reply.kind], *reply.fields))
+    lines += [f"R {clock} {reply.kind:02x}" + "".join(f" {b:02x}" for b in reply.payload())
               for clock, reply in run.replies]
     lines += [f"A {clock} {_event_text(event)}" for clock, event in run.applied]
     lines.append(f"E {run.clocks}")
@@ -121,13 +119,13 @@ def read_schedule(path):
     return schedule, idle
 
 
-def steps_of(run):
+def steps_of(run, axes=2):
     """The ``(dx, dy)`` of every step of a run, in order (a step pin's rising edge, its
-    direction pin: 1 is negative)."""
+    direction pin: 1 is negative); ``(dx, dy, dz)`` with ``axes=3``."""
     moves = []
     for _, rising, direction in run.steps:
-        moves.append(((-1 if direction & 1 else 1) if rising & 1 else 0,
-                      (-1 if direction & 2 else 1) if rising & 2 else 0))
+        moves.append(tuple((-1 if direction >> axis & 1 else 1) if rising >> axis & 1 else 0
+                           for axis in range(axes)))
     return moves
 
 
