@@ -164,7 +164,7 @@ def test_send_streams_the_tool_frames():
     job = prepare(PLASMA, machine=ULX3S, board="ulx3s", name="plasma")
     assert unhonoured(job) is None
     frames, _ = job.frames()
-    port = FakeMachine(ULX3S.queue_frames)
+    port = FakeMachine(ULX3S.queue_frames, axes=3)
     port.parser.lengths[TOOL] = 4
     assert send(job, port) == tuple(job.end)
     assert port.kinds == [frame[1] for frame in frames]
