@@ -28,6 +28,7 @@ from kontur.gcode import read_tool_table
 
 from .test_gcode_rs274 import CORPUS, TABLE, Z, canonical, _text
 from .conftest import selected_simulators
+from .test_zaxis_run import _along, _to_segment
 
 BOARD = "ulx3s"
 SPM = 80
@@ -85,30 +86,6 @@ def _to_arc(p, a, b, centre, cw):
     return min(math.hypot(p[0] - q[0], p[1] - q[1]) for q in (a, b))
 
 
-def _to_space(p, a, b):
-    """Distance (steps) from ``p`` to the segment ``a``-``b`` in space."""
-    d = [q - r for q, r in zip(b, a)]
-    length = sum(c * c for c in d)
-    t = 0.0 if length == 0 else max(0.0, min(1.0, sum((q - r) * c for q, r, c in
-                                                       zip(p, a, d)) / length))
-    return math.dist(p, [r + t * c for r, c in zip(a, d)])
-
-
-def _share(p, a, b, centre, cw, hint):
-    """The share of the arc's sweep (``a`` to ``b`` about ``centre``) the angle of ``p`` has
-    reached (of a full turn's two angles at its start, the one nearer ``hint``)."""
-    cx, cy = centre
-    sign = -1 if cw else 1
-
-    def angle(q):
-        return math.atan2(q[1] - cy, q[0] - cx)
-    sweep = (sign * (angle(b) - angle(a))) % (2 * math.pi) or 2 * math.pi
-    along = (sign * (angle(p) - angle(a))) % (2 * math.pi)
-    if abs(along + 2 * math.pi - hint * sweep) < abs(along - hint * sweep):
-        along += 2 * math.pi
-    return min(along / sweep, 1.0)
-
-
 def _check_path(path, job, theirs):
     """Each segment's step points against the rs274 move its program move is (in space on
     the ULX3S's three axes)."""
@@ -138,8 +115,8 @@ def _check_path(path, job, theirs):
                 off = _to_arc(position[:2], a[:2], b[:2], centre, ref["cw"])
                 bound = ARC_BOUND
                 if helix:
-                    z_ref = a[2] + (b[2] - a[2]) * _share(position, a, b, centre, ref["cw"],
-                                                          k / len(segment.steps))
+                    _, share = _along(position, a, b, centre, ref["cw"], k / len(segment.steps))
+                    z_ref = a[2] + (b[2] - a[2]) * share
                     z_bound = 1 + abs(segment.payload["z"]) * (0.0865 + 1 / len(segment.steps))
                     assert abs(position[2] - z_ref) <= z_bound, \
                         (f"{path.name}: line {segment.line}: step point {position}: Z "
@@ -147,7 +124,7 @@ def _check_path(path, job, theirs):
             else:
                 off, bound = _to_line(position[:2], a[:2], b[:2]), LINE_BOUND
                 if axes == 3:
-                    assert _to_space(position, a, b) <= LINE_3D_BOUND, \
+                    assert _to_segment(position, a, b) <= LINE_3D_BOUND, \
                         f"{path.name}: line {segment.line}: step point {position}"
             worst = max(worst, off)
             assert off <= bound, (f"{path.name}: line {segment.line}: step point {position} "
