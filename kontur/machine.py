@@ -21,6 +21,7 @@ limit_y = "nc"
 probe = "no"
 cycle_start = "no"
 feed_hold = "nc"
+limit_z = "nc"             # Z's limit, on a board with three axes (the ULX3S)
 g28_position = [0, 0]      # mm, machine coordinates: where G28 goes (X Y, or X Y Z)
 g30_position = [0, 0]      # mm: where G30 goes (LinuxCNC's parameters 5161-5163, 5181-5183)
 travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no default: unchecked)
@@ -75,7 +76,7 @@ __all__ = ["Machine", "MachineError", "SWITCHES"]
 #: The switch inputs' keys, and their default kinds (as :data:`kontur.hdl.motion.inputs.
 #: DEFAULT_POLARITY`).
 SWITCHES = {"estop": "nc", "limit_x": "nc", "limit_y": "nc", "probe": "no",
-            "cycle_start": "no", "feed_hold": "nc"}
+            "cycle_start": "no", "feed_hold": "nc", "limit_z": "nc"}
 
 #: The longest input filter, µs.
 MAX_INPUT_FILTER_US = 10_000
@@ -106,6 +107,7 @@ class Machine:
     probe: str = "no"
     cycle_start: str = "no"
     feed_hold: str = "nc"
+    limit_z: str = "nc"               # Z's limit (a board with three axes)
     g28_position: tuple = (0.0, 0.0)  # mm, machine coordinates: G28's (X, Y) or (X, Y, Z)
     g30_position: tuple = (0.0, 0.0)  # mm: G30's
     travel_x: tuple = None            # mm, machine coordinates: (min, max), None: unchecked

@@ -131,10 +131,10 @@ def controller3(**kwargs):
                             clock_hz=CLOCK, baud=BAUD, dir_setup=1, step_width=2, **kwargs)
 
 
-def run3(frames, *, clocks, depth=8, name, schedule=()):
+def run3(frames, *, clocks, depth=8, name, schedule=(), polarity=None):
     """:func:`run` on :func:`controller3`: ``(clock, dx, dy, dz)`` for every step pulse."""
     trace = []
-    result = run_amaranth(controller3(queue_frames=depth), frames, divisor=BIT, window=depth,
+    result = run_amaranth(controller3(queue_frames=depth, polarity=polarity), frames, divisor=BIT, window=depth,
                           max_clocks=clocks, levels=trace, vcd=waves_path(name),
                           schedule=schedule)
     moves = [(clock, *step) for (clock, _, _), step in zip(result.steps, steps_of(result, 3))]
@@ -186,19 +186,26 @@ class ThreeAxesTestCase(unittest.TestCase):
             self.assertEqual(len(set(ways[c - 1:c + 2])), 1)
 
     def test_z_limit_trips(self):
-        # Z's limit switch (input bit 6, normally closed) trips the ALARM like X's and Y's:
-        # the move stops, STATUS says ALARM with bit 6 in its cause and its inputs.
+        # Z's limit switch (input bit 6; normally closed, or normally open as the machine
+        # file's limit_z says) trips the ALARM like X's and Y's: the move stops, STATUS says
+        # ALARM with bit 6 in its cause and its inputs.
         from kontur.hdl.motion.inputs import pin_levels
         rate = round(0.05 * Q24)
         frames = [protocol.config((1 << 32) - 1), protocol.feed(rate, rate, 1 << 20),
                   protocol.line3(0, 0, 200), protocol.stop(), protocol.query()]
-        pins, replies, _ = run3(frames, clocks=40_000, name="controller3_limit",
-                                schedule=[(400, ("pins", pin_levels(("limit_z",), axes=3)))])
-        self.assertLess(len(pins), 200)
-        status = [r for r in replies if r.kind == STATUS][-1]
-        self.assertEqual((status.state, status.fields[5], status.fields[6]),
-                         ("ALARM", 1 << 6, 1 << 6))
-        self.assertEqual(status.position, (0, 0, len(pins)))
+        for kind in ("nc", "no"):
+            with self.subTest(limit_z=kind):
+                polarity = {"limit_z": kind}
+                tripped = pin_levels(("limit_z",), polarity, axes=3)
+                # Normally open: the pin idles high (pulled up) and the closed switch is low.
+                self.assertEqual(tripped >> 6 & 1, int(kind == "nc"))
+                pins, replies, _ = run3(frames, clocks=40_000, name=f"controller3_limit_{kind}",
+                                        schedule=[(400, ("pins", tripped))], polarity=polarity)
+                self.assertLess(len(pins), 200)
+                status = [r for r in replies if r.kind == STATUS][-1]
+                self.assertEqual((status.state, status.fields[5], status.fields[6]),
+                                 ("ALARM", 1 << 6, 1 << 6))
+                self.assertEqual(status.position, (0, 0, len(pins)))
 
     def test_frames_of_the_other_axes_are_unknown(self):
         # A 3-axis controller takes LINE3 and HELIX, not LINE and ARC (ERROR 2), and a 2-axis

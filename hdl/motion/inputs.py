@@ -41,7 +41,7 @@ POLARITIES = ("nc", "no")
 
 #: Each input's kind unless the machine file says otherwise.
 DEFAULT_POLARITY = {"estop": "nc", "limit_x": "nc", "limit_y": "nc", "probe": "no",
-                    "cycle_start": "no", "feed_hold": "nc"}
+                    "cycle_start": "no", "feed_hold": "nc", "limit_z": "nc"}
 
 #: Clocks from a pin to :py:`Inputs.active` besides the filter's: the synchroniser's two.
 LATENCY = 2
@@ -52,8 +52,8 @@ def check_polarity(polarity):
     checked (:exc:`ValueError` for an unknown input or kind)."""
     table = dict(DEFAULT_POLARITY)
     for name, kind in dict(polarity or {}).items():
-        if name not in INPUTS:
-            raise ValueError(f"Input must be one of {', '.join(INPUTS)}, not {name!r}")
+        if name not in INPUTS3:
+            raise ValueError(f"Input must be one of {', '.join(INPUTS3)}, not {name!r}")
         if kind not in POLARITIES:
             raise ValueError(f"Input {name} must be 'nc' or 'no', not {kind!r}")
         table[name] = kind
@@ -64,7 +64,7 @@ def pin_levels(active, polarity=None, axes=2):
     """The pin word (bit ``n`` for ``INPUTS[n]``) with the inputs named in ``active`` active
     and the others idle, for switches of ``polarity`` (a dict; defaults
     :data:`DEFAULT_POLARITY`)."""
-    table = check_polarity(polarity) | {"limit_z": "nc"}
+    table = check_polarity(polarity)
     word = 0
     for bit, name in enumerate(inputs_of(axes)):
         high = (name in active) == (table[name] == "nc")
@@ -129,7 +129,7 @@ class Inputs(wiring.Component):
     polarity : :class:`dict`
         ``"nc"`` or ``"no"`` for any input (the others at :data:`DEFAULT_POLARITY`).
     axes : :class:`int`
-        2 (default) or 3: with 3, Z's limit (bit 6, normally closed).
+        2 (default) or 3: with 3, Z's limit (bit 6, ``polarity``'s ``limit_z``).
 
     Members
     -------
