@@ -118,7 +118,7 @@ def test_board_alarm_and_unlock(tmp_path):
         assert port.command("G1 X0 Y0 F1000") == ["error:9"]
         assert port.command("$X") == ["[MSG:Caution: Unlocked]", "ok"]
         deadline = time.monotonic() + 10
-        while port.status()[0] != "Idle":
+        while port.status()[0] != "Idle" or not board.machine.unlocks:
             assert time.monotonic() < deadline, "the board never left ALARM"
         assert board.machine.unlocks == 1
         port.close()

@@ -275,10 +275,12 @@ class PortMotion(Motion):
 
     def unlock(self):
         """``$X``: the alarm left, the board's by an UNLOCK (not while its e-stop is pressed:
-        its STATUS in ALARM again is a new alarm)."""
+        its STATUS in ALARM again is a new alarm). Sent too when the board's state is not
+        known (no STATUS yet since the ABORT that stopped it: a slow board), never taken on
+        trust as left."""
         self.alarmed = False
         status = self.feeder.status
-        if self.failed is None and status is not None and status[4] == ALARM_STATE:
+        if self.failed is None and (status is None or status[4] == ALARM_STATE):
             try:
                 self.feeder.query(unlock=True)
                 self.unlocked = self.feeder.reports
