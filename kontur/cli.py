@@ -525,10 +525,10 @@ def _homing(args):
     from kontur.trace import UsageError
     check_board(args.board)
     machine = _machine(args)
-    if sorted(machine.homing_order) != ["x", "y"]:
-        raise UsageError(f"--home homes every axis, and the machine file's homing_order is "
-                         f"{list(machine.homing_order)}: the program would start where the "
-                         f"axes not homed happen to be")
+    if not {"x", "y"} <= set(machine.homing_order):
+        raise UsageError(f"--home homes X and Y (and Z where homing_order has it), and the "
+                         f"machine file's homing_order is {list(machine.homing_order)}: the "
+                         f"program would start where the axes not homed happen to be")
     try:
         job = homing_job(machine, (0,) * registry.board(args.board).axes)
     except MachineError as error:

@@ -56,9 +56,9 @@ def check_board(board_name):
 
 
 def _travel(machine, axis):
-    travel = (machine.travel_x, machine.travel_y)[axis]
+    travel = (machine.travel_x, machine.travel_y, machine.travel_z)[axis]
     if travel is None:
-        raise MachineError(f"homing needs travel_{'xy'[axis]} (the seek's length is 1.5 times "
+        raise MachineError(f"homing needs travel_{'xyz'[axis]} (the seek's length is 1.5 times "
                            f"the travel, as Grbl's)")
     return travel
 
@@ -66,10 +66,11 @@ def _travel(machine, axis):
 def homing_frames(machine, axes=2):
     """The frames of the homing cycle (CONFIG first, STOP last) and, for each, a description
     (the axis and pass: ``"x seek"`` ...; ``None`` for CONFIG and STOP); ``axes=3`` for a
-    3-axis controller (its pull-offs are LINE3 frames; Z is not homed).
+    3-axis controller (its pull-offs are LINE3 frames; Z is homed where ``homing_order`` has
+    it, as Grbl homes Z first when its cycle 0 is Z).
 
-    Raises :exc:`~kontur.machine.MachineError` if an axis homed has no travel, or a rate does
-    not fit the feed generator."""
+    Raises :exc:`~kontur.machine.MachineError` if an axis homed has no travel, Z is to be
+    homed on two axes, or a rate does not fit the feed generator."""
     frames, names, _ = _cycle(machine, axes)
     return frames, names
 
@@ -90,7 +91,7 @@ def homed_position(machine, position):
     out = list(position)
     pulloff = round(machine.homing_pulloff * machine.steps_per_mm)
     for name in machine.homing_order:
-        axis = "xy".index(name)
+        axis = "xyz".index(name)
         negative = machine.homing_dir[axis] == "-"
         out[axis] = _switch_point(machine, axis) + (pulloff if negative else -pulloff)
     return tuple(out)
@@ -115,8 +116,10 @@ def _cycle(machine, axes=2):
     def at(rate, steps):                    # s: steps at a Q0.24 rate of steps a clock
         return steps * (1 << 24) / (rate * clock)
 
+    if "z" in machine.homing_order and axes != 3:
+        raise MachineError("homing_order homes Z, and the controller has two axes (X, Y)")
     for name in machine.homing_order:
-        axis = "xy".index(name)
+        axis = "xyz".index(name)
         low, high = _travel(machine, axis)
         negative = machine.homing_dir[axis] == "-"
         seek_steps = math.ceil(SEEK_SCALAR * (high - low) * spm)
@@ -134,8 +137,9 @@ def _cycle(machine, axes=2):
         if pulloff:
             add(_pulloff_feed(machine, seek, pulloff), f"{name} pull-off")
             delta = pulloff if negative else -pulloff     # away from the switch
-            move = (delta, 0) if axis == 0 else (0, delta)
-            add(protocol.line3(*move, 0) if axes == 3 else protocol.line(*move),
+            move = [0, 0, 0]
+            move[axis] = delta
+            add(protocol.line3(*move) if axes == 3 else protocol.line(*move[:2]),
                 f"{name} pull-off",
                 at(machine.rate(math.sqrt(2 * machine.accel / spm)) or 1, pulloff))
     add(protocol.stop(), None)
@@ -171,7 +175,7 @@ def _pulloff_feed(machine, seek, steps):
 def failure(machine, name):
     """The host's words for a pass ``name`` (:func:`homing_frames`) that ended ``REFUSED``."""
     axis, what = name.split(" ", 1)
-    index = "xy".index(axis)
+    index = "xyz".index(axis)
     if what == "seek":
         low, high = _travel(machine, index)
         reach = SEEK_SCALAR * (high - low)

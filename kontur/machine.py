@@ -26,16 +26,19 @@ g28_position = [0, 0]      # mm, machine coordinates: where G28 goes (X Y, or X 
 g30_position = [0, 0]      # mm: where G30 goes (LinuxCNC's parameters 5161-5163, 5181-5183)
 travel_x = [0, 300]        # mm, machine coordinates: the soft limits (no default: unchecked)
 travel_y = [0, 200]
+travel_z = [-60, 0]        # Z's, on a board with three axes (Grbl's machine zero at the top)
 s_max = 1000               # the S of full spindle (laser) power (Grbl's $30), an integer
 pwm_hz = 1000              # the spindle (laser) PWM's frequency
 laser = false              # Grbl's laser mode ($32): in M4 the power follows the feed
-homing_order = ["x", "y"]  # the axes homed, one after the other (kontur send --home, $H)
-homing_dir = ["+", "+"]    # toward which end each axis's switch is (Grbl's $23 = 0: "+")
+homing_order = ["x", "y"]  # the axes homed, one after the other (kontur send --home, $H);
+                           # ["z", "x", "y"] homes Z first, on a board with three axes
+homing_dir = ["+", "+"]    # toward which end each axis's switch is (Grbl's $23 = 0: "+"),
+                           # [X, Y] or [X, Y, Z] (Z "+" when not given: its switch at the top)
 homing_feed = 25.0         # mm/min: the slow approach (Grbl's $24)
 homing_seek = 500.0        # mm/min: the seek (Grbl's $25)
 homing_debounce_ms = 250   # the wait between the passes (Grbl's $26)
 homing_pulloff = 1.0       # mm: the move off the switch at the end (Grbl's $27)
-homing_offset = [0, 300]   # mm, machine coordinates of the switch points (X Y); default: the
+homing_offset = [0, 300]   # mm, machine coordinates of the switch points (X Y or X Y Z); default: the
                            # travel's end on the switch's side, 0 without a travel
 ```
 
@@ -58,8 +61,8 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
    ``dir_setup + step_width + 1`` clocks per axis).
 5. ``input_filter_us``: more than 0, at most 10 000 (10 ms); the switches' kinds ``"nc"`` or
    ``"no"``.
-6. ``travel_x``, ``travel_y``: ``[min, max]`` in mm with min < max, or absent (no soft limit on
-   that axis). A program whose steps would take the machine outside them is refused before
+6. ``travel_x``, ``travel_y``, ``travel_z`` (a board with three axes): ``[min, max]`` in mm
+   with min < max, or absent (no soft limit on that axis). A program whose steps would take the machine outside them is refused before
    anything moves (:func:`kontur.machining.check_travel`), as LinuxCNC's and Grbl's soft
    limits refuse it.
 7. ``s_max``: an integer from 1 to 2**24 - 1; ``pwm_hz``: its period at the clock, rounded to
@@ -114,11 +117,12 @@ class Machine:
     g30_position: tuple = (0.0, 0.0)  # mm: G30's
     travel_x: tuple = None            # mm, machine coordinates: (min, max), None: unchecked
     travel_y: tuple = None
+    travel_z: tuple = None            # Z's (a board with three axes)
     s_max: int = 1000                 # the S of full power (Grbl's $30)
     pwm_hz: float = 1000.0            # the spindle (laser) PWM's frequency
     laser: bool = False               # Grbl's laser mode ($32): in M4 power follows the feed
     homing_order: tuple = ("x", "y")  # kontur.homing: the axes homed, in order
-    homing_dir: tuple = ("+", "+")    # toward which end each switch is (Grbl's $23 = 0)
+    homing_dir: tuple = ("+", "+", "+")  # toward which end each switch is (Grbl's $23 = 0)
     homing_feed: float = 25.0         # mm/min (Grbl's $24)
     homing_seek: float = 500.0        # mm/min (Grbl's $25)
     homing_debounce_ms: float = 250.0  # (Grbl's $26)
@@ -144,7 +148,7 @@ class Machine:
                     or not math.isfinite(c) for c in value):
                 raise MachineError(f"{name} must be [X, Y] or [X, Y, Z] in mm, not {value!r}")
             object.__setattr__(self, name, tuple(float(c) for c in value))
-        for name in ("travel_x", "travel_y"):
+        for name in ("travel_x", "travel_y", "travel_z"):
             value = getattr(self, name)
             if value is None:
                 continue
@@ -163,7 +167,7 @@ class Machine:
                                    f"{value!r}")
         for item in fields(self):
             if item.name in ("cutter_radius", "g28_position", "g30_position", "travel_x",
-                             "travel_y", "corner", "homing_order", "homing_dir",
+                             "travel_y", "travel_z", "corner", "homing_order", "homing_dir",
                              "homing_offset", "laser") \
                     or item.name in SWITCHES:
                 continue
@@ -192,19 +196,25 @@ class Machine:
 
     def _check_homing(self):
         order, ways, offset = self.homing_order, self.homing_dir, self.homing_offset
-        if not isinstance(order, (list, tuple)) or not 1 <= len(order) <= 2 or \
-                len(set(order)) != len(order) or any(a not in ("x", "y") for a in order):
-            raise MachineError(f"homing_order must be a list of \"x\" and \"y\", each once, "
-                               f"not {order!r}")
-        if not isinstance(ways, (list, tuple)) or len(ways) != 2 or \
+        if not isinstance(order, (list, tuple)) or not 1 <= len(order) <= 3 or \
+                len(set(order)) != len(order) or any(a not in ("x", "y", "z") for a in order):
+            raise MachineError(f"homing_order must be a list of \"x\", \"y\" and \"z\", each "
+                               f"once, not {order!r}")
+        if not isinstance(ways, (list, tuple)) or len(ways) not in (2, 3) or \
                 any(w not in ("+", "-") for w in ways):
-            raise MachineError(f"homing_dir must be [X, Y], each \"+\" or \"-\", not {ways!r}")
-        if offset is not None and (not isinstance(offset, (list, tuple)) or len(offset) != 2
+            raise MachineError(f"homing_dir must be [X, Y] or [X, Y, Z], each \"+\" or \"-\", "
+                               f"not {ways!r}")
+        if offset is not None and (not isinstance(offset, (list, tuple))
+                                   or len(offset) not in (2, 3)
                                    or any(isinstance(c, bool) or not isinstance(c, (int, float))
                                           or not math.isfinite(c) for c in offset)):
-            raise MachineError(f"homing_offset must be [X, Y] in mm, not {offset!r}")
+            raise MachineError(f"homing_offset must be [X, Y] or [X, Y, Z] in mm, not "
+                               f"{offset!r}")
+        if "z" in order and offset is not None and len(offset) == 2:
+            raise MachineError(f"homing_offset must give Z's switch point too ([X, Y, Z]) when "
+                               f"homing_order homes Z, not {offset!r}")
         object.__setattr__(self, "homing_order", tuple(order))
-        object.__setattr__(self, "homing_dir", tuple(ways))
+        object.__setattr__(self, "homing_dir", tuple(ways) + ("+",) * (3 - len(ways)))
         if offset is not None:
             object.__setattr__(self, "homing_offset", tuple(float(c) for c in offset))
 

@@ -389,13 +389,14 @@ def tool_stops(segments, contours, moves, events, machine):
 
 def check_travel(segments, machine, start):
     """Raise :exc:`ProgramError` at the first segment whose steps take the machine (from
-    ``start``, steps) outside the machine file's travel (``travel_x``, ``travel_y``: the soft
-    limits), naming its line, the point reached and the travel. Every step point is checked
-    (the path on the lattice, a compensated contour's equidistant included), before anything
-    moves."""
+    ``start``, steps) outside the machine file's travel (``travel_x``, ``travel_y``, on three
+    axes ``travel_z``: the soft limits), naming its line, the point reached and the travel.
+    Every step point is checked (the path on the lattice, a compensated contour's equidistant
+    included), before anything moves."""
     spm = machine.steps_per_mm
-    limits = [(n, axis, travel) for n, (axis, travel) in
-              enumerate((("X", machine.travel_x), ("Y", machine.travel_y))) if travel]
+    axes = (("X", machine.travel_x), ("Y", machine.travel_y), ("Z", machine.travel_z))
+    limits = [(n, axis, travel) for n, (axis, travel) in enumerate(axes[:len(start)])
+              if travel]
     if not limits:
         return
     bounds = [(n, axis, travel, math.ceil(travel[0] * spm - 1e-9),

@@ -196,10 +196,15 @@ def status_of(replies):
 def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, True),
                    estop_at=None, with_steps=False):
     """Run ``frames`` through a controller with a homing engine in Amaranth's simulator; the
-    X and Y limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
-    toward the negative side; the e-stop pressed from clock ``estop_at`` on). Returns ``(replies, position)``: the replies and the bench's
-    position (the pulses made)."""
+    limit pins follow the pulses on the step pins (:class:`BenchSwitches` at ``trip``,
+    toward the negative side; the e-stop pressed from clock ``estop_at`` on); with three
+    ``trip`` points the controller has Z. Returns ``(replies, position)``: the replies and the
+    bench's position (the pulses made)."""
+    from kontur.hdl.helix import HelixEngine
+    from kontur.hdl.line import LineEngine
+    from kontur.hdl.spatial import SpatialLineCore
     from kontur.hdl.motion.homing import homing_row
+    from kontur.hdl.motion.inputs import inputs_of
     from kontur.sim.testbench.hostlink import run_amaranth
 
     from kontur import registry
@@ -207,25 +212,30 @@ def controller_run(frames, *, trip, clocks, inject=None, name, negative=(True, T
 
     # tests/test_controller.py's controller, at a bit every 4 clocks (the UART's least): the
     # serial line is most of a homing run's time.
-    dut, bit = MotionController(line=registry.make_engine("line", width=12),
-                                arc=registry.make_engine("arc", "fast", width=12),
+    axes = len(trip)
+    line = LineEngine(SpatialLineCore(width=12, axes=3)) if axes == 3 else \
+        registry.make_engine("line", width=12)
+    arc = registry.make_engine("arc", "fast", width=12)
+    dut, bit = MotionController(line=line, arc=HelixEngine(arc) if axes == 3 else arc,
                                 clock_hz=1e6, baud=250_000, dir_setup=1, step_width=2,
-                                queue_frames=8, engines=[homing_row()]), 4
+                                queue_frames=8, engines=[homing_row(axes=axes)]), 4
     switches = BenchSwitches(trip, negative=negative)
-    position, before, steps = [0, 0], [0], []
+    position, before, steps = [0] * axes, [0], []
+    names = inputs_of(axes)
 
     def each(ctx, clock):
         step, direction = ctx.get(dut.motion.step), ctx.get(dut.motion.dir)
-        for axis in range(2):
+        for axis in range(axes):
             if step >> axis & 1 and not before[0] >> axis & 1:    # a pulse's first clock
                 position[axis] += -1 if direction >> axis & 1 else 1
-                steps.append((-1 if direction & 1 else 1, 0) if axis == 0 else
-                             (0, -1 if direction >> 1 & 1 else 1))
+                if axes == 2:
+                    steps.append((-1 if direction & 1 else 1, 0) if axis == 0 else
+                                 (0, -1 if direction >> 1 & 1 else 1))
         before[0] = step
         pins = dut.idle_inputs
-        for axis in range(2):
+        for axis in range(axes):
             if switches.active(axis, position[axis]):
-                pins ^= 1 << INPUTS.index(("limit_x", "limit_y")[axis])
+                pins ^= 1 << names.index(("limit_x", "limit_y", "limit_z")[axis])
         if estop_at is not None and clock >= estop_at:
             pins ^= 1 << INPUTS.index("estop")
         ctx.set(dut.inputs, pins)
@@ -298,10 +308,11 @@ class HostCycleTest(unittest.TestCase):
 
     def machine(self, **keys):
         from kontur.machine import Machine
-        return Machine(clock_hz=1e6, baud=125_000, steps_per_mm=10, dir_setup_us=1,
-                       step_width_us=2, travel_x=(0, 20), travel_y=(-5, 10),
-                       homing_dir=("-", "+"), homing_seek=30_000, homing_feed=6000,
-                       homing_debounce_ms=1, accel=200_000, input_filter_us=10, **keys)
+        return Machine(**{"clock_hz": 1e6, "baud": 125_000, "steps_per_mm": 10,
+                          "dir_setup_us": 1, "step_width_us": 2, "travel_x": (0, 20),
+                          "travel_y": (-5, 10), "homing_dir": ("-", "+"),
+                          "homing_seek": 30_000, "homing_feed": 6000, "homing_debounce_ms": 1,
+                          "accel": 200_000, "input_filter_us": 10, **keys})
 
     def test_cycle_homes_both_axes(self):
         from kontur.homing import homing_frames
@@ -341,6 +352,36 @@ class HostCycleTest(unittest.TestCase):
     def protocol_query(self):
         from kontur.hdl.motion import protocol
         return protocol.query()
+
+    def test_cycle_homes_z_first(self):
+        """A 3-axis machine homing Z first (Grbl's cycle 0), up to its switch at the top, then
+        X and Y: Z's passes move Z alone, its switch sets its position, the pull-off brings it
+        down off the switch."""
+        from kontur.homing import homing_frames
+        machine = self.machine(homing_order=("z", "x"), homing_dir=("-", "+", "+"),
+                               travel_z=(-8, 2))
+        frames, names = homing_frames(machine, axes=3)
+        self.assertEqual(names[1:12:4], ["z seek", "z back-off", "z approach"])
+        replies, position = controller_run(
+            frames + [self.protocol_query()], trip=(-23, 17, 31), negative=(True, False, False),
+            clocks=200_000, name="controller_homing_cycle_z")
+        self.assertEqual([r.fields[1] for r in replies if r.kind == 0x80],
+                         [DONE] * len(frames))
+        # Z's switch point is its travel's top, 2 mm = 20 steps, pulled 1 mm (10 steps) down;
+        # X as in test_cycle_homes_both_axes; Y not homed, not moved.
+        self.assertEqual(status_of(replies).position, (10, 0, 10))
+        self.assertEqual(position, [-23 + 10, 0, 31 - 10])
+
+    def test_z_needs_three_axes_and_its_travel(self):
+        from kontur.homing import homing_frames
+        from kontur.machine import MachineError
+        with self.assertRaisesRegex(MachineError, "^homing_order homes Z, and the controller "
+                                                  "has two axes"):
+            homing_frames(self.machine(homing_order=("z", "x", "y"), travel_z=(-8, 2)))
+        with self.assertRaisesRegex(MachineError, "^homing needs travel_z"):
+            homing_frames(self.machine(homing_order=("z", "x", "y")), axes=3)
+        with self.assertRaisesRegex(MachineError, "^homing_offset must give Z's switch point"):
+            self.machine(homing_order=("z", "x"), homing_offset=(0, 0))
 
     def test_no_travel_is_refused(self):
         from kontur.homing import homing_frames

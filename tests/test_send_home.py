@@ -121,7 +121,8 @@ def test_a_switch_never_found(tmp_path, capsys):
 
 @pytest.mark.parametrize("board, keys, message", [
     ("icebreaker", {}, "homing: the icebreaker's controller is built without the homing engine"),
-    ("ulx3s", {"homing_order": '["y"]'}, "--home homes every axis, and the machine file's "
+    ("ulx3s", {"homing_order": '["y"]'}, "--home homes X and Y (and Z where homing_order has "
+                                         "it), and the machine file's "
                                          "homing_order is ['y']"),
     ("ulx3s", {"travel_x": None}, "--home: homing needs travel_x"),
 ])

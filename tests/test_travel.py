@@ -71,6 +71,24 @@ class TravelTestCase(unittest.TestCase):
             prepare(contour, machine=Machine(travel_x=[-1, 2.1], **keys), board="ulx3s")
         prepare(contour, machine=Machine(travel_x=[-1, 2.4], **keys), board="ulx3s")
 
+    def test_z_on_three_axes(self):
+        # A plunge to Z -6 with Z's travel -5..0: refused at the plunge on the ULX3S (three
+        # axes), with -6..0 taken; a helix down to Z -4 then -6 (the second turn) refused at
+        # its line. (Z starts at 0, the machine's, until the first Z word.)
+        keys = dict(clock_hz=12.5e6, steps_per_mm=10, **TRAVEL)
+        plunge = "G21 G90\nG0 X5 Y5\nG1 Z-6 F300\nG1 X6\n"
+        with self.assertRaisesRegex(ProgramError, r"^line 3: the move reaches Z -6 mm, beyond "
+                                    r"the machine's travel \(Z from -5 to 0 mm, travel_z in "
+                                    r"the machine file\): a soft limit$"):
+            prepare(plunge, machine=Machine(travel_z=[-5, 0], **keys), board="ulx3s")
+        prepare(plunge, machine=Machine(travel_z=[-6, 0], **keys), board="ulx3s")
+        helix = ("G21 G90\nG0 X7 Y5\nG1 Z0 F300\nG2 X7 Y5 I0 J5 Z-4\n"
+                 "G2 X7 Y5 I0 J5 Z-6\n")
+        with self.assertRaisesRegex(ProgramError, r"^line 5: the move reaches Z -6 mm"):
+            prepare(helix, machine=Machine(travel_z=[-5, 0], **keys), board="ulx3s")
+        with self.assertRaisesRegex(MachineError, r"^travel_z must be \[min, max\]"):
+            machine(travel_z=[0, -5])
+
     def test_machine_keys(self):
         with self.assertRaisesRegex(MachineError, r"^travel_y must be \[min, max\]"):
             machine(travel_y=[5, 5])
