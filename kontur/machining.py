@@ -273,6 +273,47 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                start, contours, list(program.events))
 
 
+def tools_off(machine):
+    """The tool state with everything off (the keywords of :func:`kontur.hdl.motion.tools.
+    tool_frame`): the state a program starts in, and the one M2/M30 leaves."""
+    from kontur.hdl.motion.tools import Spindle
+    return {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
+            "laser": machine.laser}
+
+
+def tool_change(state, event, machine):
+    """The tool state after ``event`` from ``state``, and whether the pins change: ``(new,
+    changed)``; ``None`` for an event that sets no tool state.
+
+    M3 and M4 turn the spindle on clockwise and counter-clockwise, M5 off; S sets the power
+    (rounded to a whole number, above the machine's ``s_max`` taken as ``s_max``, as Grbl
+    clamps it); M7 turns mist on, M8 flood, M9 both off. S alone changes nothing on the pins
+    while the spindle is off."""
+    from kontur.hdl.motion.tools import Spindle
+    spindles = {"M3": Spindle.CW, "M4": Spindle.CCW, "M5": Spindle.OFF}
+    new = dict(state)
+    if event.kind == "spindle":
+        new["spindle"] = spindles[event.text.split()[0]]
+    elif event.kind == "speed":
+        new["s"] = min(round(event.value), machine.s_max)
+    elif event.kind == "coolant":
+        code = event.text.strip()
+        if code == "M7":
+            new["mist"] = True
+        elif code == "M8":
+            new["flood"] = True
+        else:
+            new["mist"] = new["flood"] = False
+    else:
+        return None
+    return new, new != state and not (event.kind == "speed" and new["spindle"] == Spindle.OFF)
+
+
+def tool_on(state):
+    """The spindle or a coolant is on in ``state``."""
+    return state["spindle"].value != 0 or state["mist"] or state["flood"]
+
+
 def tool_changes(events, machine, moves):
     """The tool states a program sets, for a board with tool outputs: ``(event, state)`` for
     each event that changes the state (``state`` the keywords of
@@ -282,43 +323,33 @@ def tool_changes(events, machine, moves):
     takes the place of a change after the last of the ``moves`` moves, whose event it keeps;
     else the event is ``None``).
 
-    M3 and M4 turn the spindle on clockwise and counter-clockwise, M5 off; S sets the power
-    (rounded to a whole number, above the machine's ``s_max`` taken as ``s_max``, as Grbl
-    clamps it); M7 turns mist on, M8 flood, M9 both off; the machine's ``laser`` (Grbl's
-    ``$32``) goes with every state."""
-    from kontur.hdl.motion.tools import Spindle
-    spindles = {"M3": Spindle.CW, "M4": Spindle.CCW, "M5": Spindle.OFF}
-    off = {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
-           "laser": machine.laser}
-    state, out = dict(off), []
+    Each event's change is :func:`tool_change`'s (the rules of M3/M4/M5, S, M7/M8/M9); the
+    machine's ``laser`` (Grbl's ``$32``) goes with every state."""
+    state, out = tools_off(machine), []
     for event in events:
-        new = dict(state)
-        if event.kind == "spindle":
-            new["spindle"] = spindles[event.text.split()[0]]
-        elif event.kind == "speed":
-            new["s"] = min(round(event.value), machine.s_max)
-        elif event.kind == "coolant":
-            code = event.text.strip()
-            if code == "M7":
-                new["mist"] = True
-            elif code == "M8":
-                new["flood"] = True
-            else:
-                new["mist"] = new["flood"] = False
-        else:
+        change = tool_change(state, event, machine)
+        if change is None:
             continue
-        # S alone changes nothing on the pins while the spindle is off.
-        if new != state and not (event.kind == "speed" and new["spindle"] == Spindle.OFF):
+        new, changed = change
+        if changed:
             if out and out[-1][0].move == event.move:     # the same place: one change
                 out.pop()
             out.append((event, new))
         state = new
-    if state["spindle"] != Spindle.OFF or state["mist"] or state["flood"]:
+    if tool_on(state):
         last = None
         if out and out[-1][0].move >= moves:        # after the last move too: one change
             last = out.pop()[0]
-        out.append((last, {**state, "spindle": Spindle.OFF, "mist": False, "flood": False}))
+        out.append((last, {**state, **tools_off(machine), "s": state["s"]}))
     return out
+
+
+def tool_stop(line, state, position):
+    """The stop of a tool change: a segment of kind ``"dwell"`` of no time at ``position``
+    (steps) whose payload's ``"tool"`` is ``state`` (its TOOL frame, :func:`kontur.planner.
+    dwell_frames`)."""
+    return Segment(line, "dwell", {"seconds": 0, "tool": state}, position, position, 0.0, [],
+                   None, None, None)
 
 
 def tool_stops(segments, contours, moves, events, machine):
@@ -359,9 +390,7 @@ def tool_stops(segments, contours, moves, events, machine):
                                       else contour.approach + 1)
         position = segments[at - 1].end if at else segments[0].start if segments else (0, 0)
         line = segments[-1].line if event is None else event.line
-        segments.insert(at, Segment(line, "dwell",
-                                    {"seconds": 0, "tool": state}, position, position, 0.0, [],
-                                    None, None, None))
+        segments.insert(at, tool_stop(line, state, position))
     return segments, contours
 
 
