@@ -218,6 +218,7 @@ class PortMotion(Motion):
         # tool change's stop is its TOOL frame (planner.dwell_frames).
         frames, lines = program_frames(batch, items[:count], self.machine)
         times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
+                                                 machine=self.machine,
                                                  seconds=0.0), len(frames))
         first = 0 if not self.running else 1
         last = len(frames) if end else len(frames) - 1
