@@ -1071,6 +1071,24 @@ def test_z_and_tools_served_as_rs274_orders_them():
     assert fields["FS"] == "0,700"
 
 
+def test_soft_reset_switches_the_tools_off():
+    """ctrl-X with the spindle and mist on (Grbl's reset switches them off; a board's ABORT
+    leaves its tool outputs as they are): a TOOL frame with everything off follows, and the
+    accessory field is gone."""
+    now = [0.0]
+    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
+    grbl.receive(b"M4 S300 M7\nG1 X50 Z-2 F300\n")
+    for _ in range(5):
+        grbl.poll()
+        now[0] += 0.1
+    assert grbl.state() == "Run" and dict(FIELDS.findall(grbl.status()))["A"] == "CM"
+    grbl.receive(b"\x18")
+    grbl.poll()
+    assert "ALARM:3" in said and "A" not in dict(FIELDS.findall(grbl.status()))
+    tools = [s.payload["tool"] for s in grbl.motion.segments if s.kind == "dwell"]
+    assert [(t["spindle"].name, t["mist"]) for t in tools] == [("CCW", True), ("OFF", False)]
+
+
 def test_z_and_tools_refused_on_the_icebreaker():
     """The iCEBreaker's controller has two axes and no tool outputs: a Z move (after the first
     Z, where the operator has set the tool) and a spindle or coolant switched on are refused

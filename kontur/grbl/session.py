@@ -90,6 +90,8 @@ class Session:
         self.rx.clear()
         self._waiting = None
         self.alarm = True
+        self.motion.tool = None                # the board's halt turned its tool outputs off
+        self.tool = tools_off(self.machine)
         if self._homing:                       # a pass without its switch: where it stopped
             self._homing = False
             self._sync()
@@ -329,8 +331,12 @@ class Session:
         self._dwell = None
         self.check = False
         self._reports = 0
-        motion.tool = None                     # Grbl's reset: spindle and coolant off
         self._reset_reader()
+        if motion.tool is not None and tool_on(motion.tool):
+            # Grbl's reset switches the spindle and coolant off; a board's ABORT leaves its
+            # tool outputs as they are: a TOOL frame turns them off
+            self.motion.add(Block("tool", self.number, [tool_stop(self.number, self.tool,
+                                                                  self.lattice_position)]))
         if moving:
             self.send("ALARM:3")
             self.alarm = True
