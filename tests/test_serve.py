@@ -1129,3 +1129,30 @@ def test_a_sender_streams_z_and_tools(port, server):
     expected = run_steps(MILL, "ulx3s")
     wait_for_outputs(out, len(expected))
     assert read_steps(out) == expected
+
+
+@pytest.mark.parametrize("server", [("--board", "ulx3s", "--engine", "verilator")],
+                         indirect=True)
+def test_verilator_checks_z_and_tools(port, server):
+    """``--engine verilator --board ulx3s``: MILL's run of motion (LINE3, HELIX and its three
+    TOOL frames) run on the ULX3S controller's RTL once the machine rests: every step checked,
+    every frame DONE, no failure; summary.json lists the TOOL frames."""
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    _, out, _ = server
+    answers, _ = stream(port, MILL)
+    assert answers == ["ok"] * len(MILL.splitlines())
+    assert port.wait_idle() == program_end(MILL, "XYZ")
+    expected = run_steps(MILL, "ulx3s")
+    deadline = time.monotonic() + 600            # a first Verilator build takes minutes
+    while time.monotonic() < deadline:
+        if (out / "summary.json").exists():
+            data = json.loads((out / "summary.json").read_text())
+            check = data.get("rtl_check", {})
+            if check.get("steps") == len(expected) or check.get("failures"):
+                break
+        time.sleep(0.2)
+    assert check == {**check, "engine": "verilator", "steps": len(expected), "failures": [],
+                     "segments_cut_short": 0}
+    assert [(f["line"], f["spindle"], f["flood"]) for f in data["tool_frames"]] == \
+        [(3, "cw", False), (5, "cw", True), (8, "off", False)]
