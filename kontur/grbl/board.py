@@ -5,7 +5,8 @@ protocol.
 still paces the planner: which lines are taken, when ``ok`` comes) whose segments are also
 framed and sent to the board by :class:`kontur.send.Feeder` (the handshake, flow control and
 checks of ``kontur send``). The frames of a run of motion are those of :func:`kontur.planner.
-frames` (``CONFIG``, a ``FEED`` and a move for each segment, ``STOP``), planned with the
+frames` (``CONFIG``, a ``FEED`` and a move for each segment, a tool change's ``TOOL`` frame
+between them, ``STOP``; LINE3 and HELIX on a 3-axis board), planned with the
 same look-ahead as ``kontur run``: a segment is sent once the known path after it is long
 enough to stop in (:func:`reach`: no later line can change its plan), planned together with
 the run's segments sent within that distance before it; the run ends (the rest and ``STOP``)
