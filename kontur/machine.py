@@ -65,7 +65,9 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
 7. ``s_max``: an integer from 1 to 2**24 - 1; ``pwm_hz``: its period at the clock, rounded to
    whole clocks (:attr:`Machine.pwm_period`), at least the clocks the tool outputs take to
    work a duty out (:func:`kontur.hdl.motion.tools.min_period`). ``laser``: ``true`` or
-   ``false``, Grbl's ``$32`` (the TOOL frames carry it: in M4 the power follows the feed).
+   ``false``, Grbl's ``$32`` (the TOOL frames carry it: in M4 the power follows the feed;
+   the laser is lit in G1/G2/G3 only, and a change of power alone is taken without a stop:
+   :func:`kontur.machining.tool_changes`).
 """
 
 import math

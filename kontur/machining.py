@@ -27,6 +27,7 @@ engine: :mod:`.compensation` puts the contours' frames among the moves (PROFILE 
 with its FEED), with the engine's step model as their steps.
 """
 
+import copy
 import itertools
 import json
 import math
@@ -273,92 +274,138 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                start, contours, list(program.events))
 
 
-def tools_off(machine):
-    """The tool state with everything off (the keywords of :func:`kontur.hdl.motion.tools.
-    tool_frame`): the state a program starts in, and the one M2/M30 leaves."""
-    from kontur.hdl.motion.tools import Spindle
-    return {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
-            "laser": machine.laser}
+class ToolStates:
+    """The tool state a program sets, change by change (:func:`tool_changes`' rules, kept
+    from one call to the next: ``kontur serve`` takes a program line by line).
 
+    :meth:`take` applies an event (M3 and M4 turn the spindle on clockwise and
+    counter-clockwise, M5 off; S sets the power, rounded to a whole number, above the
+    machine's ``s_max`` taken as ``s_max``, as Grbl clamps it; M7 turns mist on, M8 flood, M9
+    both off); :meth:`change` says what the pins show before a move (or at the program's end,
+    where everything is switched off) when it differs from what they show: ``(state, stop)``,
+    ``state`` the keywords of :func:`kontur.hdl.motion.tools.tool_frame` (the machine's
+    ``laser``, Grbl's ``$32``, with every state), ``stop`` whether the machine stops for it.
+    S alone changes nothing on the pins while the spindle is off.
 
-def tool_change(state, event, machine):
-    """The tool state after ``event`` from ``state``, and whether the pins change: ``(new,
-    changed)``; ``None`` for an event that sets no tool state.
+    Without laser mode the machine stops for every change, as LinuxCNC and Grbl stop for a
+    spindle or coolant change. In laser mode (Grbl's laser_mode.md) the laser is lit only in
+    a feed move (G1, G2, G3; a G4 keeps the move before's, and before the first move the
+    laser is off, G0 being the mode at power-up): a G0 moves with the power 0 and the state
+    still on; the machine stops only where the spindle (M3, M4, M5) or the coolant changes;
+    a change of power alone (an S, the way into or out of a G0) is taken on the fly, between
+    the two moves, with no stop."""
 
-    M3 and M4 turn the spindle on clockwise and counter-clockwise, M5 off; S sets the power
-    (rounded to a whole number, above the machine's ``s_max`` taken as ``s_max``, as Grbl
-    clamps it); M7 turns mist on, M8 flood, M9 both off. S alone changes nothing on the pins
-    while the spindle is off."""
-    from kontur.hdl.motion.tools import Spindle
-    spindles = {"M3": Spindle.CW, "M4": Spindle.CCW, "M5": Spindle.OFF}
-    new = dict(state)
-    if event.kind == "spindle":
-        new["spindle"] = spindles[event.text.split()[0]]
-    elif event.kind == "speed":
-        new["s"] = min(round(event.value), machine.s_max)
-    elif event.kind == "coolant":
-        code = event.text.strip()
-        if code == "M7":
-            new["mist"] = True
-        elif code == "M8":
-            new["flood"] = True
+    _SPINDLES = ("M5", "M3", "M4")
+
+    def __init__(self, machine):
+        from kontur.hdl.motion.tools import Spindle
+        self.machine = machine
+        self.off = Spindle.OFF
+        self.state = {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
+                      "laser": machine.laser}
+        self.shown = dict(self.state)         # what the pins show
+        self.lit = False                      # laser mode: in a feed move
+
+    def copy(self):
+        """A copy to go on from (a line that may be refused: the state is kept until it is
+        taken)."""
+        other = copy.copy(self)
+        other.state, other.shown = dict(self.state), dict(self.shown)
+        return other
+
+    def take(self, event):
+        """Apply ``event``; ``False`` for one that sets no tool state."""
+        from kontur.hdl.motion.tools import Spindle
+        state = self.state
+        if event.kind == "spindle":
+            state["spindle"] = Spindle(self._SPINDLES.index(event.text.split()[0]))
+        elif event.kind == "speed":
+            state["s"] = min(round(event.value), self.machine.s_max)
+        elif event.kind == "coolant":
+            code = event.text.strip()
+            if code == "M7":
+                state["mist"] = True
+            elif code == "M8":
+                state["flood"] = True
+            else:
+                state["mist"] = state["flood"] = False
         else:
-            new["mist"] = new["flood"] = False
-    else:
-        return None
-    return new, new != state and not (event.kind == "speed" and new["spindle"] == Spindle.OFF)
+            return False
+        return True
 
+    def _pins(self, state):                   # what the pins show: S only while on
+        return (state["spindle"], state["s"] if state["spindle"] != self.off else None,
+                state["mist"], state["flood"])
 
-def tool_on(state):
-    """The spindle or a coolant is on in ``state``."""
-    return state["spindle"].value != 0 or state["mist"] or state["flood"]
+    def change(self, move=None, *, end=False):
+        """The change before ``move`` (its kind: ``"rapid"``, ``"line"``, ``"arc"``,
+        ``"dwell"``; ``None``: where the moves so far end), or at the program's ``end`` (all
+        off): ``(state, stop)``, or ``None`` when the pins show it already."""
+        if end:                               # the program's end: M2 turns all off
+            self.state.update(spindle=self.off, mist=False, flood=False)
+        elif move is not None and move.kind != "dwell":
+            self.lit = move.kind != "rapid"
+        new = dict(self.state)
+        if self.machine.laser and not self.lit and new["spindle"] != self.off:
+            new["s"] = 0                      # laser mode: no power outside G1/G2/G3
+        if self._pins(new) == self._pins(self.shown):
+            return None
+        stop = not self.machine.laser or any(new[key] != self.shown[key]
+                                             for key in ("spindle", "mist", "flood"))
+        self.shown = new
+        return new, stop
+
+    @property
+    def on(self):
+        """The spindle or a coolant is on (the state set, whatever the pins show)."""
+        return self.state["spindle"] != self.off or self.state["mist"] or self.state["flood"]
 
 
 def tool_changes(events, machine, moves):
-    """The tool states a program sets, for a board with tool outputs: ``(event, state)`` for
-    each event that changes the state (``state`` the keywords of
-    :func:`kontur.hdl.motion.tools.tool_frame`; the changes between the same two moves are one,
-    the last event's), and a last ``(event, all off)`` if the program
-    leaves anything on (as LinuxCNC and Grbl turn the spindle and coolant off at M2/M30; it
-    takes the place of a change after the last of the ``moves`` moves, whose event it keeps;
-    else the event is ``None``).
-
-    Each event's change is :func:`tool_change`'s (the rules of M3/M4/M5, S, M7/M8/M9); the
-    machine's ``laser`` (Grbl's ``$32``) goes with every state."""
-    state, out = tools_off(machine), []
-    for event in events:
-        change = tool_change(state, event, machine)
+    """The tool states a program sets, for a board with tool outputs: ``(at, line, state,
+    stop)`` for each place the state changes: before move ``at`` of ``moves`` (``len(moves)``:
+    after the last), named by program ``line`` (``None`` for the last change a program that
+    leaves anything on gets), ``state`` the keywords of
+    :func:`kontur.hdl.motion.tools.tool_frame` (the changes between the same two moves are
+    one), and ``stop`` whether the machine stops for it: :class:`ToolStates`' rules. A program
+    that leaves the spindle or coolant on gets a last change turning them off (LinuxCNC's and
+    Grbl's M2/M30)."""
+    tools = ToolStates(machine)
+    queue = sorted(((event.move, n, event) for n, event in enumerate(events)
+                    if event.kind in ("spindle", "speed", "coolant")), key=lambda e: e[:2])
+    out, taken = [], 0
+    for at in range(len(moves) + 1):
+        line = None
+        while taken < len(queue) and queue[taken][0] <= at:
+            event = queue[taken][2]
+            taken += 1
+            line = event.line
+            tools.take(event)
+        change = tools.change(moves[at] if at < len(moves) else None, end=at == len(moves))
         if change is None:
             continue
-        new, changed = change
-        if changed:
-            if out and out[-1][0].move == event.move:     # the same place: one change
-                out.pop()
-            out.append((event, new))
-        state = new
-    if tool_on(state):
-        last = None
-        if out and out[-1][0].move >= moves:        # after the last move too: one change
-            last = out.pop()[0]
-        out.append((last, {**state, **tools_off(machine), "s": state["s"]}))
+        if line is None:                      # a change of mode alone: the move's line
+            line = moves[at].line if at < len(moves) else None
+        out.append((at, line, *change))
     return out
 
 
-def tool_stop(line, state, position):
-    """The stop of a tool change: a segment of kind ``"dwell"`` of no time at ``position``
-    (steps) whose payload's ``"tool"`` is ``state`` (its TOOL frame, :func:`kontur.planner.
-    dwell_frames`)."""
-    return Segment(line, "dwell", {"seconds": 0, "tool": state}, position, position, 0.0, [],
-                   None, None, None)
+def tool_stop(line, state, stop, position):
+    """The segment of a tool change: of kind ``"dwell"``, of no time, at ``position`` (steps),
+    whose payload's ``"tool"`` is ``state`` (its TOOL frame, :func:`kontur.planner.
+    dwell_frames`) and ``"stop"`` whether the machine stops for it (:func:`kontur.planner.
+    plan`)."""
+    return Segment(line, "dwell", {"seconds": 0, "tool": state, "stop": stop}, position,
+                   position, 0.0, [], None, None, None)
 
 
 def tool_stops(segments, contours, moves, events, machine):
-    """``segments`` and ``contours`` with a stop for each tool change (:func:`tool_changes`):
-    a segment of kind ``"dwell"`` of no time whose payload's ``"tool"`` is the state (its TOOL
-    frame, :func:`kontur.planner.dwell_frames`), before the segments of the first move after
-    the change (the change at the end: after the last). The machine stops for it, as LinuxCNC
-    stops for a spindle or coolant change; the controller takes it after the move before has
-    ended.
+    """``segments`` and ``contours`` with a segment of kind ``"dwell"`` of no time for each
+    tool change (:func:`tool_changes`), whose payload's ``"tool"`` is the state (its TOOL
+    frame, :func:`kontur.planner.dwell_frames`) and ``"stop"`` whether the machine stops for it
+    (:func:`kontur.planner.plan`), before the segments of the first move after the change (the
+    change at the end: after the last). The controller takes it after the move before has
+    ended, before the move after begins.
 
     Raises
     ------
@@ -366,31 +413,32 @@ def tool_stops(segments, contours, moves, events, machine):
         For a change inside a compensated contour (the equidistant engine takes the contour
         whole), naming its line.
     """
-    changes = tool_changes(events, machine, len(moves))
+    changes = tool_changes(events, machine, moves)
     if not changes:
         return segments, contours
     segments, contours = list(segments), list(contours)
     head = 1 if contours else 0                 # RADIUS heads a program with contours
-    for event, state in reversed(changes):
-        at = len(segments)
-        if event is not None and event.move < len(moves):
-            line = moves[event.move].line
-            at = next((i for i in range(head, len(segments)) if segments[i].line >= line),
-                      len(segments))
+    for at, line, state, stop in reversed(changes):
+        place = len(segments)
+        if at < len(moves):
+            place = next((i for i in range(head, len(segments))
+                          if segments[i].line >= moves[at].line), len(segments))
         for n, contour in enumerate(contours):
-            if contour.first < at < contour.first + contour.count:
-                raise ProgramError(event.line, f"{event.text} inside the compensated contour "
-                                               f"of lines {contour.lines[0]}-"
-                                               f"{contour.lines[1]}: the equidistant engine "
-                                               f"takes the contour whole; change the tool "
-                                               f"before G41/G42 or after G40")
-            if contour.first >= at:
+            if contour.first < place < contour.first + contour.count:
+                text = next((e.text for e in events if e.line == line
+                             and e.kind in ("spindle", "speed", "coolant")), "a tool change")
+                raise ProgramError(line, f"{text} inside the compensated contour "
+                                         f"of lines {contour.lines[0]}-"
+                                         f"{contour.lines[1]}: the equidistant engine "
+                                         f"takes the contour whole; change the tool "
+                                         f"before G41/G42 or after G40")
+            if contour.first >= place:
                 contours[n] = replace(contour, first=contour.first + 1,
                                       approach=None if contour.approach is None
                                       else contour.approach + 1)
-        position = segments[at - 1].end if at else segments[0].start if segments else (0, 0)
-        line = segments[-1].line if event is None else event.line
-        segments.insert(at, tool_stop(line, state, position))
+        position = segments[place - 1].end if place else segments[0].start
+        segments.insert(place, tool_stop(segments[-1].line if line is None else line, state,
+                                         stop, position))
     return segments, contours
 
 

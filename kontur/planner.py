@@ -461,7 +461,9 @@ def plan(segments, machine):
     A dwell (a segment of kind ``"dwell"``: G4, or a tool change on a board with tool
     outputs) stops the machine: the moves before it end at
     rest and those after it start from rest (each stretch between dwells is planned alone), and
-    its item is its time.
+    its item is its time. A tool change taken on the fly (payload ``"stop"`` false: laser
+    mode's change of power, :func:`kontur.machining.tool_changes`) stops nothing: the moves
+    round it are planned as if it were not there, and its item is all zero.
 
     1. Every speed of the plan (a move's cruise, its exit, the next move's entry) is one the
        feed generator makes: its rate rounded down to a whole Q0.24 rate (:func:`min_feed`),
@@ -481,14 +483,20 @@ def plan(segments, machine):
     if not any(s.kind == "dwell" for s in segments):
         return _plan(segments, machine)
     items, stretch = [], []
+
+    def moves(stretch):                  # planned together, a change on the fly in its place
+        planned = iter(_plan([s for s in stretch if s.kind != "dwell"], machine))
+        return [PlanItem(0.0, 0.0, 0.0, 0, 0.0) if s.kind == "dwell" else next(planned)
+                for s in stretch]
+
     for segment in segments:
-        if segment.kind == "dwell":
-            items += _plan(stretch, machine)
+        if segment.kind == "dwell" and segment.payload.get("stop", True):
+            items += moves(stretch)
             stretch = []
             items.append(PlanItem(0.0, 0.0, 0.0, 0, float(segment.payload["seconds"])))
         else:
             stretch.append(segment)
-    return items + _plan(stretch, machine)
+    return items + moves(stretch)
 
 
 def _plan(segments, machine):

@@ -137,3 +137,34 @@ def test_tool_frame_fields():
     assert frame[3:7] == bytes([0b10110, 1000 & 0xFF, 1000 >> 8, 0])
     with pytest.raises(ValueError, match="S must be an integer"):
         tool_frame(Spindle.CW, 1 << 24)
+
+
+def test_laser_power_changes_on_the_fly():
+    """Laser mode, M3: a change of power alone between two moves that the plan runs through
+    at cruise (the host sends no stop: kontur.machining.tool_changes) takes effect between
+    the move before and the move after, and the pulses keep their pace through it: no stop,
+    no pulse late. (A step every 80 clocks: at 20 this test's UART, 4 clocks a bit, cannot
+    bring a move's frames within its 30 steps, and the queue runs dry.)"""
+    every = 80
+    feed = p.feed(round((1 << 24) / every), round((1 << 24) / every), 1 << 20)
+    frames = [p.config((1 << 32) - 1),
+              tool_frame(Spindle.CW, 80, laser=True),
+              feed, p.line(30, 0),
+              tool_frame(Spindle.CW, 20, laser=True),
+              feed, p.line(30, 0),
+              tool_frame(Spindle.CW, 0, laser=True),
+              feed, p.line(30, 0),
+              tool_frame(Spindle.OFF, 0, laser=True),
+              p.query()]
+    outcomes, trace = _run(frames, 12_000)
+    assert outcomes == [DONE] * 11
+    pulses = [clock for clock in range(1, len(trace)) if trace[clock][0] != trace[clock - 1][0]]
+    assert len(pulses) == 90 and trace[-1][:2] == (90, 0)
+    # The pace: every pulse `every` clocks after the one before, through both changes too.
+    assert {b - a for a, b in zip(pulses, pulses[1:])} == {every}
+    # The power: 80 up to the 30th pulse, 20 from the second whole period after the 31st (the
+    # duty worked out a period ahead) to the 60th, none after the 61st; M3 S0 stays enabled.
+    assert set(_duties(trace, pulses[0] + 2 * PERIOD, pulses[29])) == {80}
+    assert set(_duties(trace, pulses[30] + 2 * PERIOD, pulses[59])) == {20}
+    assert set(_duties(trace, pulses[60] + 2 * PERIOD, pulses[89])) == {0}
+    assert all(pins["enable"] for _, _, pins in trace[pulses[0]:pulses[89]])

@@ -11,7 +11,7 @@ import pytest
 
 from kontur.machine import Machine
 from kontur.machining import execute, prepare, summary, summary_text
-from kontur.planner import ProgramError
+from kontur.planner import ProgramError, planned_feed
 from kontur.rs274 import available, canonical
 
 from .conftest import selected_simulators
@@ -171,3 +171,107 @@ def test_send_streams_the_tool_frames():
     assert port.kinds.count(TOOL) == 4
     # On the iCEBreaker M3 is still refused by kontur send.
     assert "no tool outputs" in unhonoured(prepare(PLASMA, board="icebreaker"))[1]
+
+
+LASER = Machine(clock_hz=12.5e6, laser=True)
+
+
+def rs274_laser_power(text):
+    """The power a laser in Grbl's laser mode burns with in each of rs274's moves (of some
+    length): ``[(end in steps, S)]``, S the speed rs274 has set while its spindle is on, in a feed move
+    (STRAIGHT_FEED, ARC_FEED), 0 in a STRAIGHT_TRAVERSE (G0) or with the spindle off."""
+    _, _, run = canonical(text)
+    assert run.returncode == 0, run.stderr
+    s, on, here, out = 0, False, (0, 0), []
+    for line in run.stdout.splitlines():
+        match = re.search(r"N\.+ (\w+)\((.*)\)", line)
+        if not match:
+            continue
+        call, args = match.groups()
+        if call in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
+            x, y = (float(v) for v in args.split(",")[:2])
+            if (round(x * SPM), round(y * SPM)) != here:        # (none of no length)
+                here = (round(x * SPM), round(y * SPM))
+                out.append((here, s if on and call != "STRAIGHT_TRAVERSE" else 0))
+        elif call == "SET_SPINDLE_SPEED":
+            s = round(float(args.split(",")[1]))
+        elif call.startswith("START_SPINDLE"):
+            on = True
+        elif call == "STOP_SPINDLE_TURNING":
+            on = False
+    return out
+
+
+def kontur_laser_power(job):
+    """The power of each of ``job``'s moves: the TOOL frame in force as it runs."""
+    from kontur.hdl.motion.tools import Spindle
+    state, out = None, []
+    for segment in job.segments:
+        if "tool" in segment.payload:
+            state = segment.payload["tool"]
+        elif segment.kind != "dwell":
+            on = state is not None and state["spindle"] != Spindle.OFF
+            out.append((tuple(segment.end[:2]), state["s"] if on else 0))
+    return out
+
+
+def test_laser_mode_as_grbl():
+    """Grbl's laser mode (laser_mode.md) on the LightBurn-style laser.ngc: each move burns with
+    the power rs274 has set for it, none in a G0 though M4 is on; the machine stops only for
+    M4/M5 and M8/M9 (the move before ends at rest, the one after starts from it) and runs
+    through every change of power alone (the plan's speed the same on both sides)."""
+    assert available(), "rs274 is missing: run make setup"
+    text = (PROGRAMS / "rs274" / "laser.ngc").read_text()
+    job = prepare(text, machine=LASER, board="ulx3s", name="laser")
+    assert kontur_laser_power(job) == rs274_laser_power(text)
+    assert {power for _, power in kontur_laser_power(job)} == {0, 300, 600}
+    rest = math.sqrt(2 * LASER.accel / LASER.steps_per_mm) + 1e-9
+    stops = flying = 0
+    before = {"spindle": None, "mist": None, "flood": None}
+    for n, segment in enumerate(job.segments):
+        if "tool" not in segment.payload:
+            continue
+        state = segment.payload["tool"]
+        stop = any(state[key] != before[key] for key in before)
+        before = {key: state[key] for key in before}
+        assert segment.payload["stop"] == stop
+        if stop:
+            stops += 1
+            assert n == 0 or job.items[n - 1].exit <= rest
+            assert n + 1 == len(job.segments) or job.items[n + 1].entry == 0
+        else:
+            flying += 1
+            assert job.items[n - 1].exit == job.items[n + 1].entry > 0      # the corner's
+    assert (stops, flying) == (3, 3)       # M4 M8, M9, M5; S600, the G0 between, S300
+    # The same program without laser mode stops for each of its changes, and the spindle
+    # (a router's) turns in the G0s.
+    plain = prepare(text, machine=ULX3S, board="ulx3s", name="laser")
+    assert all(segment.payload["stop"] for segment in plain.segments if "tool" in
+               segment.payload)
+    assert plain.seconds > job.seconds
+    assert execute(job, "model").end == job.end
+    if "verilator" in selected_simulators():   # the RTL takes the changes on the fly too
+        result = execute(job, "verilator")     # every frame DONE, the steps the model's
+        assert result.steps == job.steps and result.end == job.end
+
+
+def test_laser_raster_runs_through():
+    """A raster row as image engravers write it, an S on every G1 along one line: in laser
+    mode the row runs at its feed from end to end (no stop at a change), without it the
+    machine stops at each, as Grbl and LinuxCNC do for a spindle."""
+    row = "".join(f"G1 X{x} S{s}\n" for x, s in zip(range(2, 42, 2), [100, 800, 0, 450] * 5))
+    text = f"G21 G90\nG0 X0 Y5\nM4 S0\nF1200\n{row}M5\nM2\n"
+    job = prepare(text, machine=LASER, board="ulx3s", name="raster")
+    lines = [item for s, item in zip(job.segments, job.items) if s.kind == "line"]
+    # Up to speed within the first moves, down in the last: between, at the feed through
+    # every change.
+    middle = lines[4:-4]
+    assert {(item.entry, item.cruise, item.exit) for item in middle} == \
+        {(planned_feed(1200, LASER) / 60,) * 3}
+    # The first power goes with M4 (a stop, the machine at rest there anyway), the other 19
+    # on the fly.
+    assert [s.payload["stop"] for s in job.segments if "tool" in s.payload] == \
+        [True] + [False] * 19 + [True]
+    plain = prepare(text, machine=ULX3S, board="ulx3s", name="raster")
+    assert all(s.payload["stop"] for s in plain.segments if "tool" in s.payload)
+    assert plain.seconds > 1.25 * job.seconds

@@ -10,8 +10,8 @@ LinuxCNC reads a program) and the lattice of ``kontur run``
 (:func:`kontur.planner.lattice`), so that a served program makes the steps a run one does.
 On a 3-axis board (the ULX3S's) Z moves as in ``kontur run`` (LINE3 and HELIX frames); on a
 board with tool outputs M3/M4/M5, S and M7/M8/M9 are tool changes (TOOL frames,
-:func:`kontur.machining.tool_change`'s rules), each a stop queued between the moves as
-``kontur run`` places it (:func:`kontur.machining.tool_stop`). A board without them refuses a
+:class:`kontur.machining.ToolStates`' rules, laser mode's included), each a stop queued
+between the moves as ``kontur run`` places it (:func:`kontur.machining.tool_stop`). A board without them refuses a
 Z move, and a spindle or coolant switched on, with ``error:20`` and the reason.
 """
 
@@ -24,8 +24,7 @@ from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse
 from kontur.grbl import protocol as p
 from kontur.grbl.motion import Block, Motion
 from kontur.grbl.settings import REFUSED, SettingError, Settings
-from kontur.machining import (check_travel, estimate_steps, tool_change, tool_on, tool_stop,
-                              tools_off)
+from kontur.machining import ToolStates, check_travel, estimate_steps, tool_stop
 from kontur.planner import ProgramError, lattice, plan
 from kontur.sim.models.errors import InputError
 
@@ -70,7 +69,7 @@ class Session:
         self._reports = 0
         self.z = None                          # the first Z a program gives (2-axis board)
         self.spindle, self.coolant = "M5", "M9"
-        self.tool = tools_off(machine)         # the tool state the queued changes leave
+        self.tools_set = ToolStates(machine)   # the tool state the queued changes leave
         self.reader = None
         self._reset_reader()
         self._welcome()
@@ -91,7 +90,7 @@ class Session:
         self._waiting = None
         self.alarm = True
         self.motion.tool = None                # the board's halt turned its tool outputs off
-        self.tool = tools_off(self.machine)
+        self.tools_set = ToolStates(self.machine)
         if self._homing:                       # a pass without its switch: where it stopped
             self._homing = False
             self._sync()
@@ -294,7 +293,7 @@ class Session:
         if self.axes == 3:                     # every move says where Z goes: where it is
             self.reader.state.z_given = True
         self.spindle, self.coolant = "M5", "M9"
-        self.tool = tools_off(self.machine)
+        self.tools_set = ToolStates(self.machine)
         self._sync()
 
     def _sync(self):
@@ -332,11 +331,13 @@ class Session:
         self.check = False
         self._reports = 0
         self._reset_reader()
-        if motion.tool is not None and tool_on(motion.tool):
+        tool = motion.tool
+        if tool is not None and (tool["spindle"].value or tool["mist"] or tool["flood"]):
             # Grbl's reset switches the spindle and coolant off; a board's ABORT leaves its
             # tool outputs as they are: a TOOL frame turns them off
-            self.motion.add(Block("tool", self.number, [tool_stop(self.number, self.tool,
-                                                                  self.lattice_position)]))
+            self.motion.add(Block("tool", self.number, [
+                tool_stop(self.number, dict(self.tools_set.state), True,
+                          self.lattice_position)]))
         if moving:
             self.send("ALARM:3")
             self.alarm = True
@@ -408,7 +409,7 @@ class Session:
         changes = {}
         if kind is None:
             try:
-                tool, changes = self._tool_changes(events, len(moves), reader.ended)
+                tools, changes = self._tool_changes(events, moves, reader.ended)
             except LineError:
                 self.z, self.lattice_position = z, position
                 raise
@@ -416,7 +417,7 @@ class Session:
                     if event.kind == "message"]
         if kind is None:
             if not self.check:                     # check mode ($C) switches nothing
-                self.tool = tool
+                self.tools_set = tools
             for event in events:
                 if event.kind == "spindle":
                     self.spindle = event.text.split()[0]
@@ -446,8 +447,8 @@ class Session:
         self.lattice_position = position
         for index, (move, segments) in enumerate([*planned, (None, [])]):
             if index in changes and not self.check:     # a tool change before the move
-                line, state = changes[index]
-                self.motion.add(Block("tool", line, [tool_stop(line, state,
+                line, state, stop = changes[index]
+                self.motion.add(Block("tool", line, [tool_stop(line, state, stop,
                                                                self.lattice_position)]))
             if segments:
                 self.lattice_position = segments[-1].end
@@ -461,27 +462,28 @@ class Session:
         return messages or None
 
     def _tool_changes(self, events, moves, ended):
-        """The tool state after a line's ``events`` (of its ``moves`` moves) and its changes:
-        ``{moves before it: (line, state)}``, those between the same two moves one (the last),
-        as :func:`kontur.machining.tool_changes` places them; at a program end (``ended``,
-        M2/M30) everything on is switched off. A board without tool outputs refuses a change
-        (``error:20``): M5, M9 and S, which leave them off, change nothing."""
-        state, changes = self.tool, {}
-        for event in events:
-            change = tool_change(state, event, self.machine)
+        """The tool states after a line's ``events`` and ``moves`` and its changes: ``{moves
+        before it: (line, state, stop)}``, as :func:`kontur.machining.tool_changes` places
+        them in a whole program (:class:`kontur.machining.ToolStates` going on from the lines
+        before; a change after the line's last move is made there, not held for the next
+        line); at a program end (``ended``, M2/M30) everything on is switched off. A board
+        without tool outputs refuses a change (``error:20``): M5, M9 and S, which leave them
+        off, change nothing."""
+        tools, changes = self.tools_set.copy(), {}
+        for index in range(len(moves) + 1):
+            taken = [event for event in events if event.move == index and tools.take(event)]
+            change = tools.change(moves[index] if index < len(moves) else None,
+                                  end=ended and index == len(moves))
             if change is None:
                 continue
-            state, changed = change
-            if changed and not self.tools:
-                raise LineError(20, f"{event.text.strip()}: the {registry.board(self.board).name}"
-                                    f"'s controller has no tool outputs (spindle, coolant; the "
-                                    f"ulx3s's has them)")
-            if changed:
-                changes[event.move] = (event.line, state)
-        if ended and tool_on(state):
-            state = {**state, **tools_off(self.machine), "s": state["s"]}
-            changes[moves] = (self.number, state)
-        return state, changes
+            if not self.tools:
+                what = next((e.text.strip() for e in reversed(taken) if e.kind != "speed"),
+                            taken[-1].text.strip())
+                raise LineError(20, f"{what}: the "
+                                    f"{registry.board(self.board).name}'s controller has no "
+                                    f"tool outputs (spindle, coolant; the ulx3s's has them)")
+            changes[index] = (taken[-1].line if taken else self.number, *change)
+        return tools, changes
 
     def _jog(self, text):
         body = text[3:]
