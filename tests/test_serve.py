@@ -1156,3 +1156,50 @@ def test_verilator_checks_z_and_tools(port, server):
                      "segments_cut_short": 0}
     assert [(f["line"], f["spindle"], f["flood"]) for f in data["tool_frames"]] == \
         [(3, "cw", False), (5, "cw", True), (8, "off", False)]
+
+
+def _tool_per_move(segments):
+    """The tool state (pins: spindle, S while on, mist, flood) in force during each move of
+    ``segments``, and the lines of the stops the machine makes for a change."""
+    state, during, stops = None, [], []
+    for segment in segments:
+        if "tool" in segment.payload:
+            tool = segment.payload["tool"]
+            state = (tool["spindle"].name, tool["s"] if tool["spindle"].value else None,
+                     tool["mist"], tool["flood"])
+            if segment.payload.get("stop", True):
+                stops.append(segment.line)
+        elif segment.steps:
+            during.append((segment.line, state))
+    return during, stops
+
+
+def test_laser_mode_served_as_run():
+    """A laser program (tests/programs/rs274/laser.ngc, LightBurn's style) served line by line
+    with the machine's laser mode on: during every move the tool outputs are what ``kontur
+    run`` gives them (the power 0 in G0, the S of each G1), and the machine stops only where
+    the spindle or the coolant changes (a change of power alone taken on the fly)."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+
+    text = (ROOT / "tests" / "programs" / "rs274" / "laser.ngc").read_text()
+    machine = Machine(clock_hz=board("ulx3s").clock_hz, laser=True)
+    now, said = [0.0], []
+    grbl = Session(machine, "ulx3s", said.append, speed=SPEED, clock=lambda: now[0])
+    for line in text.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        grbl.poll()
+        now[0] += 0.1
+    while grbl.motion.busy or grbl.rx or grbl._waiting is not None:
+        grbl.poll()
+        now[0] += 0.1
+    assert said.count("ok") == len(text.splitlines())
+    served, served_stops = _tool_per_move(grbl.motion.segments)
+    run, run_stops = _tool_per_move(prepare(text, machine=machine, board="ulx3s").segments)
+    assert served == run
+    assert ("CCW", 0, False, True) in {state for _, state in served}       # G0: power 0
+    # M4 and M8 before the first move, M9 and M5 at the end: stops; the S changes are not
+    # (kontur run makes one stop of the changes between the same two moves: 6, then 18-19)
+    assert served_stops == [4, 6, 17, 19] and run_stops[0] == 6 and run_stops[-1] == 19
+    assert grbl.motion.tool["spindle"].name == "OFF" and not grbl.motion.tool["flood"]
