@@ -1134,9 +1134,12 @@ class Stream:
         """Where the moves so far end: ``(x, y, z)`` in machine coordinates."""
         return tuple(self.state.pos)
 
-    def move_to(self, x, y):
-        """Put the reader at machine ``(x, y)`` (where the machine is after a stop)."""
+    def move_to(self, x, y, z=None):
+        """Put the reader at machine ``(x, y)`` (where the machine is after a stop), and at
+        ``z`` when given (a 3-axis machine's)."""
         self.state.pos[0], self.state.pos[1] = Fraction(x), Fraction(y)
+        if z is not None:
+            self.state.pos[2] = Fraction(z)
 
     def modes(self):
         """The modal state as a dict: ``motion`` (ten times the G code, ``None`` after G80),

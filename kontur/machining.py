@@ -27,6 +27,7 @@ engine: :mod:`.compensation` puts the contours' frames among the moves (PROFILE 
 with its FEED), with the engine's step model as their steps.
 """
 
+import copy
 import itertools
 import json
 import math
@@ -273,20 +274,18 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                start, contours, list(program.events))
 
 
-def tool_changes(events, machine, moves):
-    """The tool states a program sets, for a board with tool outputs: ``(at, line, state,
-    stop)`` for each place the state changes: before move ``at`` of ``moves`` (``len(moves)``:
-    after the last), named by program ``line`` (``None`` for the last change a program that
-    leaves anything on gets), ``state`` the keywords of
-    :func:`kontur.hdl.motion.tools.tool_frame` (the changes between the same two moves are
-    one), and ``stop`` whether the machine stops for it.
+class ToolStates:
+    """The tool state a program sets, change by change (:func:`tool_changes`' rules, kept
+    from one call to the next: ``kontur serve`` takes a program line by line).
 
-    M3 and M4 turn the spindle on clockwise and counter-clockwise, M5 off; S sets the power
-    (rounded to a whole number, above the machine's ``s_max`` taken as ``s_max``, as Grbl
-    clamps it); M7 turns mist on, M8 flood, M9 both off; the machine's ``laser`` (Grbl's
-    ``$32``) goes with every state. A program that leaves the spindle or coolant on gets a
-    last change turning them off (LinuxCNC's and Grbl's M2/M30). S alone changes nothing on
-    the pins while the spindle is off.
+    :meth:`take` applies an event (M3 and M4 turn the spindle on clockwise and
+    counter-clockwise, M5 off; S sets the power, rounded to a whole number, above the
+    machine's ``s_max`` taken as ``s_max``, as Grbl clamps it; M7 turns mist on, M8 flood, M9
+    both off); :meth:`change` says what the pins show before a move (or at the program's end,
+    where everything is switched off) when it differs from what they show: ``(state, stop)``,
+    ``state`` the keywords of :func:`kontur.hdl.motion.tools.tool_frame` (the machine's
+    ``laser``, Grbl's ``$32``, with every state), ``stop`` whether the machine stops for it.
+    S alone changes nothing on the pins while the spindle is off.
 
     Without laser mode the machine stops for every change, as LinuxCNC and Grbl stop for a
     spindle or coolant change. In laser mode (Grbl's laser_mode.md) the laser is lit only in
@@ -295,52 +294,109 @@ def tool_changes(events, machine, moves):
     still on; the machine stops only where the spindle (M3, M4, M5) or the coolant changes;
     a change of power alone (an S, the way into or out of a G0) is taken on the fly, between
     the two moves, with no stop."""
-    from kontur.hdl.motion.tools import Spindle
-    spindles = {"M3": Spindle.CW, "M4": Spindle.CCW, "M5": Spindle.OFF}
-    state = {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
-             "laser": machine.laser}
 
-    def pins(state):                          # what the pins show: S only while on
-        return (state["spindle"], state["s"] if state["spindle"] != Spindle.OFF else None,
+    _SPINDLES = ("M5", "M3", "M4")
+
+    def __init__(self, machine):
+        from kontur.hdl.motion.tools import Spindle
+        self.machine = machine
+        self.off = Spindle.OFF
+        self.state = {"spindle": Spindle.OFF, "s": 0, "mist": False, "flood": False,
+                      "laser": machine.laser}
+        self.shown = dict(self.state)         # what the pins show
+        self.lit = False                      # laser mode: in a feed move
+
+    def copy(self):
+        """A copy to go on from (a line that may be refused: the state is kept until it is
+        taken)."""
+        other = copy.copy(self)
+        other.state, other.shown = dict(self.state), dict(self.shown)
+        return other
+
+    def take(self, event):
+        """Apply ``event``; ``False`` for one that sets no tool state."""
+        from kontur.hdl.motion.tools import Spindle
+        state = self.state
+        if event.kind == "spindle":
+            state["spindle"] = Spindle(self._SPINDLES.index(event.text.split()[0]))
+        elif event.kind == "speed":
+            state["s"] = min(round(event.value), self.machine.s_max)
+        elif event.kind == "coolant":
+            code = event.text.strip()
+            if code == "M7":
+                state["mist"] = True
+            elif code == "M8":
+                state["flood"] = True
+            else:
+                state["mist"] = state["flood"] = False
+        else:
+            return False
+        return True
+
+    def _pins(self, state):                   # what the pins show: S only while on
+        return (state["spindle"], state["s"] if state["spindle"] != self.off else None,
                 state["mist"], state["flood"])
 
+    def change(self, move=None, *, end=False):
+        """The change before ``move`` (its kind: ``"rapid"``, ``"line"``, ``"arc"``,
+        ``"dwell"``; ``None``: where the moves so far end), or at the program's ``end`` (all
+        off): ``(state, stop)``, or ``None`` when the pins show it already."""
+        if end:                               # the program's end: M2 turns all off
+            self.state.update(spindle=self.off, mist=False, flood=False)
+        elif move is not None and move.kind != "dwell":
+            self.lit = move.kind != "rapid"
+        new = dict(self.state)
+        if self.machine.laser and not self.lit and new["spindle"] != self.off:
+            new["s"] = 0                      # laser mode: no power outside G1/G2/G3
+        if self._pins(new) == self._pins(self.shown):
+            return None
+        stop = not self.machine.laser or any(new[key] != self.shown[key]
+                                             for key in ("spindle", "mist", "flood"))
+        self.shown = new
+        return new, stop
+
+    @property
+    def on(self):
+        """The spindle or a coolant is on (the state set, whatever the pins show)."""
+        return self.state["spindle"] != self.off or self.state["mist"] or self.state["flood"]
+
+
+def tool_changes(events, machine, moves):
+    """The tool states a program sets, for a board with tool outputs: ``(at, line, state,
+    stop)`` for each place the state changes: before move ``at`` of ``moves`` (``len(moves)``:
+    after the last), named by program ``line`` (``None`` for the last change a program that
+    leaves anything on gets), ``state`` the keywords of
+    :func:`kontur.hdl.motion.tools.tool_frame` (the changes between the same two moves are
+    one), and ``stop`` whether the machine stops for it: :class:`ToolStates`' rules. A program
+    that leaves the spindle or coolant on gets a last change turning them off (LinuxCNC's and
+    Grbl's M2/M30)."""
+    tools = ToolStates(machine)
     queue = sorted(((event.move, n, event) for n, event in enumerate(events)
                     if event.kind in ("spindle", "speed", "coolant")), key=lambda e: e[:2])
-    shown, lit, out, taken = dict(state), False, [], 0
+    out, taken = [], 0
     for at in range(len(moves) + 1):
         line = None
         while taken < len(queue) and queue[taken][0] <= at:
             event = queue[taken][2]
             taken += 1
             line = event.line
-            if event.kind == "spindle":
-                state["spindle"] = spindles[event.text.split()[0]]
-            elif event.kind == "speed":
-                state["s"] = min(round(event.value), machine.s_max)
-            else:
-                code = event.text.strip()
-                if code == "M7":
-                    state["mist"] = True
-                elif code == "M8":
-                    state["flood"] = True
-                else:
-                    state["mist"] = state["flood"] = False
-        if at == len(moves):                  # the program's end: M2 turns all off
-            state.update(spindle=Spindle.OFF, mist=False, flood=False)
-        elif moves[at].kind != "dwell":
-            lit = moves[at].kind != "rapid"
-        new = dict(state)
-        if machine.laser and not lit and new["spindle"] != Spindle.OFF:
-            new["s"] = 0                      # laser mode: no power outside G1/G2/G3
-        if pins(new) == pins(shown):
+            tools.take(event)
+        change = tools.change(moves[at] if at < len(moves) else None, end=at == len(moves))
+        if change is None:
             continue
-        stop = not machine.laser or any(new[key] != shown[key]
-                                        for key in ("spindle", "mist", "flood"))
         if line is None:                      # a change of mode alone: the move's line
             line = moves[at].line if at < len(moves) else None
-        out.append((at, line, new, stop))
-        shown = new
+        out.append((at, line, *change))
     return out
+
+
+def tool_stop(line, state, stop, position):
+    """The segment of a tool change: of kind ``"dwell"``, of no time, at ``position`` (steps),
+    whose payload's ``"tool"`` is ``state`` (its TOOL frame, :func:`kontur.planner.
+    dwell_frames`) and ``"stop"`` whether the machine stops for it (:func:`kontur.planner.
+    plan`)."""
+    return Segment(line, "dwell", {"seconds": 0, "tool": state, "stop": stop}, position,
+                   position, 0.0, [], None, None, None)
 
 
 def tool_stops(segments, contours, moves, events, machine):
@@ -381,9 +437,8 @@ def tool_stops(segments, contours, moves, events, machine):
                                       approach=None if contour.approach is None
                                       else contour.approach + 1)
         position = segments[place - 1].end if place else segments[0].start
-        segments.insert(place, Segment(segments[-1].line if line is None else line, "dwell",
-                                       {"seconds": 0, "tool": state, "stop": stop}, position,
-                                       position, 0.0, [], None, None, None))
+        segments.insert(place, tool_stop(segments[-1].line if line is None else line, state,
+                                         stop, position))
     return segments, contours
 
 

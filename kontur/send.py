@@ -397,6 +397,7 @@ class _Sender:
             elif reply.kind == ERROR:
                 self.error(*reply.fields)
             else:
+                self.z = reply.z                # a 3-axis board's Z (None on two axes)
                 self.check_status(reply.fields)
                 self.statuses += 1
         if self.answered < count and time.monotonic() > self.deadline():
@@ -539,6 +540,7 @@ class Feeder(_Sender):
                                     items=[], seconds=0.0, frames=lambda: ([], []))
         super().__init__(job, port, progress=None, timeout=timeout, out=None, stop=None)
         self.status = None
+        self.z = None                           # the last STATUS's Z (a 3-axis board's)
         self.reports = 0                        # STATUS replies taken
         self.aborting = False
         self.homing = None                      # the homing cycle's job while it runs
@@ -547,6 +549,7 @@ class Feeder(_Sender):
     def check_board(self, fields, position=None):
         position = tuple(fields[:2]) if position is None else tuple(position)
         self.job.start = position               # wherever it is: the session starts there
+        self.z = position[2] if len(position) > 2 else None
         self.check_flags(fields, abort=False)
         if STATES[fields[4]] != "ALARM":        # in ALARM: the caller's to say (and unlock)
             super().check_board(fields, position)

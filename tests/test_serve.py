@@ -43,22 +43,22 @@ M30
 LONG = "G1 X100 Y50 F300\n"
 
 
-def program_end(text):
-    """The end of an absolute (G90) program: its last X and Y words, read from the text."""
-    x = y = 0.0
+def program_end(text, axes="XY"):
+    """The end of an absolute (G90) program: its last X and Y (and Z: ``axes="XYZ"``) words,
+    read from the text."""
+    end = dict.fromkeys(axes, 0.0)
     for line in text.splitlines():
         line = re.sub(r"\(.*?\)|;.*", "", line).upper()
-        for letter, value in re.findall(r"([XY])\s*([-+]?[\d.]+)", line):
-            if letter == "X":
-                x = float(value)
-            else:
-                y = float(value)
-    return x, y
+        for letter, value in re.findall(rf"([{axes}])\s*([-+]?[\d.]+)", line):
+            end[letter] = float(value)
+    return tuple(end.values())
 
 
-def run_steps(text):
-    """``kontur run``'s steps of ``text`` on the model (the default machine and board)."""
-    job = prepare(text, board="icebreaker")
+def run_steps(text, board="icebreaker"):
+    """``kontur run``'s steps of ``text`` on the model (the default machine, on ``board``)."""
+    from kontur.machine import Machine
+    from kontur.registry import board as item
+    job = prepare(text, machine=Machine(clock_hz=item(board).clock_hz), board=board)
     return execute(job, "model").steps
 
 
@@ -94,6 +94,8 @@ class Port:
 
     def __init__(self, path):
         self.serial = serial.Serial(str(path), 115200, timeout=LINE_WAIT)
+        self.reports = []                   # the status reports read, whole
+
 
     def line(self):
         text = self.serial.readline().decode()
@@ -115,6 +117,7 @@ class Port:
             line = self.line()
             match = STATUS.match(line)
             if match:
+                self.reports.append(line)
                 state, *position = match.groups()
                 return state, tuple(float(c) for c in position), time.monotonic() - sent
 
@@ -168,6 +171,7 @@ def stream(port, text):
                     pending.pop(0)
                 elif raw.startswith("<"):
                     states.append(STATUS.match(raw).group(1))
+                    port.reports.append(raw)
             if time.monotonic() - polled > 0.05:
                 port.serial.write(b"?")
                 polled = time.monotonic()
@@ -411,15 +415,15 @@ def test_an_error_line(port):
     assert port.command("G0 X1") == ["ok"]
 
 
-def session(**options):
-    """A session alone (no pseudo-terminal) on the default machine, its clock standing still
-    unless ``clock`` is given; returns it and the list of what it says."""
+def session(board="icebreaker", **options):
+    """A session alone (no pseudo-terminal) on the default machine and ``board``, its clock
+    standing still unless ``clock`` is given; returns it and the list of what it says."""
     from kontur.grbl.session import Session
     from kontur.machine import Machine
-    from kontur.registry import board
+    from kontur.registry import board as item
     said = []
     options.setdefault("clock", lambda: 0.0)
-    return Session(Machine(clock_hz=board("icebreaker").clock_hz), "icebreaker", said.append,
+    return Session(Machine(clock_hz=item(board).clock_hz), board, said.append,
                    **options), said
 
 
@@ -621,10 +625,15 @@ def test_program_end_and_messages():
     """``(MSG,...)`` is said as ``[MSG:...]``; M30's ok waits for the motion's end, after
     ``[MSG:Pgm End]``; the modes after it are Grbl's program end (G1 G54 G90), the spindle
     off; M3 S1000 shows in ``$G`` before."""
-    grbl, said = serve_lines("G55 G91 M3 S1000\n(MSG, half way)\nG1 X2 F600\nM30\n")
+    grbl, said = serve_lines("G55 G91 M3 S1000\n(MSG, half way)\nG1 X2 F600\nM30\n",
+                             board="ulx3s")
     assert "[MSG:half way]" in said
     assert said[-2:] == ["[MSG:Pgm End]", "ok"]
-    assert grbl.motion.position == (2 * grbl.machine.steps_per_mm, 0)
+    assert grbl.motion.position == (2 * grbl.machine.steps_per_mm, 0, 0)
+    # M30 switched the spindle off: a TOOL stop after the move, the machine's state off
+    assert [s.payload["tool"]["spindle"].name for s in grbl.motion.segments
+            if s.kind == "dwell"] == ["CW", "OFF"]
+    assert "A" not in dict(FIELDS.findall(grbl.status()))
     said.clear()
     grbl.receive(b"$G\n")
     grbl.poll()
@@ -635,15 +644,15 @@ def test_m0_pauses_until_resume():
     """M0 (interface.md, commands.md: a program pause) waits for the motion before it, then
     holds (Hold:0) with its ok kept back; ``~`` sends the ok and the stream goes on. The
     accessory field and FS show the spindle and coolant a program switched on (M3 S1000,
-    M8: ``A:SF``, ``FS:..,1000``)."""
+    M8: ``A:SF``, ``FS:..,1000``) on a board with tool outputs (the ULX3S's)."""
     now = [0.0]
-    grbl, said = session(speed=SPEED, clock=lambda: now[0])
+    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
     grbl.receive(b"M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n")
     for _ in range(100):
         grbl.poll()
         now[0] += 0.1
     spm = grbl.machine.steps_per_mm
-    assert grbl.state() == "Hold:0" and grbl.motion.position == (2 * spm, 0)
+    assert grbl.state() == "Hold:0" and grbl.motion.position == (2 * spm, 0, 0)
     assert said.count("ok") == 2
     fields = dict(FIELDS.findall(grbl.status()))
     assert fields["A"] == "SF" and fields["FS"] == "0,1000"
@@ -652,8 +661,8 @@ def test_m0_pauses_until_resume():
         grbl.poll()
         now[0] += 0.1
     assert said.count("ok") == 4 and grbl.state() == "Idle"
-    assert grbl.motion.position == (4 * spm, 0)
-    assert grbl.motion.made == run_steps("M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n")
+    assert grbl.motion.position == (4 * spm, 0, 0)
+    assert grbl.motion.made == run_steps("M3 S1000 M8\nG1 X2 F600\nM0\nG1 X4\n", "ulx3s")
 
 
 def test_feed_override_changes_time_not_steps():
@@ -972,3 +981,225 @@ def test_override_ramps(override):
         now[0] += 0.05
         grbl.poll()
     assert grbl.motion.made == run_steps(program)
+
+
+# ---- Z and the tool outputs (issue 28): a 3-axis board with them, the ULX3S's ----------------
+
+#: A plunge, a helix (G2 with Z), spindle and flood on around them, both off on one line; the
+#: moves long enough (about 9 s of machining, 0.45 s at --speed 20) for polls to see them on.
+#: By hand: it ends at X40 Y5 Z5.
+MILL = """G21 G90
+G0 X5 Y5 Z2
+M3 S500
+G1 Z-1 F300
+M8
+G2 X15 Y5 Z-3 I5 J0 F300
+G1 X40 F300
+M5 M9
+G0 Z5
+"""
+
+
+def _accessories(reports):
+    """The ``A:`` field of each status report ('' when absent), repeats dropped."""
+    out = []
+    for report in reports:
+        field = dict(FIELDS.findall(report)).get("A", "")
+        if not out or out[-1] != field:
+            out.append(field)
+    return out
+
+
+def test_z_and_tools_served_as_rs274_orders_them():
+    """On the ULX3S's configuration a served program moves Z (a plunge, a helix: LINE3 and
+    HELIX frames) and switches the spindle and flood (TOOL frames): MPos ends at the program's
+    own end, Z included; the steps are ``kontur run``'s; the TOOL frames sit between the moves
+    where LinuxCNC's interpreter (``rs274 -g``) makes its spindle and coolant calls; the
+    accessory field shows ``S``, then ``SF``, and nothing after M5 M9; ``$G`` the modal
+    state, ``$#`` and G92 offsets for Z as for X and Y."""
+    import types
+
+    from kontur.hdl.motion import protocol
+    from kontur.hdl.motion.tools import TOOL
+    from kontur.planner import frames, plan
+    from kontur.rs274 import available
+
+    from .test_tools_run import kontur_changes, rs274_changes
+
+    now, reports = [0.0], []
+    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
+    for line in MILL.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        for _ in range(3):
+            grbl.poll()
+            now[0] += 0.02
+            reports.append(grbl.status())
+    while grbl.motion.busy or grbl.rx:
+        grbl.poll()
+        now[0] += 0.02
+        reports.append(grbl.status())
+    assert [s for s in said if s == "ok" or s.startswith("error")] == \
+        ["ok"] * len(MILL.splitlines())
+    assert STATUS.match(reports[-1]).groups()[1:] == \
+        tuple(f"{c:.3f}" for c in program_end(MILL, "XYZ"))
+    assert grbl.motion.made == run_steps(MILL, "ulx3s")
+    assert _accessories(reports) == ["", "S", "SF", ""]
+    assert dict(FIELDS.findall(reports[-1]))["FS"] == "0,0"
+    # the frames of what was made: LINE3, HELIX, the TOOL frames between the moves
+    segments = grbl.motion.segments
+    sent, lines = frames(segments, plan(segments, grbl.machine), grbl.machine)
+    kinds = [(frame[1], line) for frame, line in zip(sent, lines)
+             if frame[1] in (protocol.LINE3, protocol.HELIX, TOOL)]
+    assert [line for kind, line in kinds if kind == TOOL] == [3, 5, 8]
+    assert [line for kind, line in kinds] == sorted(line for kind, line in kinds)
+    assert [kind for kind, line in kinds if line != 6] == \
+        [protocol.LINE3, TOOL, protocol.LINE3, TOOL, protocol.LINE3, TOOL, protocol.LINE3]
+    assert [kind for kind, line in kinds if line == 6][0] == protocol.HELIX
+    assert available(), "rs274 is missing: run make setup"
+    assert kontur_changes(types.SimpleNamespace(segments=segments)) == \
+        rs274_changes(MILL + "M2\n")
+    said.clear()
+    grbl.receive(b"G92 Z1\n$#\nM3 S700 M7\nM4\n$G\n")
+    for _ in range(5):
+        grbl.poll()
+    assert "[G92:0.000,0.000,4.000]" in said
+    assert re.match(r"^\[GC:G0 G54 G17 G21 G90 G94 M4 M7 T0 F300 S700\]$", said[-2]), said
+    grbl.settings.write(10, 0)                        # $10=0: WPos
+    grbl._reports = 1
+    fields = dict(FIELDS.findall(grbl.status()))
+    assert fields["WPos"] == "40.000,5.000,1.000" and fields["A"] == "CM"
+    assert fields["FS"] == "0,700"
+
+
+def test_soft_reset_switches_the_tools_off():
+    """ctrl-X with the spindle and mist on (Grbl's reset switches them off; a board's ABORT
+    leaves its tool outputs as they are): a TOOL frame with everything off follows, and the
+    accessory field is gone."""
+    now = [0.0]
+    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
+    grbl.receive(b"M4 S300 M7\nG1 X50 Z-2 F300\n")
+    for _ in range(5):
+        grbl.poll()
+        now[0] += 0.1
+    assert grbl.state() == "Run" and dict(FIELDS.findall(grbl.status()))["A"] == "CM"
+    grbl.receive(b"\x18")
+    grbl.poll()
+    assert "ALARM:3" in said and "A" not in dict(FIELDS.findall(grbl.status()))
+    tools = [s.payload["tool"] for s in grbl.motion.segments if s.kind == "dwell"]
+    assert [(t["spindle"].name, t["mist"]) for t in tools] == [("CCW", True), ("OFF", False)]
+
+
+def test_z_and_tools_refused_on_the_icebreaker():
+    """The iCEBreaker's controller has two axes and no tool outputs: a Z move (after the first
+    Z, where the operator has set the tool) and a spindle or coolant switched on are refused
+    with one line of reason and ``error:20``; M5, M9 and S, which switch nothing on, are
+    taken."""
+    grbl, said = session()
+    for line, answer in (("G0 Z5", ["ok"]),
+                         ("G1 X1 Z-1 F100", ["[MSG:line 2: Z moves need the third axis, which "
+                                             "this board's controller does not have (the "
+                                             "ulx3s's has it) (Z from 5 to -1 mm)]",
+                                             "error:20"]),
+                         ("M3 S500", ["[MSG:line 3: M3 S500: the icebreaker's controller has no tool "
+                                      "outputs (spindle, coolant; the ulx3s's has them)]",
+                                      "error:20"]),
+                         ("M8", ["[MSG:line 4: M8: the icebreaker's controller has no tool "
+                                 "outputs (spindle, coolant; the ulx3s's has them)]",
+                                 "error:20"]),
+                         ("M5 M9 S200", ["ok"])):
+        said.clear()
+        grbl.receive(line.encode() + b"\n")
+        grbl.poll()
+        assert said == answer, line
+    assert "A" not in dict(FIELDS.findall(grbl.status()))
+
+
+@pytest.mark.parametrize("server", [("--board", "ulx3s")], indirect=True)
+def test_a_sender_streams_z_and_tools(port, server):
+    """The plain character-counting client streams MILL to ``kontur serve --board ulx3s``:
+    every line ok, MPos the program's end with its Z, the accessory field on (S, then SF) while
+    the moves run and gone after M5 M9; the steps written are ``kontur run``'s."""
+    _, out, _ = server
+    answers, _ = stream(port, MILL)
+    assert answers == ["ok"] * len(MILL.splitlines())
+    assert port.wait_idle() == program_end(MILL, "XYZ")
+    seen = [field for field in _accessories(port.reports) if field]
+    assert "SF" in seen and set(seen) <= {"S", "SF"}
+    assert "A" not in dict(FIELDS.findall(port.reports[-1]))
+    expected = run_steps(MILL, "ulx3s")
+    wait_for_outputs(out, len(expected))
+    assert read_steps(out) == expected
+
+
+@pytest.mark.parametrize("server", [("--board", "ulx3s", "--engine", "verilator")],
+                         indirect=True)
+def test_verilator_checks_z_and_tools(port, server):
+    """``--engine verilator --board ulx3s``: MILL's run of motion (LINE3, HELIX and its three
+    TOOL frames) run on the ULX3S controller's RTL once the machine rests: every step checked,
+    every frame DONE, no failure; summary.json lists the TOOL frames."""
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    _, out, _ = server
+    answers, _ = stream(port, MILL)
+    assert answers == ["ok"] * len(MILL.splitlines())
+    assert port.wait_idle() == program_end(MILL, "XYZ")
+    expected = run_steps(MILL, "ulx3s")
+    deadline = time.monotonic() + 600            # a first Verilator build takes minutes
+    while time.monotonic() < deadline:
+        if (out / "summary.json").exists():
+            data = json.loads((out / "summary.json").read_text())
+            check = data.get("rtl_check", {})
+            if check.get("steps") == len(expected) or check.get("failures"):
+                break
+        time.sleep(0.2)
+    assert check == {**check, "engine": "verilator", "steps": len(expected), "failures": [],
+                     "segments_cut_short": 0}
+    assert [(f["line"], f["spindle"], f["flood"]) for f in data["tool_frames"]] == \
+        [(3, "cw", False), (5, "cw", True), (8, "off", False)]
+
+
+def _tool_per_move(segments):
+    """The tool state (pins: spindle, S while on, mist, flood) in force during each move of
+    ``segments``, and the lines of the stops the machine makes for a change."""
+    state, during, stops = None, [], []
+    for segment in segments:
+        if "tool" in segment.payload:
+            tool = segment.payload["tool"]
+            state = (tool["spindle"].name, tool["s"] if tool["spindle"].value else None,
+                     tool["mist"], tool["flood"])
+            if segment.payload.get("stop", True):
+                stops.append(segment.line)
+        elif segment.steps:
+            during.append((segment.line, state))
+    return during, stops
+
+
+def test_laser_mode_served_as_run():
+    """A laser program (tests/programs/rs274/laser.ngc, LightBurn's style) served line by line
+    with the machine's laser mode on: during every move the tool outputs are what ``kontur
+    run`` gives them (the power 0 in G0, the S of each G1), and the machine stops only where
+    the spindle or the coolant changes (a change of power alone taken on the fly)."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    from kontur.registry import board
+
+    text = (ROOT / "tests" / "programs" / "rs274" / "laser.ngc").read_text()
+    machine = Machine(clock_hz=board("ulx3s").clock_hz, laser=True)
+    now, said = [0.0], []
+    grbl = Session(machine, "ulx3s", said.append, speed=SPEED, clock=lambda: now[0])
+    for line in text.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        grbl.poll()
+        now[0] += 0.1
+    while grbl.motion.busy or grbl.rx or grbl._waiting is not None:
+        grbl.poll()
+        now[0] += 0.1
+    assert said.count("ok") == len(text.splitlines())
+    served, served_stops = _tool_per_move(grbl.motion.segments)
+    run, run_stops = _tool_per_move(prepare(text, machine=machine, board="ulx3s").segments)
+    assert served == run
+    assert ("CCW", 0, False, True) in {state for _, state in served}       # G0: power 0
+    # M4 and M8 before the first move, M9 and M5 at the end: stops; the S changes are not
+    # (kontur run makes one stop of the changes between the same two moves: 6, then 18-19)
+    assert served_stops == [4, 6, 17, 19] and run_stops[0] == 6 and run_stops[-1] == 19
+    assert grbl.motion.tool["spindle"].name == "OFF" and not grbl.motion.tool["flood"]

@@ -253,3 +253,36 @@ def test_a_full_planner_of_short_moves(tmp_path):
         assert tuple(board.machine.position) == tuple(job.end)
         port.close()
         process.stdout.close()
+
+
+def test_z_and_tools_reach_a_3_axis_board(tmp_path):
+    """``--board ulx3s`` on a 3-axis board with tool outputs (the fake board on three axes,
+    taking TOOL frames): MILL (a plunge, a helix, M3 S500, M8, M5 M9) streamed; the board gets
+    ``kontur send``'s frames for the program (LINE3, HELIX, the TOOL frames between the
+    moves), ends at the program's end with its Z, and the status reports are its."""
+    from kontur.hdl.motion.tools import TOOL
+    from kontur.machine import Machine
+    from kontur.registry import board as item
+
+    from .test_serve import MILL
+
+    def machine():
+        fake = Recording(WINDOW, axes=3, at=(0, 0, 0))
+        fake.parser.lengths[TOOL] = fake.recorder.lengths[TOOL] = 4
+        return fake
+
+    job = prepare(MILL, machine=Machine(clock_hz=item("ulx3s").clock_hz), board="ulx3s")
+    reference = machine()
+    within(10, send, job, reference, timeout=1)
+    assert [kind for kind, *_ in reference.received].count(TOOL) == 3
+    board = PtyBoard(machine())
+    child, link, out = _serve(tmp_path, board, "--board", "ulx3s")
+    with board, child as process:
+        port = _connect(process, link)
+        answers, _ = stream(port, MILL)
+        assert answers == ["ok"] * len(MILL.splitlines())
+        assert port.wait_idle(30) == program_end(MILL, "XYZ")
+        port.close()
+        assert board.machine.received == reference.received
+        assert tuple(board.machine.position) == tuple(job.end)
+        process.stdout.close()

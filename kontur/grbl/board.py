@@ -5,7 +5,8 @@ protocol.
 still paces the planner: which lines are taken, when ``ok`` comes) whose segments are also
 framed and sent to the board by :class:`kontur.send.Feeder` (the handshake, flow control and
 checks of ``kontur send``). The frames of a run of motion are those of :func:`kontur.planner.
-frames` (``CONFIG``, a ``FEED`` and a move for each segment, ``STOP``), planned with the
+frames` (``CONFIG``, a ``FEED`` and a move for each segment, a tool change's ``TOOL`` frame
+between them, ``STOP``; LINE3 and HELIX on a 3-axis board), planned with the
 same look-ahead as ``kontur run``: a segment is sent once the known path after it is long
 enough to stop in (:func:`reach`: no later line can change its plan), planned together with
 the run's segments sent within that distance before it; the run ends (the rest and ``STOP``)
@@ -32,7 +33,7 @@ import types
 from kontur import registry
 from kontur.grbl.motion import Motion
 from kontur.grbl.protocol import PLANNER_BLOCKS
-from kontur.planner import frames as program_frames, lift, plan
+from kontur.planner import frames as program_frames, plan, step_length
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
 __all__ = ["PortMotion", "reach", "SETTLE", "POLL"]
@@ -59,7 +60,7 @@ def reach(machine):
 
 
 def _length(segment, spm):
-    return sum(2 ** 0.5 if dx and dy else 1.0 for dx, dy in segment.steps) / spm
+    return sum(map(step_length, segment.steps)) / spm
 
 
 class PortMotion(Motion):
@@ -70,7 +71,7 @@ class PortMotion(Motion):
     def __init__(self, machine, board, port, *, speed=1.0, timeout=10.0, clock=time.monotonic):
         self.feeder = Feeder(machine, port, timeout=timeout)
         self.feeder.handshake()
-        super().__init__(machine, board, speed=speed, position=self.feeder.status[:2],
+        super().__init__(machine, board, speed=speed, position=self._board_position(),
                          clock=clock)
         self.say = self.alarm = lambda *args: None
         self.more = lambda: False           # the session has lines it will take
@@ -83,6 +84,12 @@ class PortMotion(Motion):
         self.alarmed = False
         self.unlocked = -1                  # the STATUS count when UNLOCK was sent
         self.settled = None                 # the STATUS count to pass once all is answered
+
+    def _board_position(self):
+        """Where the board's last STATUS says it is (steps): ``(x, y)``, with Z on a 3-axis
+        board."""
+        feeder = self.feeder
+        return tuple(feeder.status[:2]) + (() if feeder.z is None else (feeder.z,))
 
     @property
     def can_home(self):
@@ -97,9 +104,8 @@ class PortMotion(Motion):
         stops the board (``ABORT``) and is ``ALARM:9``. Raises
         :exc:`kontur.machine.MachineError` for a machine file homing cannot use."""
         from kontur.homing import homing_job
-        # (a 3-axis board's cycle: Z is not homed, and a served session never moves it)
-        job = homing_job(self.machine, tuple(self.position)
-                         + (0,) * (registry.board(self.board).axes - 2))
+        # (a 3-axis board's cycle: Z is not homed)
+        job = homing_job(self.machine, tuple(self.position))
         if self.failed is not None:
             return
         status = self.feeder.status
@@ -120,14 +126,14 @@ class PortMotion(Motion):
             self.say(f"[MSG:{reason}]")
             self.alarm(9)
         elif not feeder.in_flight:
-            self.position = tuple(feeder.homing.end[:2])
+            self.position = tuple(feeder.homing.end[:len(self.position)])
             feeder.homing = None
 
     @property
     def reported(self):
         """Where the board says it is (steps)."""
         status = self.feeder.status
-        return tuple(status[:2]) if status is not None and self.failed is None \
+        return self._board_position() if status is not None and self.failed is None \
             else self.position
 
     @property
@@ -147,7 +153,7 @@ class PortMotion(Motion):
         return max(super().planned, len(self.pending) + self.feeder.in_flight // 2)
 
     def add(self, block):
-        if self.failed is not None or not block.left:
+        if self.failed is not None or not block.segments:
             return
         super().add(block)
         spm = self.machine.steps_per_mm
@@ -209,11 +215,11 @@ class PortMotion(Motion):
         items = plan(window, self.machine)[len(self.context):]
         sent, self.pending = self.pending[:count], self.pending[count:]
         batch = [segment for segment, _ in sent]
-        # A 3-axis board takes LINE3 and HELIX frames: the served moves keep Z (the session
-        # refuses a Z move), so they go as such with no Z move (planner.lift).
-        frames, lines = program_frames(lift(batch) if registry.board(self.board).axes == 3
-                                       else batch, items[:count], self.machine)
+        # A 3-axis board's segments are the session's on three axes (LINE3, HELIX frames); a
+        # tool change's stop is its TOOL frame (planner.dwell_frames).
+        frames, lines = program_frames(batch, items[:count], self.machine)
         times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
+                                                 machine=self.machine,
                                                  seconds=0.0), len(frames))
         first = 0 if not self.running else 1
         last = len(frames) if end else len(frames) - 1
@@ -264,7 +270,7 @@ class PortMotion(Motion):
         self.settled = None if feeder.status is not None and not feeder.in_flight else -1
         super().cancel()
         if feeder.status is not None:
-            self.position = tuple(feeder.status[:2])
+            self.position = self._board_position()
 
     def cancel(self):
         """A soft reset or a jog cancel: the board ABORTs, the machine is where it stopped."""

@@ -25,16 +25,20 @@ import time
 from collections import deque
 from dataclasses import dataclass, field, replace
 
+from kontur import registry
 from kontur.machining import Job, execute
-from kontur.planner import plan
+from kontur.planner import plan, step_length
 
 __all__ = ["Block", "Motion"]
 
 
 @dataclass
 class Block:
-    """One move in the planner: its kind (``"feed"``, ``"rapid"``, ``"jog"``), the program
-    line, its segments on the lattice; ``left``: its steps not yet made."""
+    """One move in the planner: its kind (``"feed"``, ``"rapid"``, ``"jog"``, ``"tool"``),
+    the program line, its segments on the lattice; ``left``: its steps not yet made. A tool
+    change's block is one stop with no step (:func:`kontur.machining.tool_stop`): it is made
+    in its turn, once the steps before it are (the controller takes the TOOL frame after the
+    move before has ended)."""
     kind: str
     line: int
     segments: list
@@ -51,11 +55,15 @@ class Motion:
     :meth:`resume`, :meth:`cancel` (a jog cancel, a reset) act at once. :attr:`position` is
     where the machine is (steps); :attr:`made` the steps made since the start, :attr:`times`
     their times (s, virtual), :attr:`segments` the segments they belong to (those cut short by
-    a cancel listed in :attr:`cut`)."""
+    a cancel listed in :attr:`cut`, the stops of tool changes among them); :attr:`tool` the
+    tool state of the last tool change made (``None``: none yet, all off)."""
 
-    def __init__(self, machine, board, *, speed=1.0, position=(0, 0), clock=time.monotonic):
+    def __init__(self, machine, board, *, speed=1.0, position=None, clock=time.monotonic):
         self.machine, self.board, self.speed = machine, board, speed
-        self.position = tuple(position)
+        axes = registry.board(board).axes
+        self.position = (0,) * axes if position is None else \
+            tuple(position) + (0,) * (axes - len(position))
+        self.tool = None
         self.clock = clock
         self.now = 0.0                      # virtual seconds
         self._real = clock()
@@ -81,8 +89,9 @@ class Motion:
 
     def add(self, block):
         """Queue ``block``; everything not yet made is re-planned at the next :meth:`tick`
-        (once for all the blocks added meanwhile)."""
-        if not block.left:
+        (once for all the blocks added meanwhile). A block of stops only (a tool change) is
+        made at once when nothing is queued before it."""
+        if not block.segments:
             return
         if self._replan_from is None:
             self._replan_from = bool(self._times)
@@ -150,6 +159,8 @@ class Motion:
         those of its ramp down only)."""
         if self._replan_from is not None:
             self._replan(self._replan_from)
+        if not self.held:
+            self._stops()
         real = self.clock()
         if not self.held or self._stopping:
             self.now += (real - self._real) * self._rate()
@@ -165,8 +176,7 @@ class Motion:
     # ---- the ramps of a hold and a resume ---------------------------------------------
 
     def _length(self, step):
-        dx, dy = step
-        return (math.sqrt(2) if dx and dy else 1.0) / self.machine.steps_per_mm
+        return step_length(step) / self.machine.steps_per_mm
 
     def _ahead(self):
         """The steps not yet made, in order."""
@@ -226,14 +236,26 @@ class Motion:
         self._retime(start, lambda d: math.sqrt(2 * (since + d) / accel) - offset,
                      until=lambda d: 2 * accel * (since + d) >= self._fastest ** 2)
 
+    def _stops(self):
+        """The stops with no step at the head of the queue (tool changes), made: the tool
+        state is theirs."""
+        while self._queue and not self._done and not self._queue[0][0].steps:
+            segment, block = self._queue.popleft()
+            self.segments.append(segment)
+            if "tool" in segment.payload:
+                self.tool = segment.payload["tool"]
+            if self.blocks and self.blocks[0] is block and \
+                    not (self._queue and self._queue[0][1] is block):
+                self.blocks.popleft()
+
     def _step(self):
         at = self._times.popleft()
         segment, block = self._queue[0]
-        dx, dy = segment.steps[self._done]
-        self.position = (self.position[0] + dx, self.position[1] + dy)
-        self.made.append((dx, dy))
+        step = segment.steps[self._done]
+        self.position = tuple(c + d for c, d in zip(self.position, step))
+        self.made.append(step)
         self.times.append(at)
-        length = (2 ** 0.5 if dx and dy else 1.0) / self.machine.steps_per_mm
+        length = self._length(step)
         self._interval = (length, at - self._last)
         self._made_factor = self._factor()
         self._last = at
@@ -244,8 +266,9 @@ class Motion:
         if self._done == len(segment.steps):
             self._queue.popleft()
             self._done = 0
-        if not block.left:
+        if not block.left and not (self._queue and self._queue[0][1] is block):
             self.blocks.popleft()
+        self._stops()
         if not self._times:
             self._ramp = None
 

@@ -70,15 +70,18 @@ class RTLCheck:
 
         from kontur.machining import Job, execute
         from kontur.planner import plan
-        batch = [segment for segment in batch if segment.steps]
-        if not batch:
+        # the moves and the tool changes' stops (their TOOL frames)
+        batch = [segment for segment in batch if segment.steps or "tool" in segment.payload]
+        if not any(segment.steps for segment in batch):
             return
-        x0, y0 = batch[0].start                 # the RTL starts at its origin
-        batch = [replace(s, start=(s.start[0] - x0, s.start[1] - y0),
-                         end=(s.end[0] - x0, s.end[1] - y0)) for s in batch]
+        origin = batch[0].start                 # the RTL starts at its origin
+
+        def moved(point):
+            return tuple(c - o for c, o in zip(point, origin))
+        batch = [replace(s, start=moved(s.start), end=moved(s.end)) for s in batch]
         machine = self.session.machine
         job = Job("kontur serve", self.session.board, machine, [], batch,
-                  plan(batch, machine), (0, 0))
+                  plan(batch, machine), (0,) * len(origin))
         try:
             result = execute(job, self.engine)
         except Exception as error:      # RunError, a run too long, the simulator failing:

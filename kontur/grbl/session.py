@@ -8,6 +8,11 @@ goes to ``send``. G-code lines go through kontur's reader (:class:`kontur.gcode.
 interpreter whose modal state, work offsets and parameters carry from line to line, as
 LinuxCNC reads a program) and the lattice of ``kontur run``
 (:func:`kontur.planner.lattice`), so that a served program makes the steps a run one does.
+On a 3-axis board (the ULX3S's) Z moves as in ``kontur run`` (LINE3 and HELIX frames); on a
+board with tool outputs M3/M4/M5, S and M7/M8/M9 are tool changes (TOOL frames,
+:class:`kontur.machining.ToolStates`' rules, laser mode's included), each a stop queued
+between the moves as ``kontur run`` places it (:func:`kontur.machining.tool_stop`). A board without them refuses a
+Z move, and a spindle or coolant switched on, with ``error:20`` and the reason.
 """
 
 import copy
@@ -19,7 +24,7 @@ from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse
 from kontur.grbl import protocol as p
 from kontur.grbl.motion import Block, Motion
 from kontur.grbl.settings import REFUSED, SettingError, Settings
-from kontur.machining import check_travel, estimate_steps
+from kontur.machining import ToolStates, check_travel, estimate_steps, tool_stop
 from kontur.planner import ProgramError, lattice, plan
 from kontur.sim.models.errors import InputError
 
@@ -44,6 +49,8 @@ class Session:
     def __init__(self, machine, board, send, *, speed=1.0, clock=None, machine_file=None,
                  motion=None):
         self.board, self.send = board, send
+        item = registry.board(board)
+        self.axes, self.tools = item.axes, item.tools
         options = {} if clock is None else {"clock": clock}
         self.motion = motion or Motion(machine, board, speed=speed, **options)
         self.settings = Settings(machine, machine_file, homing=self.motion.can_home)
@@ -60,8 +67,9 @@ class Session:
         self._critical = False                 # a soft limit: nothing taken until ctrl-X
         self._reset_after = False              # $C off, $RST=: a reset after the ok
         self._reports = 0
-        self.z = None                          # the first Z a program gives (kontur has X, Y)
+        self.z = None                          # the first Z a program gives (2-axis board)
         self.spindle, self.coolant = "M5", "M9"
+        self.tools_set = ToolStates(machine)   # the tool state the queued changes leave
         self.reader = None
         self._reset_reader()
         self._welcome()
@@ -81,6 +89,8 @@ class Session:
         self.rx.clear()
         self._waiting = None
         self.alarm = True
+        self.motion.tool = None                # the board's halt turned its tool outputs off
+        self.tools_set = ToolStates(self.machine)
         if self._homing:                       # a pass without its switch: where it stopped
             self._homing = False
             self._sync()
@@ -234,9 +244,9 @@ class Session:
         spm = self.machine.steps_per_mm
         mask = self.settings.value(10)
         offset = tuple(float(c) for c in self.reader.modes()["offset"])
-        z = float(self.z) if self.z is not None else 0.0
-        x, y = motion.reported
-        position = (x / spm, y / spm, z)
+        position = tuple(c / spm for c in motion.reported)
+        if self.axes == 2:                     # Z where the program first put it
+            position += (float(self.z) if self.z is not None else 0.0,)
         if not mask & 1:
             position = tuple(c - o for c, o in zip(position, offset))
         buffer = (max(p.PLANNER_BLOCKS - 1 - motion.planned, 0),
@@ -250,17 +260,23 @@ class Session:
                                inches=bool(self.settings.value(13)), offset=offset)
 
     def _speed(self):
-        """The spindle speed reported (``FS:``): the programmed S while M3/M4 is on, by the
-        spindle override (there is no spindle: what a sender shows)."""
-        if self.spindle == "M5":
+        """The spindle speed reported (``FS:``): the machine's S (its last TOOL frame's) while
+        its spindle is on, by the spindle override (the virtual machine's: the TOOL frame
+        carries the programmed S)."""
+        tool = self.motion.tool
+        if tool is None or not tool["spindle"].value:
             return 0.0
-        return float(self.reader.modes()["speed"]) * self.motion.overrides[2] / 100
+        return float(tool["s"]) * self.motion.overrides[2] / 100
 
     def _accessories(self):
-        """``A:``'s letters: S (M3) or C (M4), F (M8 flood), M (M7 mist)."""
-        letters = {"M3": "S", "M4": "C"}.get(self.spindle, "")
-        return letters + "".join(letter for code, letter in (("M8", "F"), ("M7", "M"))
-                                 if code in self.coolant)
+        """``A:``'s letters (interface.md): S (spindle clockwise, M3) or C (counter-clockwise,
+        M4), F (flood, M8), M (mist, M7), from the machine's tool state (its last TOOL frame
+        made)."""
+        tool = self.motion.tool
+        if tool is None:
+            return ""
+        return {1: "S", 2: "C"}.get(tool["spindle"].value, "") + \
+            ("F" if tool["flood"] else "") + ("M" if tool["mist"] else "")
 
     def _reset_reader(self):
         """The reader afresh (Grbl's power-up modes: G0 G17 G21 G90 G94 G54, no G92 offset) at
@@ -274,14 +290,16 @@ class Session:
             self.reader.state.home = old.state.home
             self.reader.state.pos[2] = old.state.pos[2]
             self.reader.state.z_given = old.state.z_given
+        if self.axes == 3:                     # every move says where Z goes: where it is
+            self.reader.state.z_given = True
         self.spindle, self.coolant = "M5", "M9"
+        self.tools_set = ToolStates(self.machine)
         self._sync()
 
     def _sync(self):
         """The reader and the lattice where the machine is (after a stop, a setting)."""
         spm = Fraction(self.machine.steps_per_mm)
-        x, y = self.motion.position
-        self.reader.move_to(Fraction(x) / spm, Fraction(y) / spm)
+        self.reader.move_to(*(Fraction(c) / spm for c in self.motion.position))
         self.lattice_position = tuple(self.motion.position)
 
     def _welcome(self):
@@ -313,6 +331,13 @@ class Session:
         self.check = False
         self._reports = 0
         self._reset_reader()
+        tool = motion.tool
+        if tool is not None and (tool["spindle"].value or tool["mist"] or tool["flood"]):
+            # Grbl's reset switches the spindle and coolant off; a board's ABORT leaves its
+            # tool outputs as they are: a TOOL frame turns them off
+            self.motion.add(Block("tool", self.number, [
+                tool_stop(self.number, dict(self.tools_set.state), True,
+                          self.lattice_position)]))
         if moving:
             self.send("ALARM:3")
             self.alarm = True
@@ -334,7 +359,7 @@ class Session:
             raise LineError(20, "cutter compensation (G41/G42) is not served yet: kontur "
                                 "run compensates a whole program")
         for move in moves:
-            if move.z is None:
+            if move.z is None or self.axes == 3:
                 continue
             if self.z is None:
                 self.z = move.z
@@ -352,7 +377,7 @@ class Session:
             estimate_steps([move], self.machine)
             segments = lattice([move], self.machine, variants=(item.line[0], item.arc[0]),
                                widths=(item.line[1], item.arc[1]),
-                               start=self.lattice_position)
+                               start=self.lattice_position, axes=item.axes)
             plan(segments, self.machine)            # a feed the generator cannot make
         except (ProgramError, InputError) as error:
             reason = getattr(error, "reason", str(error))
@@ -381,9 +406,18 @@ class Session:
         except LineError:
             self.z, self.lattice_position = z, position
             raise
+        changes = {}
+        if kind is None:
+            try:
+                tools, changes = self._tool_changes(events, moves, reader.ended)
+            except LineError:
+                self.z, self.lattice_position = z, position
+                raise
         messages = [f"[MSG:{event.text.strip()}]" for event in events
                     if event.kind == "message"]
         if kind is None:
+            if not self.check:                     # check mode ($C) switches nothing
+                self.tools_set = tools
             for event in events:
                 if event.kind == "spindle":
                     self.spindle = event.text.split()[0]
@@ -409,11 +443,16 @@ class Session:
         else:
             ended = False
             if moves:
-                self.reader.move_to(*moves[-1].end)
-        for move, segments in planned:
+                self.reader.move_to(*moves[-1].end, moves[-1].z if self.axes == 3 else None)
+        self.lattice_position = position
+        for index, (move, segments) in enumerate([*planned, (None, [])]):
+            if index in changes and not self.check:     # a tool change before the move
+                line, state, stop = changes[index]
+                self.motion.add(Block("tool", line, [tool_stop(line, state, stop,
+                                                               self.lattice_position)]))
             if segments:
                 self.lattice_position = segments[-1].end
-            if self.check or not segments:
+            if self.check or not any(segment.steps for segment in segments):
                 continue
             self.moves.append(move)
             self.motion.add(Block(kind or ("rapid" if move.kind == "rapid" else "feed"),
@@ -421,6 +460,30 @@ class Session:
         if ended or self._pause or self._dwell is not None:
             self._waiting = []                      # the ok waits for the motion's end
         return messages or None
+
+    def _tool_changes(self, events, moves, ended):
+        """The tool states after a line's ``events`` and ``moves`` and its changes: ``{moves
+        before it: (line, state, stop)}``, as :func:`kontur.machining.tool_changes` places
+        them in a whole program (:class:`kontur.machining.ToolStates` going on from the lines
+        before; a change after the line's last move is made there, not held for the next
+        line); at a program end (``ended``, M2/M30) everything on is switched off. A board
+        without tool outputs refuses a change (``error:20``): M5, M9 and S, which leave them
+        off, change nothing."""
+        tools, changes = self.tools_set.copy(), {}
+        for index in range(len(moves) + 1):
+            taken = [event for event in events if event.move == index and tools.take(event)]
+            change = tools.change(moves[index] if index < len(moves) else None,
+                                  end=ended and index == len(moves))
+            if change is None:
+                continue
+            if not self.tools:
+                what = next((e.text.strip() for e in reversed(taken) if e.kind != "speed"),
+                            taken[-1].text.strip())
+                raise LineError(20, f"{what}: the "
+                                    f"{registry.board(self.board).name}'s controller has no "
+                                    f"tool outputs (spindle, coolant; the ulx3s's has them)")
+            changes[index] = (taken[-1].line if taken else self.number, *change)
+        return tools, changes
 
     def _jog(self, text):
         body = text[3:]
