@@ -370,8 +370,8 @@ class Session:
 
     def _segments(self, move, kind=None):
         """The move on the lattice from where the last one ends, checked as ``kontur run``
-        checks it: a move beyond the travel (``travel_x``/``travel_y``) is a soft limit
-        (Grbl's ALARM:2; a jog's ``error:15``)."""
+        checks it: a move beyond the travel (``travel_x``/``travel_y``, on three axes
+        ``travel_z``) is a soft limit (Grbl's ALARM:2; a jog's ``error:15``)."""
         item = registry.board(self.board)
         try:
             estimate_steps([move], self.machine)

@@ -66,7 +66,8 @@ class Settings:
         if key in MACHINE_KEYS:
             return getattr(self.machine, MACHINE_KEYS[key])
         if key == 20:                       # soft limits: on where the file gives a travel
-            return int(bool(self.machine.travel_x or self.machine.travel_y))
+            return int(bool(self.machine.travel_x or self.machine.travel_y
+                            or self.machine.travel_z))
         return self.memory[key]
 
     def lines(self):
@@ -84,7 +85,7 @@ class Settings:
             raise SettingError(4)
         if key == 20 and value != self.value(20):
             raise SettingError(10 if value else 3, None if value else
-                               "soft limits are the machine file's travel_x and travel_y: "
+                               "soft limits are the machine file's travel_x, travel_y and travel_z: "
                                "remove them there to turn them off")
         if key == 20:
             return None
