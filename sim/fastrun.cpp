@@ -5,7 +5,9 @@
 // it sends the frames of a file onto rx, 8N1 at `divisor` clocks a bit, keeping at most
 // `window` queued frames unanswered (the protocol's flow control; a QUERY waits for every
 // frame before it to be answered), and parses the replies on tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
-// "R clock type payload-hex" for every reply. Python sees the run only through these files.
+// "R clock type payload-hex" for every reply, and, built with -DKONTUR_TOOLS (a controller
+// with tool outputs, port "tools"), "T clock word" at every change of the tool pins. Python
+// sees the run only through these files.
 //
 // usage: fastrun [--schedule=FILE] FRAMES EVENTS DIVISOR WINDOW MAX_CLOCKS [VCD [VCD_CLOCKS]]
 //   VCD_CLOCKS: dump only the first VCD_CLOCKS clocks (default: all)
@@ -148,6 +150,9 @@ int main(int argc, char **argv) {
     std::vector<uint8_t> reply;
     unsigned long long answered = 0, queued_sent = 0;
     unsigned previous_step = 0;
+#ifdef KONTUR_TOOLS
+    unsigned previous_tools = 0;
+#endif
     unsigned long long idle_after = 0;
 
     top->rst = 1;
@@ -239,6 +244,12 @@ int main(int argc, char **argv) {
             if (!based) { based = true; base = clock + 1; }
         }
         previous_step = step;
+#ifdef KONTUR_TOOLS
+        // The tool pins (port "tools", built with -DKONTUR_TOOLS): a line at each change.
+        unsigned tools = top->tools;
+        if (tools != previous_tools) std::fprintf(out, "T %llu %u\n", clock + 1, tools);
+        previous_tools = tools;
+#endif
         unsigned tx = top->tx;
         if (rx_state == 0) {
             if (!tx) { rx_state = 1; rx_timer = divisor + divisor / 2; rx_bit = 0; rx_byte = 0; }

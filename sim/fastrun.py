@@ -16,11 +16,42 @@ import tempfile
 import time
 from pathlib import Path
 
+from amaranth import Cat, Module
+from amaranth.lib import wiring
+
+from kontur.hdl.motion.tools import TOOL_PINS, tool_engine
 from kontur.sim import processes
 from kontur.sim.runners import SimulatorError, _locked, verilator_environment
 from kontur.sim.testbench.hostlink import Run, parse_events, write_frames, write_schedule
 
 __all__ = ["FastRun", "Run"]
+
+
+class _ToolPins(wiring.Component):
+    """A controller with tool outputs, its tool pins a port: ``tools``, bit n the n-th of
+    :data:`~kontur.hdl.motion.tools.TOOL_PINS` (as the boards' top levels take them), so
+    that ``fastrun`` records them; every other port the controller's, passed through."""
+
+    def __init__(self, controller):
+        self._controller = controller
+        self.idle_inputs = controller.idle_inputs
+        super().__init__({**controller.signature.members,
+                          "tools": wiring.Out(len(TOOL_PINS))})
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.controller = controller = self._controller
+        for name, member in controller.signature.members.items():
+            ours, theirs = getattr(self, name), getattr(controller, name)
+            if member.is_signature:
+                wiring.connect(m, theirs, wiring.flipped(ours))
+            elif member.flow == wiring.In:
+                m.d.comb += theirs.eq(ours)
+            else:
+                m.d.comb += ours.eq(theirs)
+        tools = tool_engine(controller)
+        m.d.comb += self.tools.eq(Cat(getattr(tools, name) for name in TOOL_PINS))
+        return m
 
 HARNESS = Path(__file__).resolve().parent / "fastrun.cpp"
 
@@ -43,6 +74,9 @@ class FastRun:
 
         verilator_environment()
         self.idle = getattr(top, "idle_inputs", 0)          # the switch pins, all idle
+        self.tools = tool_engine(top) is not None if hasattr(top, "table") else False
+        if self.tools:
+            top = _ToolPins(top)
         text = verilog.convert(top, name="top", emit_src=False)
         source = HARNESS.read_text()
         digest = hashlib.sha256(f"{int(waves)}\n{source}\n{text}".encode()).hexdigest()[:16]
@@ -65,7 +99,8 @@ class FastRun:
         command = ["verilator", "--cc", "--exe", "--build", "-O3", "--top-module", "top",
                    "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE", "-Wno-CASEOVERLAP",
                    "-Wno-SYMRSVDWORD", "--prefix", "Vtop", "-Mdir", "obj", "-o", "fastrun",
-                   "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+                   "-CFLAGS", "-O2" + (" -DKONTUR_TOOLS" if self.tools else ""),
+                   "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
                    *(["--trace"] if self.waves else []), "top.v", str(HARNESS)]
         log = self.build_dir / "build.log"
         with open(log, "w") as handle:
@@ -106,13 +141,14 @@ class FastRun:
         seconds = time.monotonic() - started
         if code not in (0, 3):
             raise SimulatorError(f"the controller run failed (status {code}); see {run_dir}")
-        applied = []
-        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text(), applied)
+        applied, tools = [], []
+        steps, replies, clocks = parse_events((run_dir / "events.txt").read_text(), applied,
+                                              tools)
         if code == 3:
             raise SimulatorError(f"the program did not end within {max_clocks} clocks "
                                  f"({run_dir})")
         shutil.rmtree(run_dir, ignore_errors=True)
-        return Run(steps, replies, clocks, seconds, applied)
+        return Run(steps, replies, clocks, seconds, applied, tools)
 
     @staticmethod
     def _wait(process, events, progress):

@@ -275,3 +275,54 @@ def test_laser_raster_runs_through():
     plain = prepare(text, machine=ULX3S, board="ulx3s", name="raster")
     assert all(s.payload["stop"] for s in plain.segments if "tool" in s.payload)
     assert plain.seconds > 1.25 * job.seconds
+
+
+#: Laser mode with M3 (constant power): each feed move's power its S, none in the G0.
+CONSTANT = """G21 G90 F600
+G0 X5 Y5
+M3 S250
+G1 X25
+G1 Y15 S750
+G0 X5 Y25
+G1 X25 S500
+M5
+M2
+"""
+
+
+def test_the_pins_on_verilator():
+    """The tool pins as the RTL drives them (Verilator, `fastrun` recording them): in each
+    move, the PWM's share of high time is the S rs274 sets for it over s_max (laser mode, M3:
+    constant power), none in the G0 though the laser stays enabled; all off after M5."""
+    if "verilator" not in selected_simulators():
+        pytest.skip("SIM selects another simulator")
+    from kontur.hdl.motion.tools import TOOL_PINS
+    machine = Machine(clock_hz=12.5e6, laser=True, pwm_hz=5000)
+    job = prepare(CONSTANT, machine=machine, board="ulx3s", name="constant")
+    result = execute(job, "verilator")
+    assert result.steps == job.steps and result.tool_pins
+    enable, pwm = (1 << TOOL_PINS.index(name) for name in ("enable", "pwm"))
+    period = machine.pwm_period * result.compress / machine.clock_hz      # machining s
+
+    def share(t0, t1, bit):
+        """The time ``bit`` is high within [t0, t1], over t1 - t0."""
+        high, level, since = 0.0, 0, t0
+        for at, word in result.tool_pins + [(t1, 0)]:
+            at = min(max(at, t0), t1)
+            high += (at - since) * level
+            level, since = bool(word & bit), at
+        return high / (t1 - t0)
+
+    expected = rs274_laser_power(CONSTANT)
+    moves = [s for s in job.segments if s.kind != "dwell"]
+    assert len(moves) == len(expected) == 5
+    index = 0
+    for n, (segment, (end, power)) in enumerate(zip(moves, expected)):
+        assert tuple(segment.end[:2]) == end
+        t0, t1 = result.times[index], result.times[index + len(segment.steps) - 1]
+        index += len(segment.steps)
+        assert t1 - t0 > 10 * period
+        assert share(t0, t1, enable) == (0.0 if n == 0 else 1.0)     # M3 after the first
+        assert share(t0, t1, pwm) == pytest.approx(power / machine.s_max,
+                                                   abs=2 * period / (t1 - t0))
+    assert result.tool_pins[-1][1] == 0                 # M5: everything off

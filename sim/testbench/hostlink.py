@@ -12,7 +12,8 @@ quiet for 64 bit times.
 
 Its record is the one ``fastrun`` writes (:class:`Run`, :func:`parse_events`): ``S clock step
 dir`` at each rising step edge, ``R clock type payload`` for each reply, ``A clock P word``,
-``A clock U`` or ``A clock F hex`` for each scheduled event applied, ``E clock`` at the end.
+``A clock U`` or ``A clock F hex`` for each scheduled event applied, ``T clock word`` at each
+change of the tool pins (``fastrun`` only), ``E clock`` at the end.
 
 **Scheduled events** (``schedule``, :func:`write_schedule`): the switch pins and UNLOCK frames
 at given clocks after the first step (machining time: the first rising step edge is its
@@ -43,22 +44,27 @@ class Run:
     """What a run gave: ``steps`` ``(clock, step bits, dir bits)`` at each rising step edge,
     ``replies`` ``(clock, Reply)`` (:class:`kontur.hdl.motion.protocol.Reply`), the clocks simulated
     and the seconds it took (a build apart); ``applied``: ``(clock, event)`` for each scheduled
-    event, when it was applied."""
+    event, when it was applied; ``tools``: ``(clock, word)`` at each change of the tool
+    pins (a controller with tool outputs on ``fastrun``: bit n the n-th of
+    :data:`kontur.hdl.motion.tools.TOOL_PINS`, all low before the first)."""
     steps: list
     replies: list
     clocks: int
     seconds: float = 0.0
     applied: list = field(default_factory=list)
+    tools: list = field(default_factory=list)
 
 
-def parse_events(text, applied=None):
+def parse_events(text, applied=None, tools=None):
     """The ``(steps, replies, clocks)`` of an events file (the events applied appended to
-    ``applied``, a list, if given)."""
+    ``applied``, a list, if given; the tool pins' changes, ``T clock word``, to ``tools``)."""
     steps, replies, clocks = [], [], 0
     for line in text.splitlines():
         kind, *fields = line.split()
         if kind == "A" and applied is not None:
             applied.append((int(fields[0]), _event(fields[1:])))
+        elif kind == "T" and tools is not None:
+            tools.append((int(fields[0]), int(fields[1])))
         elif kind == "S":
             steps.append(tuple(int(f) for f in fields))
         elif kind == "R":
@@ -93,6 +99,7 @@ def format_events(run):
     lines += [f"R {clock} {reply.kind:02x}" + "".join(f" {b:02x}" for b in reply.payload())
               for clock, reply in run.replies]
     lines += [f"A {clock} {_event_text(event)}" for clock, event in run.applied]
+    lines += [f"T {clock} {word}" for clock, word in run.tools]
     lines.append(f"E {run.clocks}")
     return "\n".join(lines) + "\n"
 
