@@ -431,7 +431,8 @@ BOARD_TABLE = (
     # With the safety inputs and feed hold it is 97 % full; the feed and rapid overrides (their
     # multiplier and look-ahead, about 315 LUT4) do not fit beside them (5452 of 5280 LC).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
-          clock_hz=12e6, arc=("faithful", 24), overrides=False),
+          clock_hz=12e6, line=("serial", 16), arc=("faithful", 24), overrides=False,
+          tools=True),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
