@@ -134,6 +134,12 @@ def test_tool_outputs_on_the_icebreaker():
         [(3, "cw", 1000, False), (8, "off", 1000, False), (10, "cw", 400, True),
          (12, "off", 400, False)]
     assert "4 TOOL frames to the tool outputs" in summary_text(data)
+    # Its tool outputs have no laser mode (no room): a machine file's laser = true is refused
+    # there, taken on the ULX3S.
+    from kontur.trace import UsageError
+    with pytest.raises(UsageError, match="the icebreaker's tool outputs have no laser mode"):
+        prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True), board="icebreaker")
+    assert prepare(PLASMA, machine=LASER, board="ulx3s").machine.laser
     toolless = replace(registry.board("icebreaker"), tools=False)
     job = prepare(PLASMA, board=toolless, name="plasma")
     assert kontur_changes(job) == []
