@@ -433,6 +433,11 @@ BOARD_TABLE = (
     # target became a register (issue 27); before, the controller ran at 6 MHz.
     # With the safety inputs and feed hold it is 97 % full; the feed and rapid overrides (their
     # multiplier and look-ahead, about 315 LUT4) do not fit beside them (5452 of 5280 LC).
+    # The tool outputs (issues 27/28) fit with the arc engine on the faithful core (the fast
+    # core's steps at 4 clocks a step: 5144 -> 4850 LC) and without their laser mode (with it
+    # 5252 LC, which did not place): 5117 LC, 12.92 MHz. A smaller line core (the serial node,
+    # separate steps) would leave the laser mode room (4971 LC) but is 0.654 steps off
+    # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
