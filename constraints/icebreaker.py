@@ -10,6 +10,10 @@ Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests onl
   :data:`kontur.hdl.motion.inputs.INPUTS` on PMOD1B, pin 1 e-stop, 2 limit X, 3 limit Y, 4
   probe, 7 cycle start, 8 feed hold (FPGA pins 43, 38, 34, 31, 42, 36), each with the
   iCE40's pull-up: a switch connects its pin to ground (PMOD1B pin 5 or 11);
+* ``tool`` (:class:`~kontur.hdl.top.ControllerTop`): the tool outputs of
+  :data:`kontur.hdl.motion.tools.TOOL_PINS` (active high) on the free pins beside them:
+  spindle/laser/torch enable PMOD1A pin 8, direction (M4) PMOD1A 9, PWM PMOD1A 10, mist
+  PMOD1B 9, flood PMOD1B 10 (FPGA pins 48, 46, 44, 32, 28; issue 28);
 * ``shift_in`` (:class:`~kontur.hdl.top.ShiftInTop` through :class:`~kontur.hdl.top.PinnedTop`, for the
   place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
   PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
@@ -23,7 +27,7 @@ two of its pins, which the benchmark builds never share with the LEDs or buttons
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.icebreaker import ICEBreakerPlatform
 
-__all__ = ["ICEBreakerPlatform", "STEPPER", "SWITCHES", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
+__all__ = ["ICEBreakerPlatform", "STEPPER", "SWITCHES", "TOOL", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
 
 _PMOD1A = ("pmod", 0)
 _PMOD1B = ("pmod", 1)
@@ -43,6 +47,14 @@ SWITCHES = [
     Resource("switches", 0,
              Pins("1 2 3 4 7 8", dir="i", conn=_PMOD1B),
              Attrs(IO_STANDARD="SB_LVCMOS", PULLUP=1)),
+]
+
+#: The tool outputs, in the order of :data:`kontur.hdl.motion.tools.TOOL_PINS`: enable,
+#: direction, PWM (PMOD1A's bottom row after the enable of the drivers), mist, flood (PMOD1B's
+#: bottom row after the switches).
+TOOL = [
+    Resource("tool", 0, Pins("pmod_0:8 pmod_0:9 pmod_0:10 pmod_1:9 pmod_1:10", dir="o"),
+             _LVCMOS),
 ]
 
 SHIFT_IN = [
@@ -67,10 +79,10 @@ SHIFT_IN = [
 
 
 def platform():
-    """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER`, :data:`SWITCHES` and
-    :data:`SHIFT_IN`."""
+    """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER`, :data:`SWITCHES`,
+    :data:`TOOL` and :data:`SHIFT_IN`."""
     board = ICEBreakerPlatform()
-    board.add_resources(STEPPER + SWITCHES + SHIFT_IN)
+    board.add_resources(STEPPER + SWITCHES + TOOL + SHIFT_IN)
     return board
 
 

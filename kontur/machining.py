@@ -247,6 +247,9 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
         machine.check()
     except MachineError as error:
         raise UsageError(str(error)) from None
+    if machine.laser and item.tools and not item.laser_mode:
+        raise UsageError(f"laser = true, but the {item.name}'s tool outputs have no laser mode "
+                         f"(no room: registry.Board.laser_mode); set laser = false")
     try:
         program = read(text, name=name, units="mm", tools=tools, start=start,
                        parameters=machine.parameters)

@@ -125,7 +125,9 @@ class Board:
     the limit switches; a board without it reports HOME an unknown frame type); ``tools``
     whether it has the tool outputs (:class:`kontur.hdl.motion.tools.ToolEngine`: TOOL frames,
     the spindle/laser/torch and coolant pins; a board without them lists the program's tool
-    words in the summary and drives no pin); ``axes`` 2 or
+    words in the summary and drives no pin); ``laser_mode`` whether those outputs have Grbl's
+    laser mode (the PWM following the feed generator's rate; without it, about 115 LC fewer on
+    the UP5K, a machine file's ``laser = true`` is refused for the board); ``axes`` 2 or
     3: with 3 the controller has Z (its line engine the spatial core on three axes, its arc
     engine a :class:`kontur.hdl.helix.HelixEngine` around the ``arc`` engine: LINE3 and HELIX
     frames)."""
@@ -141,6 +143,7 @@ class Board:
     overrides: bool = True
     homing: bool = False
     tools: bool = False
+    laser_mode: bool = True
     axes: int = 2
 
 
@@ -258,7 +261,7 @@ def make_controller(board_name, machine):
     engines = [homing_row(axes=item.axes)] if item.homing else []
     if item.tools:
         engines.append(tool_row(s_max=machine.s_max, period=machine.pwm_period,
-                                axes=item.axes))
+                                laser_mode=item.laser_mode, axes=item.axes))
     return MotionController(line=line, arc=arc, profile=profile, engines=engines,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,
@@ -430,8 +433,13 @@ BOARD_TABLE = (
     # target became a register (issue 27); before, the controller ran at 6 MHz.
     # With the safety inputs and feed hold it is 97 % full; the feed and rapid overrides (their
     # multiplier and look-ahead, about 315 LUT4) do not fit beside them (5452 of 5280 LC).
+    # The tool outputs (issues 27/28) fit with the arc engine on the faithful core (the fast
+    # core's steps at 4 clocks a step: 5144 -> 4850 LC) and without their laser mode (with it
+    # 5252 LC, which did not place): 5117 LC, 12.92 MHz. A smaller line core (the serial node,
+    # separate steps) would leave the laser mode room (4971 LC) but is 0.654 steps off
+    # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
-          clock_hz=12e6, arc=("fast", 24), overrides=False),
+          clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
     # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the

@@ -406,12 +406,14 @@ class SendTestCase(unittest.TestCase):
         self.assertEqual(port.kinds.count(DWELL), 1)
 
     def test_unhonoured_programs_are_refused(self):
-        # The board has no tool outputs and cannot pause: M3, M4, M7, M8, M6 and M0 are refused
-        # before anything is sent (2, naming the line); M5, M9, S and T ask nothing of it.
+        # The board cannot pause: M6 and M0 are refused before anything is sent (2, naming the
+        # line); M5, M9, S and T ask nothing of it. The iCEBreaker has the tool outputs (issue
+        # 28): M3 and M8 are TOOL frames there, refused (naming the line) only on a board
+        # without them.
+        from dataclasses import replace
+        from kontur.send import unhonoured
         with tempfile.TemporaryDirectory() as folder:
-            for text, line, word in (("G1 X1 F100\nS1000 M3\n", 2, "M3 S1000"),
-                                     ("M8\nG1 X1 F100\n", 1, "M8"),
-                                     ("T2 M6\nG1 X1 F100\n", 1, "M6 T2"),
+            for text, line, word in (("T2 M6\nG1 X1 F100\n", 1, "M6 T2"),
                                      ("G1 X1 F100\nM0\nG1 X2\n", 2, "M0")):
                 path = Path(folder) / "t.ngc"
                 path.write_text(text)
@@ -424,8 +426,15 @@ class SendTestCase(unittest.TestCase):
             path = Path(folder) / "fine.ngc"
             path.write_text("T1 S100 M5 M9\nG1 X1 F100\nG43 H1\nG49\nM61 Q2\n")
             job = prepare(path.read_text(), machine=Machine(clock_hz=CLOCK))
-            from kontur.send import unhonoured
             self.assertIsNone(unhonoured(job))
+        toolless = replace(registry.board("icebreaker"), tools=False)
+        for text, line, word, outputs in (("G1 X1 F100\nS1000 M3\n", 2, "M3 S1000", "tool"),
+                                          ("M8\nG1 X1 F100\n", 1, "M8", "coolant")):
+            self.assertIsNone(unhonoured(prepare(text, machine=Machine(clock_hz=CLOCK))))
+            refused = unhonoured(prepare(text, machine=Machine(clock_hz=CLOCK), board=toolless))
+            self.assertEqual(refused[0], line)
+            self.assertRegex(refused[1], rf"^{re.escape(word)} .* the board has no {outputs} "
+                                         rf"outputs: kontur send cannot honour it")
 
     def test_command_line(self):
         # The port is opened through pyserial: a port that does not exist is a failure (1), a

@@ -122,8 +122,26 @@ def test_summary_and_on_verilator():
     assert result.steps == job.steps and result.end == job.end
 
 
-def test_no_tool_outputs_on_the_icebreaker():
+def test_tool_outputs_on_the_icebreaker():
+    """The iCEBreaker has the tool outputs too (issue 28): the TOOL frames go where rs274 makes
+    the changes, as on the ULX3S; a board without them lists the tool words, not driven."""
+    from dataclasses import replace
+    from kontur import registry
     job = prepare(PLASMA, board="icebreaker", name="plasma")
+    assert kontur_changes(job) == rs274_changes(PLASMA)
+    data = summary(job, execute(job, "model"))
+    assert [(f["line"], f["spindle"], f["s"], f["mist"]) for f in data["tool_frames"]] == \
+        [(3, "cw", 1000, False), (8, "off", 1000, False), (10, "cw", 400, True),
+         (12, "off", 400, False)]
+    assert "4 TOOL frames to the tool outputs" in summary_text(data)
+    # Its tool outputs have no laser mode (no room): a machine file's laser = true is refused
+    # there, taken on the ULX3S.
+    from kontur.trace import UsageError
+    with pytest.raises(UsageError, match="the icebreaker's tool outputs have no laser mode"):
+        prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True), board="icebreaker")
+    assert prepare(PLASMA, machine=LASER, board="ulx3s").machine.laser
+    toolless = replace(registry.board("icebreaker"), tools=False)
+    job = prepare(PLASMA, board=toolless, name="plasma")
     assert kontur_changes(job) == []
     data = summary(job, execute(job, "model"))
     assert data["tool_frames"] == []
@@ -169,8 +187,13 @@ def test_send_streams_the_tool_frames():
     assert send(job, port) == tuple(job.end)
     assert port.kinds == [frame[1] for frame in frames]
     assert port.kinds.count(TOOL) == 4
-    # On the iCEBreaker M3 is still refused by kontur send.
-    assert "no tool outputs" in unhonoured(prepare(PLASMA, board="icebreaker"))[1]
+    # The iCEBreaker has the tool outputs too (issue 28): M3 and M7 are honoured there; a
+    # board without them refuses M3.
+    from dataclasses import replace
+    from kontur import registry
+    assert unhonoured(prepare(PLASMA, board="icebreaker")) is None
+    toolless = replace(registry.board("icebreaker"), tools=False)
+    assert "no tool outputs" in unhonoured(prepare(PLASMA, board=toolless))[1]
 
 
 LASER = Machine(clock_hz=12.5e6, laser=True)
