@@ -1089,28 +1089,44 @@ def test_soft_reset_switches_the_tools_off():
     assert [(t["spindle"].name, t["mist"]) for t in tools] == [("CCW", True), ("OFF", False)]
 
 
-def test_z_and_tools_refused_on_the_icebreaker():
-    """The iCEBreaker's controller has two axes and no tool outputs: a Z move (after the first
-    Z, where the operator has set the tool) and a spindle or coolant switched on are refused
-    with one line of reason and ``error:20``; M5, M9 and S, which switch nothing on, are
-    taken."""
+def test_z_refused_on_the_icebreaker_and_tools_on_a_board_without():
+    """The iCEBreaker's controller has two axes: a Z move (after the first Z, where the
+    operator has set the tool) is refused with one line of reason and ``error:20``; its tool
+    outputs take M3 and M8 (a TOOL frame each). On a board without tool outputs a spindle or
+    coolant switched on is refused so; M5, M9 and S, which switch nothing on, are taken."""
+    from dataclasses import replace
+
+    from kontur import registry
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+
+    def lines(grbl, said, pairs):
+        for line, answer in pairs:
+            said.clear()
+            grbl.receive(line.encode() + b"\n")
+            grbl.poll()
+            assert said == answer, line
+
     grbl, said = session()
-    for line, answer in (("G0 Z5", ["ok"]),
-                         ("G1 X1 Z-1 F100", ["[MSG:line 2: Z moves need the third axis, which "
-                                             "this board's controller does not have (the "
-                                             "ulx3s's has it) (Z from 5 to -1 mm)]",
-                                             "error:20"]),
-                         ("M3 S500", ["[MSG:line 3: M3 S500: the icebreaker's controller has no tool "
-                                      "outputs (spindle, coolant; the ulx3s's has them)]",
-                                      "error:20"]),
-                         ("M8", ["[MSG:line 4: M8: the icebreaker's controller has no tool "
-                                 "outputs (spindle, coolant; the ulx3s's has them)]",
-                                 "error:20"]),
-                         ("M5 M9 S200", ["ok"])):
-        said.clear()
-        grbl.receive(line.encode() + b"\n")
-        grbl.poll()
-        assert said == answer, line
+    lines(grbl, said, (("G0 Z5", ["ok"]),
+                       ("G1 X1 Z-1 F100", ["[MSG:line 2: Z moves need the third axis, which "
+                                           "this board's controller does not have (the "
+                                           "ulx3s's has it) (Z from 5 to -1 mm)]",
+                                           "error:20"]),
+                       ("M3 S500", ["ok"]), ("G1 X2 F100", ["ok"]), ("M8", ["ok"]),
+                       ("M5 M9 S200", ["ok"])))
+    tools = [s.payload["tool"] for s in grbl.motion.segments if s.kind == "dwell"]
+    assert [(t["spindle"].name, t["s"], t["flood"]) for t in tools][:1] == \
+        [("CW", 500, False)]                      # (M8's goes before the next move)
+    toolless = replace(registry.board("icebreaker"), tools=False)
+    said = []
+    grbl = Session(Machine(clock_hz=toolless.clock_hz), toolless, said.append,
+                   clock=lambda: 0.0)
+    refusal = "the icebreaker's controller has no tool outputs (spindle, coolant; the ulx3s's " \
+              "has them)"
+    lines(grbl, said, (("M3 S500", [f"[MSG:line 1: M3 S500: {refusal}]", "error:20"]),
+                       ("M8", [f"[MSG:line 2: M8: {refusal}]", "error:20"]),
+                       ("M5 M9 S200", ["ok"])))
     assert "A" not in dict(FIELDS.findall(grbl.status()))
 
 
