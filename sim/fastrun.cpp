@@ -1,7 +1,8 @@
 // The host side of a machine-controller run, inside the Verilator simulation.
 //
-// kontur's MotionController (Verilog "top", ports clk, rst, rx, tx, motion__step,
-// motion__dir) runs clock by clock; this testbench plays what a host does on the serial line:
+// kontur's MotionController (Verilog "top", ports clk, rx, tx, inputs, motion__step,
+// motion__dir; its reset made inside, for its first 4 clocks: sim/fastrun.py's _FastTop)
+// runs clock by clock; this testbench plays what a host does on the serial line:
 // it sends the frames of a file onto rx, 8N1 at `divisor` clocks a bit, keeping at most
 // `window` queued frames unanswered (the protocol's flow control; a QUERY waits for every
 // frame before it to be answered), and parses the replies on tx. (Verilator names the port motion__step as motion___05Fstep.) It writes one line per event: "S clock step dir" at every rising edge of a step pin,
@@ -155,15 +156,13 @@ int main(int argc, char **argv) {
 #endif
     unsigned long long idle_after = 0;
 
-    top->rst = 1;
     top->rx = 1;
     top->inputs = pins;
     top->clk = 0;
     top->eval();
     unsigned long long clock = 0;
     for (; clock < max_clocks; clock++) {
-        bool reset = clock < 4;
-        top->rst = reset;
+        bool reset = clock < 4;            // the top holds itself in reset (sim/fastrun.py)
         // ---- the schedule: machining time counts from the first step -------------------
         if (!based && !reset && answered == queued_sent && level_index == levels.size()
             && (frames.empty() || (frames.front().size() >= 2 && frames.front()[1] == QUERY))) {

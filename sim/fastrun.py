@@ -16,7 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from amaranth import Cat, Module
+from amaranth import Cat, ClockDomain, Module, Signal
 from amaranth.lib import wiring
 
 from kontur.hdl.motion.tools import TOOL_PINS, tool_engine
@@ -27,19 +27,40 @@ from kontur.sim.testbench.hostlink import Run, parse_events, write_frames, write
 __all__ = ["FastRun", "Run"]
 
 
-class _ToolPins(wiring.Component):
-    """A controller with tool outputs, its tool pins a port: ``tools``, bit n the n-th of
-    :data:`~kontur.hdl.motion.tools.TOOL_PINS` (as the boards' top levels take them), so
-    that ``fastrun`` records them; every other port the controller's, passed through."""
+HARNESS = Path(__file__).resolve().parent / "fastrun.cpp"
+
+#: The clocks the controller is held in reset at the start (the harness waits as many).
+RESET_CLOCKS = 4
+
+
+class _FastTop(wiring.Component):
+    """The controller as ``fastrun`` runs it: every port of its passed through, ``clk``, and
+    its reset made inside, high in the first :data:`RESET_CLOCKS` clocks (a counter of its
+    own, reset-less), not a port. A reset port is an input like ``rx``: Verilator evaluates
+    all the logic an input reaches (every register's reset multiplexer) at each of the two
+    evaluations of a clock, which was half the time of a run (docs/controller.md,
+    "Simulation"). With tool outputs (:func:`~kontur.hdl.motion.tools.tool_engine`) their pins
+    are a port too: ``tools``, bit n the n-th of :data:`~kontur.hdl.motion.tools.TOOL_PINS`
+    (as the boards' top levels take them), so that ``fastrun`` records them."""
 
     def __init__(self, controller):
         self._controller = controller
-        self.idle_inputs = controller.idle_inputs
-        super().__init__({**controller.signature.members,
-                          "tools": wiring.Out(len(TOOL_PINS))})
+        self.idle_inputs = getattr(controller, "idle_inputs", 0)
+        self._tools = tool_engine(controller) if hasattr(controller, "table") else None
+        members = {"clk": wiring.In(1), **controller.signature.members}
+        if self._tools is not None:
+            members["tools"] = wiring.Out(len(TOOL_PINS))
+        super().__init__(members)
 
     def elaborate(self, platform):
         m = Module()
+        m.domains.sync = sync = ClockDomain("sync")
+        m.domains.power = power = ClockDomain("power", reset_less=True)
+        held = Signal(range(RESET_CLOCKS + 1))
+        m.d.comb += [sync.clk.eq(self.clk), power.clk.eq(self.clk),
+                     sync.rst.eq(held != RESET_CLOCKS)]
+        with m.If(held != RESET_CLOCKS):
+            m.d.power += held.eq(held + 1)
         m.submodules.controller = controller = self._controller
         for name, member in controller.signature.members.items():
             ours, theirs = getattr(self, name), getattr(controller, name)
@@ -49,11 +70,9 @@ class _ToolPins(wiring.Component):
                 m.d.comb += theirs.eq(ours)
             else:
                 m.d.comb += ours.eq(theirs)
-        tools = tool_engine(controller)
-        m.d.comb += self.tools.eq(Cat(getattr(tools, name) for name in TOOL_PINS))
+        if self._tools is not None:
+            m.d.comb += self.tools.eq(Cat(getattr(self._tools, name) for name in TOOL_PINS))
         return m
-
-HARNESS = Path(__file__).resolve().parent / "fastrun.cpp"
 
 
 class FastRun:
@@ -73,10 +92,9 @@ class FastRun:
         from amaranth.back import verilog
 
         verilator_environment()
-        self.idle = getattr(top, "idle_inputs", 0)          # the switch pins, all idle
-        self.tools = tool_engine(top) is not None if hasattr(top, "table") else False
-        if self.tools:
-            top = _ToolPins(top)
+        top = _FastTop(top)
+        self.idle = top.idle_inputs                         # the switch pins, all idle
+        self.tools = top._tools is not None
         text = verilog.convert(top, name="top", emit_src=False)
         source = HARNESS.read_text()
         digest = hashlib.sha256(f"{int(waves)}\n{source}\n{text}".encode()).hexdigest()[:16]
@@ -96,7 +114,10 @@ class FastRun:
 
     def _build(self, text):
         (self.build_dir / "top.v").write_text(text)
+        # (X values as Verilator likes them fastest: every register of the design has its
+        # declared initial value, and no case of its has an X default that matters.)
         command = ["verilator", "--cc", "--exe", "--build", "-O3", "--top-module", "top",
+                   "--x-assign", "fast", "--x-initial", "fast", "--noassert",
                    "-Wno-WIDTHEXPAND", "-Wno-WIDTHTRUNC", "-Wno-CASEINCOMPLETE", "-Wno-CASEOVERLAP",
                    "-Wno-SYMRSVDWORD", "--prefix", "Vtop", "-Mdir", "obj", "-o", "fastrun",
                    "-CFLAGS", "-O2" + (" -DKONTUR_TOOLS" if self.tools else ""),
