@@ -359,7 +359,6 @@ class EquidistantEngine(wiring.Component):
         n.hold, n.running, n.end_now = hold, running, end_now
         n.line_major, n.line_minor, n.line_minor_negative = (line_major, line_minor,
                                                              line_minor_negative)
-        n.line_backward = backward
         n.line_due, n.line_step = line_due, line_step
         n.arc_state, n.run_swap, n.run_dir, n.arc_go = arc_state, run_swap, run_dir, arc_go
         n.home_dx, n.home_dy, n.home_due, n.home_step = home_dx, home_dy, home_due, home_step
@@ -388,16 +387,18 @@ class EquidistantEngine(wiring.Component):
                          step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
         stepped = Signal()
         m.d.comb += stepped.eq((step_x | step_y) & ~n.homing)
-        # The directions of the traced element's steps outside the return, known without
-        # the permission, for either outcome of block 3's backward test (a line's minor
-        # direction is its minor flag, reversed when the line steps back): the steps' own
-        # directions are those of the actual outcome.
-        def may_neg(backward):
-            minor_negative = own.minor ^ backward
-            return (Mux(own.arc, n.run_dir[0], Mux(own.swap, minor_negative, own.back)),
-                    Mux(own.arc, n.run_dir[1], Mux(own.swap, own.back, minor_negative)))
+        # The directions of the traced element's steps, known without the permission (the
+        # steps' own directions whenever a step is made outside the return).
+        may_neg_x = Signal()
+        may_neg_y = Signal()
+        m.d.comb += [
+            may_neg_x.eq(Mux(own.arc, n.run_dir[0], Mux(own.swap, n.line_minor_negative,
+                                                        own.back))),
+            may_neg_y.eq(Mux(own.arc, n.run_dir[1], Mux(own.swap, own.back,
+                                                        n.line_minor_negative))),
+        ]
         n.step_x, n.step_y, n.neg_x, n.neg_y, n.stepped = step_x, step_y, neg_x, neg_y, stepped
-        n.may_neg = may_neg
+        n.may_neg_x, n.may_neg_y = may_neg_x, may_neg_y
 
     def _relative(self, n, s):
         """The position relative to slot ``s``'s centre."""
@@ -431,20 +432,18 @@ class EquidistantEngine(wiring.Component):
             stepped_w.append(sw)
         n.stepped_v, n.stepped_w = stepped_v, stepped_w
         # The next element's functions after each step the traced element can make (X, Y,
-        # both), in the directions its steps take for either outcome of block 3's backward
-        # test (``n.may_neg``): formed without the feed's permission and without block 3's
-        # comparisons, so block 11's end after a step only selects among them (neither the
-        # permission nor block 3 reaches an adder of block 11).
+        # both), in the directions its steps take (``may_neg_x``, ``may_neg_y``): formed
+        # without the feed's permission, so block 11's end after a step only selects among
+        # them (the permission reaches no adder of block 11).
         may_v, may_w = [], []
-        for backward in (0, 1):
-            neg_x, neg_y = n.may_neg(C(backward, 1))
-            for i, (px, py) in enumerate(((1, 0), (0, 1), (1, 1))):
-                sv = Signal(signed(f.value), name=f"may_v{backward}{i}")
-                sw = Signal(signed(f.value), name=f"may_w{backward}{i}")
-                v_expr, w_expr = stepped_values(n.cmp, C(px, 1), C(py, 1), neg_x, neg_y)
-                m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
-                may_v.append(sv)
-                may_w.append(sw)
+        for i, (px, py) in enumerate(((1, 0), (0, 1), (1, 1))):
+            sv = Signal(signed(f.value), name=f"may_v{i}")
+            sw = Signal(signed(f.value), name=f"may_w{i}")
+            v_expr, w_expr = stepped_values(n.cmp, C(px, 1), C(py, 1), n.may_neg_x,
+                                            n.may_neg_y)
+            m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
+            may_v.append(sv)
+            may_w.append(sw)
         n.may_v, n.may_w = may_v, may_w
 
     def _block11_comparator(self, m, n):
@@ -502,8 +501,7 @@ class EquidistantEngine(wiring.Component):
         end_after = Signal()
         # After this clock's step: the test of each step the element can make, the step made
         # selects (the feed's permission reaches no adder here).
-        tests = [reached(Mux(cmp.entry, w, v)) for v, w in zip(n.may_v, n.may_w)]
-        may = [Mux(n.line_backward & ~own.arc, tests[3 + i], tests[i]) for i in range(3)]
+        may = [reached(Mux(cmp.entry, w, v)) for v, w in zip(n.may_v, n.may_w)]
         after = Signal()
         with m.Switch(Cat(n.step_x, n.step_y)):
             with m.Case(0b01):
