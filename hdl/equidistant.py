@@ -387,7 +387,18 @@ class EquidistantEngine(wiring.Component):
                          step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
         stepped = Signal()
         m.d.comb += stepped.eq((step_x | step_y) & ~n.homing)
+        # The directions of the traced element's steps, known without the permission (the
+        # steps' own directions whenever a step is made outside the return).
+        may_neg_x = Signal()
+        may_neg_y = Signal()
+        m.d.comb += [
+            may_neg_x.eq(Mux(own.arc, n.run_dir[0], Mux(own.swap, n.line_minor_negative,
+                                                        own.back))),
+            may_neg_y.eq(Mux(own.arc, n.run_dir[1], Mux(own.swap, own.back,
+                                                        n.line_minor_negative))),
+        ]
         n.step_x, n.step_y, n.neg_x, n.neg_y, n.stepped = step_x, step_y, neg_x, neg_y, stepped
+        n.may_neg_x, n.may_neg_y = may_neg_x, may_neg_y
 
     def _relative(self, n, s):
         """The position relative to slot ``s``'s centre."""
@@ -398,8 +409,9 @@ class EquidistantEngine(wiring.Component):
         f, one = n.f, n.one
         step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
 
-        def stepped_values(s):
-            """``(v, w)`` of slot ``s`` after this clock's step."""
+        def stepped_values(s, step_x, step_y, neg_x, neg_y):
+            """``(v, w)`` of slot ``s`` after a step ``(step_x, step_y)`` in the directions
+            ``(neg_x, neg_y)``."""
             c, d = _coefficients(s.swap, s.minor, s.k, one)
             ec, ed = _coefficients(s.eswap, s.eminor, s.ek, one)
             u, v = self._relative(n, s)
@@ -414,11 +426,25 @@ class EquidistantEngine(wiring.Component):
         for i, s in enumerate(n.slots):
             sv = Signal(signed(f.value), name=f"stepped_v{i}")
             sw = Signal(signed(f.value), name=f"stepped_w{i}")
-            v_expr, w_expr = stepped_values(s)
+            v_expr, w_expr = stepped_values(s, step_x, step_y, neg_x, neg_y)
             m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
             stepped_v.append(sv)
             stepped_w.append(sw)
         n.stepped_v, n.stepped_w = stepped_v, stepped_w
+        # The next element's functions after each step the traced element can make (X, Y,
+        # both), in the directions its steps take (``may_neg_x``, ``may_neg_y``): formed
+        # without the feed's permission, so block 11's end after a step only selects among
+        # them (the permission reaches no adder of block 11).
+        may_v, may_w = [], []
+        for i, (px, py) in enumerate(((1, 0), (0, 1), (1, 1))):
+            sv = Signal(signed(f.value), name=f"may_v{i}")
+            sw = Signal(signed(f.value), name=f"may_w{i}")
+            v_expr, w_expr = stepped_values(n.cmp, C(px, 1), C(py, 1), n.may_neg_x,
+                                            n.may_neg_y)
+            m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
+            may_v.append(sv)
+            may_w.append(sw)
+        n.may_v, n.may_w = may_v, may_w
 
     def _block11_comparator(self, m, n):
         """Block 11: the traced element's end, now (at the point) or after this clock's step,
@@ -452,25 +478,42 @@ class EquidistantEngine(wiring.Component):
                           Mux(qy_neg, -td, td))),
             kind_d.eq(kind_a + kind_b),
         ]
-        tau2 = Signal(f.value)               # 2τ: the largest change over one step
-        ka = Mux(x_kind, _abs(kind_a), 0)
-        kb = Mux(y_kind, _abs(kind_b), 0)
-        kd = _abs(kind_d)
-        kab = Mux(ka > kb, ka, kb)
-        m.d.comb += tau2.eq(Mux(kab > kd, kab, kd))
+        # 2τ, the largest change over one step, is max(x_kind·|a|, y_kind·|b|, |a + b|) of
+        # the kinds a, b; the element ends where ±2F + 2τ >= 0. Formed as that test against
+        # each of ±a, ±b, ±(a + b) (2F + 2τ >= 0 holds when it holds for one of the three,
+        # and for |z| when it holds for z or -z), with no absolute value and no maximum:
+        # two carry chains after the kinds, not five.
+        def reached(value):
+            twice = value << 1
+            tests = []
+            for z, kind in ((kind_a, x_kind), (kind_b, y_kind), (kind_d, 1)):
+                plus = Signal(signed(f.value + 3))
+                minus = Signal(signed(f.value + 3))
+                m.d.comb += [plus.eq(twice + z), minus.eq(twice - z)]
+                # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0.
+                tests.append(kind & Mux(cmp.h, (minus <= 0) | (plus <= 0),
+                                        (plus >= 0) | (minus >= 0)))
+            return tests[0] | tests[1] | tests[2]
 
         target = Mux(cmp.entry, cmp.w, cmp.v)
-        target_after = Mux(cmp.entry, n.stepped_w[1], n.stepped_v[1])
-
-        def reached(value):
-            return ((Mux(cmp.h, -value, value) << 1) + tau2) >= 0
 
         at_centre = own.arc & (own_u == 0) & (own_v == 0)
         end_after = Signal()
+        # After this clock's step: the test of each step the element can make, the step made
+        # selects (the feed's permission reaches no adder here).
+        may = [reached(Mux(cmp.entry, w, v)) for v, w in zip(n.may_v, n.may_w)]
+        after = Signal()
+        with m.Switch(Cat(n.step_x, n.step_y)):
+            with m.Case(0b01):
+                m.d.comb += after.eq(may[0])
+            with m.Case(0b10):
+                m.d.comb += after.eq(may[1])
+            with m.Case(0b11):
+                m.d.comb += after.eq(may[2])
         m.d.comb += [
             n.end_now.eq(n.running & (reached(target)
                                       | (own.arc & (own.empty | at_centre)))),
-            end_after.eq(n.running & ~n.end_now & n.stepped & reached(target_after)),
+            end_after.eq(n.running & ~n.end_now & n.stepped & after),
         ]
 
         # The arc core: a run from the position, on the circle N (residue = -S), stopped by

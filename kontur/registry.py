@@ -441,9 +441,10 @@ BOARD_TABLE = (
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
-    # cutter compensation (G41/G42) at 16 bits. That engine's corner search (its blocks 13 and
-    # 7-8 through the core's increments) closes at 14.7 MHz, below the board's 25 MHz: the
-    # controller runs at half the board's clock, 12.5 MHz.
+    # cutter compensation (G41/G42) at 16 bits. That engine's element end (block 11's test,
+    # the feed's permission, the memory's shift and the frame taken) closes at 22.71 MHz
+    # (seed 1, issue 27), below the board's 25 MHz: the controller runs at half the board's
+    # clock, 12.5 MHz.
     # It has the homing engine too (issue 25) and the tool outputs (issue 28); the iCEBreaker
     # has no room for them. It has the third axis, Z (issue 28: lines in XYZ by the spatial
     # core, helices by the helix engine around the arc engine); the iCEBreaker stays on two

@@ -362,11 +362,16 @@ class FeedGenerator(wiring.Component):
         distance = Signal(26)                   # Q2.24: below √3 + 1
         length = Mux(self.feed.diagonal, SQRT2, ONE) if self._axes == 2 else \
             Array(C(n, 26) for n in STEP_LENGTHS)[self.feed.diagonal]   # 1, √2, √3
+        # The distance against every step length at once, the step's length (the engine's
+        # diagonal, late in the clock) choosing among the results: the diagonal reaches no
+        # comparator.
+        lengths = (ONE, SQRT2) if self._axes == 2 else STEP_LENGTHS
+        reached = Array(distance >= C(n, 26) for n in lengths)[self.feed.diagonal]
         tick = Signal()
         step = Signal()
         grown = distance + rate[16:]
         m.d.comb += [
-            tick.eq(~stopped & (distance >= length)),
+            tick.eq(~stopped & reached),
             self.feed.tick.eq(tick),
             step.eq(tick & self.feed.due),
         ]
