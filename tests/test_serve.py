@@ -419,16 +419,17 @@ def test_an_error_line(port):
     assert port.command("G0 X1") == ["ok"]
 
 
-def session(board="icebreaker", **options):
-    """A session alone (no pseudo-terminal) on the default machine and ``board``, its clock
-    standing still unless ``clock`` is given; returns it and the list of what it says."""
+def session(board="icebreaker", machine=None, **options):
+    """A session alone (no pseudo-terminal) on ``machine`` (default: the default machine) and
+    ``board``, its clock standing still unless ``clock`` is given; returns it and the list of
+    what it says."""
     from kontur.grbl.session import Session
     from kontur.machine import Machine
     from kontur.registry import board as item
     said = []
     options.setdefault("clock", lambda: 0.0)
-    return Session(Machine(clock_hz=item(board).clock_hz), board, said.append,
-                   **options), said
+    machine = Machine(clock_hz=item(board).clock_hz) if machine is None else machine
+    return Session(machine, board, said.append, **options), said
 
 
 @pytest.mark.parametrize("line, code", [
@@ -1101,8 +1102,6 @@ def test_z_refused_on_the_icebreaker_and_tools_on_a_board_without():
     from dataclasses import replace
 
     from kontur import registry
-    from kontur.grbl.session import Session
-    from kontur.machine import Machine
 
     def lines(grbl, said, pairs):
         for line, answer in pairs:
@@ -1122,10 +1121,7 @@ def test_z_refused_on_the_icebreaker_and_tools_on_a_board_without():
     tools = [s.payload["tool"] for s in grbl.motion.segments if s.kind == "dwell"]
     assert [(t["spindle"].name, t["s"], t["flood"]) for t in tools][:1] == \
         [("CW", 500, False)]                      # (M8's goes before the next move)
-    toolless = replace(registry.board("icebreaker"), tools=False)
-    said = []
-    grbl = Session(Machine(clock_hz=toolless.clock_hz), toolless, said.append,
-                   clock=lambda: 0.0)
+    grbl, said = session(replace(registry.board("icebreaker"), tools=False))
     refusal = "the icebreaker's controller has no tool outputs (spindle, coolant; the ulx3s's " \
               "has them)"
     lines(grbl, said, (("M3 S500", [f"[MSG:line 1: M3 S500: {refusal}]", "error:20"]),
@@ -1199,21 +1195,12 @@ def test_laser_mode_served_as_run():
     with the machine's laser mode on: during every move the tool outputs are what ``kontur
     run`` gives them (the power 0 in G0, the S of each G1), and the machine stops only where
     the spindle or the coolant changes (a change of power alone taken on the fly)."""
-    from kontur.grbl.session import Session
     from kontur.machine import Machine
     from kontur.registry import board
 
     text = (ROOT / "tests" / "programs" / "rs274" / "laser.ngc").read_text()
     machine = Machine(clock_hz=board("ulx3s").clock_hz, laser=True)
-    now, said = [0.0], []
-    grbl = Session(machine, "ulx3s", said.append, speed=SPEED, clock=lambda: now[0])
-    for line in text.encode().splitlines(keepends=True):
-        grbl.receive(line)
-        grbl.poll()
-        now[0] += 0.1
-    while grbl.motion.busy or grbl.rx or grbl._waiting is not None:
-        grbl.poll()
-        now[0] += 0.1
+    grbl, said = serve_lines(text, board="ulx3s", machine=machine)
     assert said.count("ok") == len(text.splitlines())
     served, served_stops = _tool_per_move(grbl.motion.segments)
     run, run_stops = _tool_per_move(prepare(text, machine=machine, board="ulx3s").segments)
