@@ -315,7 +315,7 @@ def _profile_columns(width):
         field("prep", "prep", "valid"),
         field("ownV", "own", "v", "s"), field("cmpV", "cmp", "v", "s"),
         field("cmpW", "cmp", "w", "s"),
-        Column("tau2", "engine.tau2", "u", formats.value), Column("end", "engine.element_end"))
+        Column("end", "engine.element_end"))
 
 
 def _profile_frames(text, radius, width):
