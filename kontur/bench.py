@@ -193,19 +193,43 @@ def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), bu
     import kontur.build
     build = builder or kontur.build.build
     root = Path(build_root) if build_root else ROOT / "build" / "bench-controllers"
-    rows = []
+    rows, errors = [], []
     for board, seed in runs or [(board, seed) for board in boards for seed in seeds]:
-        result = build(board, root / f"{board}-s{seed}", seed=seed)
+        try:
+            result = build(board, root / f"{board}-s{seed}", seed=seed)
+        except ToolchainError as error:
+            # A seed that does not place or route is a figure too (a design near the device's
+            # size places with some seeds only): its row says why, from nextpnr's log.
+            errors.append(error)
+            rows.append({"board": board, "seed": seed,
+                         "failed": _build_failure(root / f"{board}-s{seed}", error)})
+            continue
         rows.append(kontur.build.report(result))
+    if errors and len(errors) == len(rows):
+        raise errors[0]
     if out is not None:
         out.write(controllers_table(rows))
     return rows
 
 
+def _build_failure(build_dir, error):
+    """Why a controller's build failed: the first ``ERROR:`` line of nextpnr's log in
+    ``build_dir``, or the error's message."""
+    for log in sorted(Path(build_dir).glob("*.tim")):
+        for line in log.read_text(errors="replace").splitlines():
+            if line.startswith("ERROR:"):
+                return line[len("ERROR:"):].strip()
+    return str(error)
+
+
 def controllers_table(rows):
-    """The markdown table of :func:`controllers`' rows."""
+    """The markdown table of :func:`controllers`' rows (a failed build's row says why)."""
     body = []
     for rec in rows:
+        if "failed" in rec:
+            body.append([rec["board"], "-", rec["seed"], "-", "-", "-", "-", "-", "-",
+                         f"did not build: {rec['failed']}".replace("|", "/"), "-"])
+            continue
         path = rec["critical_path"]
         body.append([rec["board"], rec["device"], rec["seed"],
                      f"{rec['cells_used']}/{rec['cells_available']} {rec['logic_cell']}",

@@ -172,3 +172,28 @@ def test_bench_controllers_table_into_benchmarks(tmp_path):
     assert text.index("## Area") < text.index(kontur.bench.CONTROLLERS_HEADING) \
         < text.index("## How")
     assert "| icebreaker | iCE40UP5K | 1 |" in text and "| 2 |" not in text
+
+
+def test_bench_controllers_row_of_a_seed_that_does_not_place(tmp_path):
+    import kontur.bench
+    from kontur.constraints.flow import ToolchainError
+
+    def builder(board, build_dir, *, seed):
+        if seed == 3:
+            Path(build_dir).mkdir(parents=True)
+            (Path(build_dir) / "top.tim").write_text(
+                "Info: placing\nERROR: Unable to find legal placement for all cells\n")
+            raise ToolchainError("the build of top failed")
+        return _real_result(Path(build_dir), seed)
+    rows = kontur.bench.controllers(boards=("icebreaker",), seeds=(1, 3), build_root=tmp_path,
+                                    builder=builder)
+    assert rows[1] == {"board": "icebreaker", "seed": 3,
+                       "failed": "Unable to find legal placement for all cells"}
+    lines = kontur.bench.controllers_table(rows).splitlines()
+    assert "| icebreaker | iCE40UP5K | 1 |" in lines[2]
+    assert lines[3].startswith("| icebreaker | - | 3 |")
+    assert "did not build: Unable to find legal placement for all cells" in lines[3]
+    # Every build failing is the toolchain's failure, not a table of failures.
+    with pytest.raises(ToolchainError):
+        kontur.bench.controllers(runs=[("icebreaker", 3)], build_root=tmp_path / "b",
+                                 builder=builder)
