@@ -25,7 +25,7 @@ from pathlib import Path
 from kontur.sim import processes
 
 __all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
-           "parse_critical_path", "DEVICES",
+           "parse_error", "parse_critical_path", "DEVICES",
            "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
            "SEED", "ROOT"]
 
@@ -54,7 +54,13 @@ DEVICES = {
 
 
 class ToolchainError(RuntimeError):
-    """An FPGA tool is missing or failed; the message says which and what to do."""
+    """An FPGA tool is missing or failed; the message says which and what to do. ``reason`` is
+    the tool's own one-line reason where its log gives one (:func:`parse_error`), else
+    ``None``."""
+
+    def __init__(self, message, reason=None):
+        super().__init__(message)
+        self.reason = reason
 
 
 class DoesNotFit(ToolchainError):
@@ -174,6 +180,15 @@ def parse_fmax(text):
     if not clocks:
         raise ValueError("no 'Max frequency for clock' line in the nextpnr log")
     return clocks
+
+
+def parse_error(text):
+    """The first ``ERROR:`` line of a nextpnr log, without the prefix (``"Unable to find legal
+    placement for all cells, ..."``), or ``None``."""
+    for line in text.splitlines():
+        if line.startswith("ERROR:"):
+            return line[len("ERROR:"):].strip()
+    return None
 
 
 def _cell(name):
@@ -341,8 +356,11 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
             if code != 0:
                 raise subprocess.CalledProcessError(code, script)
         except subprocess.CalledProcessError as error:
-            raise ToolchainError(f"the build of {name} failed ({error}); see the logs in "
-                                 f"{build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)")
+            log = build_dir / f"{name}.tim"
+            reason = parse_error(log.read_text(errors="replace")) if log.exists() else None
+            raise ToolchainError(f"the build of {name} failed ({reason or error}); see the logs "
+                                 f"in {build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)",
+                                 reason=reason)
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {

@@ -199,10 +199,9 @@ def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), bu
             result = build(board, root / f"{board}-s{seed}", seed=seed)
         except ToolchainError as error:
             # A seed that does not place or route is a figure too (a design near the device's
-            # size places with some seeds only): its row says why, from nextpnr's log.
+            # size places with some seeds only): its row says why, in nextpnr's words.
             errors.append(error)
-            rows.append({"board": board, "seed": seed,
-                         "failed": _build_failure(root / f"{board}-s{seed}", error)})
+            rows.append({"board": board, "seed": seed, "failed": error.reason or str(error)})
             continue
         rows.append(kontur.build.report(result))
     if errors and len(errors) == len(rows):
@@ -210,16 +209,6 @@ def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), bu
     if out is not None:
         out.write(controllers_table(rows))
     return rows
-
-
-def _build_failure(build_dir, error):
-    """Why a controller's build failed: the first ``ERROR:`` line of nextpnr's log in
-    ``build_dir``, or the error's message."""
-    for log in sorted(Path(build_dir).glob("*.tim")):
-        for line in log.read_text(errors="replace").splitlines():
-            if line.startswith("ERROR:"):
-                return line[len("ERROR:"):].strip()
-    return str(error)
 
 
 def controllers_table(rows):

@@ -178,12 +178,15 @@ def test_bench_controllers_row_of_a_seed_that_does_not_place(tmp_path):
     import kontur.bench
     from kontur.constraints.flow import ToolchainError
 
+    from kontur.constraints.flow import parse_error
+    log = ("Info: placing\nERROR: Unable to find legal placement for all cells\n"
+           "0 warnings, 1 error\n")
+    assert parse_error(log) == "Unable to find legal placement for all cells"
+    assert parse_error("Info: Max frequency for clock 'clk': 17.23 MHz\n") is None
+
     def builder(board, build_dir, *, seed):
         if seed == 3:
-            Path(build_dir).mkdir(parents=True)
-            (Path(build_dir) / "top.tim").write_text(
-                "Info: placing\nERROR: Unable to find legal placement for all cells\n")
-            raise ToolchainError("the build of top failed")
+            raise ToolchainError("the build of top failed", reason=parse_error(log))
         return _real_result(Path(build_dir), seed)
     rows = kontur.bench.controllers(boards=("icebreaker",), seeds=(1, 3), build_root=tmp_path,
                                     builder=builder)
