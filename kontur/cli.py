@@ -258,7 +258,8 @@ def _add_machining(commands):
                           "(ulx3s) (the switch inputs), unlock (an "
                           "UNLOCK frame), hold, resume (feed hold: HOLD, RESUME frames), "
                           "feed=PCT (feed override, 10-200), rapid=PCT (rapid override: 25, "
-                          "50, 100); the e-stop or a limit stops the program in ALARM, a hold "
+                          "50, 100), spindle=PCT (spindle override, 10-200: S in the tool "
+                          "outputs' PWM); the e-stop or a limit stops the program in ALARM, a hold "
                           "never resumed in HOLD")
     run.add_argument("--compress", type=int, default=None, metavar="N",
                      help="time compression of an RTL run: rates N times the planned ones "
@@ -447,9 +448,10 @@ def _run(args, out):
     if registry.board(args.board).axes == 2 and any(name in Z_EVENTS for _, name in events):
         raise UsageError(f"--event {next(n for _, n in events if n in Z_EVENTS)}: the "
                          f"{args.board}'s controller has no Z axis (no Z limit switch)")
-    if any(name.startswith(("feed=", "rapid=")) for _, name in events):
+    overridden = ("feed=", "rapid=", "spindle=")
+    if any(name.startswith(overridden) for _, name in events):
         _check_overrides(args.board, "--event " + next(
-            name for _, name in events if name.startswith(("feed=", "rapid="))))
+            name for _, name in events if name.startswith(overridden)))
     job = _job(args)
     if args.compress is not None:
         check_compress(job, args.compress)
@@ -480,9 +482,9 @@ def _check_overrides(board_name, what):
     item = registry.board(board_name)
     if not item.overrides:
         others = [b.name for b in registry.BOARDS.values() if b.overrides]
-        raise UsageError(f"{what}: the {item.name}'s controller is built without the feed and "
-                         f"rapid overrides (no room for them on the {item.help}); boards with "
-                         f"them: {', '.join(others)}")
+        raise UsageError(f"{what}: the {item.name}'s controller is built without the feed, "
+                         f"rapid and spindle overrides (no room for them on the {item.help}); "
+                         f"boards with them: {', '.join(others)}")
 
 
 def _events(texts):
@@ -504,7 +506,7 @@ def _events(texts):
             problem = None
         except ValueError as error:
             problem = str(error)
-        if problem is not None and "override" in problem:      # feed=PCT, rapid=PCT
+        if problem is not None and "override" in problem:      # feed=, rapid=, spindle=PCT
             raise UsageError(f"--event {text}: {problem.partition(': ')[2]}")
         if problem is not None or not (math.isfinite(seconds) and seconds >= 0):
             raise UsageError(f"--event {text}: expected WHAT@SECONDS, WHAT one of "

@@ -677,14 +677,14 @@ def _schedule(events, machine, compress, *, job=None, held=False):
     """The switch pins and frames of ``events`` (``(seconds, name)``, machining time) as a
     host link's schedule: clocks after the first step at ``compress``, each pin event the
     whole pin word after it (:func:`kontur.hdl.motion.inputs.pin_levels`), UNLOCK, HOLD and
-    RESUME frames, an OVERRIDE with both overrides as they stand after it. With ``held`` (the
+    RESUME frames, an OVERRIDE with all three overrides as they stand after it. With ``held`` (the
     run ends held: a hold never resumed) an ABORT follows the last event once the braking
     from twice the program's fastest feed is surely over (:func:`_brake_seconds`), ending
     the frames the hold keeps waiting (as an operator does), so that the run ends."""
     from kontur.hdl.motion import protocol
     from kontur.hdl.motion.inputs import pin_levels
     from kontur.sim.models.motion import event_kind
-    schedule, pressed, feed, rapid = [], set(), 100, 100
+    schedule, pressed, overrides = [], set(), {"feed": 100, "rapid": 100, "spindle": 100}
     for at, name in sorted(events, key=lambda item: item[0]):
         offset = round(at * machine.clock_hz / compress)
         kind = event_kind(name)
@@ -698,8 +698,8 @@ def _schedule(events, machine, compress, *, job=None, held=False):
         elif kind[0] in ("hold", "resume"):
             schedule.append((offset, ("frame", getattr(protocol, kind[0])())))
         else:
-            feed, rapid = (kind[1], rapid) if kind[0] == "feed" else (feed, kind[1])
-            schedule.append((offset, ("frame", protocol.override(feed, rapid))))
+            overrides[kind[0]] = kind[1]
+            schedule.append((offset, ("frame", protocol.override(**overrides))))
     if held and schedule:
         last = max(at for at, _ in events)
         offset = round((last + _brake_seconds(job)) * machine.clock_hz / compress)

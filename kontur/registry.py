@@ -120,7 +120,8 @@ class Board:
     ``(variant, width)`` of its engines, ``profile`` that of its equidistant engine
     (cutter-radius compensation, G41/G42), or ``None`` where the board has no room for one
     (see :func:`make_controller`); ``overrides`` whether its feed generator has the feed and
-    rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`); ``homing`` whether it has
+    rapid overrides (:class:`kontur.hdl.motion.feed.FeedGenerator`) and its tool outputs the
+    spindle override; ``homing`` whether it has
     the homing engine (:class:`kontur.hdl.motion.homing.HomingEngine`: HOME frames, homing to
     the limit switches; a board without it reports HOME an unknown frame type); ``tools``
     whether it has the tool outputs (:class:`kontur.hdl.motion.tools.ToolEngine`: TOOL frames,
@@ -261,7 +262,8 @@ def make_controller(board_name, machine):
     engines = [homing_row(axes=item.axes)] if item.homing else []
     if item.tools:
         engines.append(tool_row(s_max=machine.s_max, period=machine.pwm_period,
-                                laser_mode=item.laser_mode, axes=item.axes))
+                                laser_mode=item.laser_mode, spindle_override=item.overrides,
+                                axes=item.axes))
     return MotionController(line=line, arc=arc, profile=profile, engines=engines,
                             clock_hz=item.clock_hz, baud=machine.baud,
                             queue_frames=machine.queue_frames, dir_setup=machine.dir_setup,

@@ -182,7 +182,7 @@ class _Sender:
         self.frames, self.lines = job.frames()
         self.durations = _durations(job, len(self.frames))
         self.controls = lambda: ()                # the operator's (send's ``controls``)
-        self.held, self.feed, self.rapid = False, 100, 100
+        self.held, self.feed, self.rapid, self.spindle = False, 100, 100, 100
         self.parser = protocol.ReplyParser()
         self.window = job.machine.queue_frames
         self.sent = self.answered = 0
@@ -346,7 +346,8 @@ class _Sender:
 
     def control(self):
         """The operator's controls (``controls``: ``"hold"``, ``"resume"``, ``("feed", PCT)``,
-        ``("rapid", PCT)``), sent at once as HOLD, RESUME, OVERRIDE. While held no frame is
+        ``("rapid", PCT)``, ``("spindle", PCT)``), sent at once as HOLD, RESUME, OVERRIDE (with
+        all three overrides as they stand). While held no frame is
         overdue; a resume counts as an answer (the oldest frame's time starts again)."""
         for command in self.controls() or ():
             self.command(command)
@@ -362,9 +363,8 @@ class _Sender:
             self.heard = time.monotonic()
         else:
             what, percent = command
-            self.feed, self.rapid = (percent, self.rapid) if what == "feed" else \
-                (self.feed, percent)
-            self.write(protocol.override(self.feed, self.rapid))
+            setattr(self, what, percent)        # feed, rapid or spindle
+            self.write(protocol.override(self.feed, self.rapid, self.spindle))
 
     def deadline(self):
         """When the oldest unanswered frame is overdue (never while held)."""

@@ -228,14 +228,17 @@ class HoldRunTestCase(unittest.TestCase):
                                delta=0.002)
 
     def test_override_out_of_range_is_dropped(self):
-        # A factor above 256 (200 %) and a rapid of 75 %: ERROR 6, the override unchanged.
+        # A feed factor above 256 (200 %) or below 13, a rapid of 75 %, a spindle factor
+        # above 256 or below 13: ERROR 6, the overrides unchanged.
         # (Sent ahead of the program: the simulated host counts each ERROR as its answer.)
-        bad = [protocol.frame(0x25, (300).to_bytes(2, "little") + bytes([100])),
-               protocol.frame(0x25, (128).to_bytes(2, "little") + bytes([75])),
-               protocol.frame(0x25, (12).to_bytes(2, "little") + bytes([50]))]
+        def override(feed, rapid, spindle=128):
+            return protocol.frame(0x25, feed.to_bytes(2, "little") + bytes([rapid])
+                                  + spindle.to_bytes(2, "little"))
+        bad = [override(300, 100), override(128, 75), override(12, 50),
+               override(128, 100, 257), override(128, 100, 12)]
         result, watch = run(before=bad)
         errors = [r.fields for _, r in result.replies if r.kind == ERROR]
-        self.assertEqual(errors, [(6,), (6,), (6,)])
+        self.assertEqual(errors, [(6,)] * 5)
         (_, status), = statuses(result)
         self.assertEqual(status[8:], (128, 100))
         _, expected = program()
@@ -397,18 +400,19 @@ class EventsTestCase(unittest.TestCase):
                              [("feed=120", 0.05, False), ("hold", 0.1, True)])
             self.assertLess(data["steps"], 30 + 10 + 24)
             for bad in ("feed=5@1", "feed=201@1", "feed=x@1", "rapid=75@1", "rapid=@1",
-                        "hold", "resume@-1"):
+                        "spindle=9@1", "spindle=201@1", "hold", "resume@-1"):
                 with self.subTest(bad=bad):
                     self.assertEqual(main(["run", str(program), "--out", str(out),
                                            "--event", bad]), 2)
             # The iCEBreaker's controller is built without the overrides: refused, one line.
             import contextlib
             import io
-            err = io.StringIO()
-            with contextlib.redirect_stderr(err):
-                self.assertEqual(main(["run", str(program), "--out", str(out), "--event",
-                                       "feed=120@0.05"]), 2)
-            self.assertEqual(err.getvalue().splitlines(), [
-                "kontur: --event feed=120: the icebreaker's controller is built without the "
-                "feed and rapid overrides (no room for them on the iCEBreaker (iCE40UP5K-SG48)); "
-                "boards with them: ulx3s"])
+            for event in ("feed=120", "spindle=50"):
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err):
+                    self.assertEqual(main(["run", str(program), "--out", str(out), "--event",
+                                           f"{event}@0.05"]), 2)
+                self.assertEqual(err.getvalue().splitlines(), [
+                    f"kontur: --event {event}: the icebreaker's controller is built without "
+                    "the feed, rapid and spindle overrides (no room for them on the iCEBreaker "
+                    "(iCE40UP5K-SG48)); boards with them: ulx3s"])

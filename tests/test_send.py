@@ -79,7 +79,7 @@ class FakeMachine:
         self.flags = flags
         self.state, self.alarm, self.inputs = state, alarm, inputs
         self.unlocks = 0
-        self.overrides = []                         # (factor, rapid %, frames before it)
+        self.overrides = []     # (feed factor, rapid %, frames before it, spindle factor)
         self.holding = False                        # held: no frame ends
         self.controls = []                          # (hold or resume, frames before it)
         self.first = first
@@ -127,7 +127,7 @@ class FakeMachine:
                     self.state = self.alarm = 0
                 self.pending += self.status()
             elif event[0] == "override":
-                self.overrides.append((event[1], event[2], self.count))
+                self.overrides.append((event[1], event[2], self.count, event[3]))
             elif event[0] in ("hold", "resume"):
                 self.holding = event[0] == "hold"
                 self.controls.append((event[0], self.count))
@@ -481,7 +481,7 @@ def test_overrides_sent_after_the_handshake():
     # the handshake's QUERY, before the first queued frame; none at 100 %.
     port = FakeMachine(4)
     within(10, send, quick_job(), port, timeout=0.3, feed=150, rapid=50)
-    assert port.overrides == [(192, 50, 0)] and port.count > 0
+    assert port.overrides == [(192, 50, 0, 128)] and port.count > 0
     port = FakeMachine(4)
     within(10, send, quick_job(), port, timeout=0.3)
     assert port.overrides == []
@@ -508,7 +508,7 @@ def test_operator_holds_resumes_and_overrides_while_streaming():
     job = quick_job()
     assert within(10, send, job, port, timeout=0.3, controls=controls) == tuple(job.end)
     assert [what for what, _ in port.controls] == ["hold", "resume"]
-    assert port.controls[0][1] >= 2 and port.overrides == [(64, 100, port.controls[1][1])]
+    assert port.controls[0][1] >= 2 and port.overrides == [(64, 100, port.controls[1][1], 128)]
     assert time.monotonic() - started > 1.0
 
 

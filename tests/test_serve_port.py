@@ -125,9 +125,10 @@ def test_board_alarm_and_unlock(tmp_path):
         process.stdout.close()
 
 
-def _override_fields(feed, rapid):
-    """What the board decodes from an OVERRIDE of ``feed`` and ``rapid`` percent."""
-    (event,) = protocol.CommandParser().feed(protocol.override(feed, rapid))
+def _override_fields(feed, rapid, spindle=100):
+    """What the board decodes from an OVERRIDE of ``feed``, ``rapid`` and ``spindle``
+    percent: the feed factor, the rapid percent and the spindle factor."""
+    (event,) = protocol.CommandParser().feed(protocol.override(feed, rapid, spindle))
     return event[1:]
 
 
@@ -140,9 +141,10 @@ def _until(condition, seconds=10):
 
 def test_hold_resume_and_overrides_reach_the_board(tmp_path):
     """On the ULX3S (a controller with overrides): ``!`` is the board's HOLD (Hold in the
-    status, the board ends no frame while held), ``~`` its RESUME, and the feed and rapid
-    override bytes OVERRIDE frames with both overrides as they stand (Grbl's steps: +10 %,
-    rapid 50 %); the program still ends at its end."""
+    status, the board ends no frame while held), ``~`` its RESUME, and the feed, rapid and
+    spindle override bytes OVERRIDE frames with all three overrides as they stand (Grbl's
+    steps: feed +10 %, rapid 50 %, spindle +10 % and -1 %; the status's Ov: says so); the
+    program still ends at its end."""
     board = PtyBoard(Recording(WINDOW, axes=3), pace=0.05)     # the ULX3S's: 3 axes
     child, link, _ = _serve(tmp_path, board, "--board", "ulx3s")
     with board, child as process:
@@ -156,10 +158,14 @@ def test_hold_resume_and_overrides_reach_the_board(tmp_path):
         port.serial.write(b"~")
         _until(lambda: not board.machine.holding)
         assert [c for c, _ in board.machine.controls] == ["hold", "resume"]
-        port.serial.write(bytes([0x91, 0x96]))                 # feed +10 %, rapid 50 %
-        _until(lambda: len(board.machine.overrides) == 2)
-        assert [o[:2] for o in board.machine.overrides] == \
-            [_override_fields(110, 100), _override_fields(110, 50)]
+        # feed +10 %, rapid 50 %, spindle +10 % and -1 % (Grbl's 0x9A, 0x9D)
+        port.serial.write(bytes([0x91, 0x96, 0x9A, 0x9D]))
+        _until(lambda: len(board.machine.overrides) == 4)
+        assert [(o[0], o[1], o[3]) for o in board.machine.overrides] == \
+            [_override_fields(110, 100), _override_fields(110, 50),
+             _override_fields(110, 50, 110), _override_fields(110, 50, 109)]
+        port.status()
+        assert "|Ov:110,50,109" in port.reports[-1]
         assert port.wait_idle(60)[:2] == (20.0, 10.0)
         assert tuple(board.machine.position) == (20 * 80, 10 * 80, 0)
         port.close()
@@ -167,15 +173,16 @@ def test_hold_resume_and_overrides_reach_the_board(tmp_path):
 
 
 def test_overrides_on_a_board_without_them(tmp_path):
-    """The iCEBreaker's controller has no overrides: a feed override byte is a message, no
-    OVERRIDE reaches the board, the status keeps 100 %."""
+    """The iCEBreaker's controller has no overrides: a feed or spindle override byte is a
+    message, no OVERRIDE reaches the board."""
     board = PtyBoard(Recording(WINDOW))
     child, link, _ = _serve(tmp_path, board)
     with board, child as process:
         port = _connect(process, link)
-        port.serial.write(bytes([0x91]))
-        assert port.line() == "[MSG:the icebreaker's controller is built without the feed " \
-                              "and rapid overrides]"
+        for byte in (0x91, 0x9A):               # feed +10 %, spindle +10 %
+            port.serial.write(bytes([byte]))
+            assert port.line() == "[MSG:the icebreaker's controller is built without the " \
+                                  "feed, rapid and spindle overrides]"
         assert board.machine.overrides == []
         port.close()
         process.stdout.close()

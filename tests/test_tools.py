@@ -41,6 +41,7 @@ def run_rtl(dut, clocks):
                 ctx.set(dut.cmd.payload, {**cmd, "spindle": Spindle(cmd["spindle"])})
             for name in ("laser", "rate", "cruise", "halt"):
                 ctx.set(getattr(dut, name), clock.get(name, 0))
+            ctx.set(dut.spindle_override, clock.get("spindle_override", 128))
             outputs.append({name: ctx.get(getattr(dut, name)) for name in PINS}
                            | {"ready": ctx.get(dut.cmd.ready)})
             await ctx.tick()
@@ -214,14 +215,68 @@ def test_duty_changes_at_a_boundary():
     assert not any(o["pwm"] or o["enable"] for o in outputs[3 * period + 6:])
 
 
+@pytest.mark.parametrize("laser", [0, 1])
+def test_spindle_override(laser):
+    """Grbl's spindle override (10 % to 200 %, sent as its Q2.7 factor) scales S, clamped at
+    s_max, in M3 and in laser mode's M4 at the cruise: the duty within the factor's rounding
+    of S × percent / 100 (a 256th of S) and half a count of the exact; at 50 %, 100 % and
+    200 % (factors 64, 128, 256: exact) the duty of S/2, S and min(2S, s_max). A change takes
+    effect at a period's boundary, one pulse a period."""
+    from kontur.hdl.motion.protocol import feed_factor
+    period, s_max, cruise = 120, 1000, 1 << 20
+    spindle = CCW if laser else CW
+
+    def duties(s, factors):
+        """The count of every period: the factor 128 for three periods, then each of
+        ``factors`` from 40 clocks before a period's end for three; factor k's duty is that
+        of periods 3k + 4 to 3k + 6 (worked out in the period before)."""
+        inputs = {"laser": laser, "rate": cruise, "cruise": cruise}
+        clocks = []
+        for n in range((2 + len(factors)) * 3 * period):
+            k = min((n + 40) // (3 * period) - 1, len(factors) - 1)
+            clocks.append({**inputs, "spindle_override": factors[k] if k >= 0 else 128})
+        clocks[0]["cmd"] = command(spindle, s)
+        counts = [high(w) for w in periods(run_model(
+            ToolOutputsModel(s_max=s_max, period=period), clocks), period)]
+        return counts[1:3], [counts[3 * k + 4:3 * k + 7] for k in range(len(factors))]
+
+    for s in (0, 1, 250, 499, 500, 777, 1000):
+        whole, half, double = (half_up(Fraction(min(s * k, 2 * s_max) * period, 2 * s_max))
+                               for k in (2, 1, 4))
+        before, after = duties(s, [64, 256, 128])
+        assert before == [0, whole] and after == [[half] * 3, [double] * 3, [whole] * 3], s
+        percents = (10, 37, 110, 160)
+        _, after = duties(s, [feed_factor(percent, "spindle") for percent in percents])
+        for percent, counts in zip(percents, after):
+            (count,) = set(counts)
+            exact = Fraction(min(Fraction(s * percent, 100), s_max) * period, s_max)
+            assert abs(count - exact) <= Fraction(1, 2) + Fraction(period * s, 256 * s_max) \
+                + Fraction(period, 2 * s_max), (s, percent)
+
+
+def test_without_spindle_override():
+    """Built without the spindle override (a board without overrides), S is as commanded
+    whatever the factor."""
+    period = 120
+    clocks = [{"cmd": command(CW, 500), "spindle_override": 256}] + \
+        [{"spindle_override": 256}] * (3 * period - 1)
+    outputs = run_model(ToolOutputsModel(s_max=1000, period=period, spindle_override=False),
+                        clocks)
+    assert high(periods(outputs, period)[2]) == 60
+    outputs = run_rtl(ToolOutputs(s_max=1000, period=period, spindle_override=False), clocks)
+    assert high(periods(outputs, period)[2]) == 60
+
+
 # --- the gateware against the model ------------------------------------------------------
 
 def random_clocks(rng, period, s_max, count):
     """Commands a few periods apart (S up to the field's top, above s_max too), the laser mode
     switched now and then, a cruise (0 and 1 among them) and a rate wandering up to a quarter
     above it, a halt now and then."""
-    clocks, laser, cruise, rate = [], 1, 1 << 20, 0
+    clocks, laser, cruise, rate, factor = [], 1, 1 << 20, 0, 128
     while len(clocks) < count:
+        if rng.random() < 0.2:                 # a spindle override of 10 % to 200 %
+            factor = rng.choice([128, 13, 256, rng.randint(13, 256)])
         if rng.random() < 0.2:
             laser = int(rng.random() < 0.7)
         if rng.random() < 0.3:
@@ -229,23 +284,23 @@ def random_clocks(rng, period, s_max, count):
         cmd = command(rng.choice([OFF, CW, CCW, CCW, CCW]),
                       rng.randint(0, (1 << s_max.bit_length()) - 1),
                       rng.randint(0, 1), rng.randint(0, 1))
-        clocks.append({"cmd": cmd, "laser": laser})
+        clocks.append({"cmd": cmd, "laser": laser, "spindle_override": factor})
         for _ in range(rng.randint(0, 5 * period)):
             if rng.random() < 0.02:
                 rate = rng.randint(0, min((1 << 24) - 1, cruise * 5 // 4))
             clocks.append({"laser": laser, "rate": rate, "cruise": cruise,
-                           "halt": int(rng.random() < 0.002)})
+                           "halt": int(rng.random() < 0.002), "spindle_override": factor})
     return clocks[:count]
 
 
-@pytest.mark.parametrize("s_max, period, seed, laser_mode", [
-    (100, 64, 1, True), (1000, 97, 2, True), ((1 << 24) - 1, 200, 3, True),
-    (1000, 97, 4, False), (1, 50, 5, False)])
-def test_rtl_equals_model(s_max, period, seed, laser_mode):
+@pytest.mark.parametrize("s_max, period, seed, laser_mode, spindle_override", [
+    (100, 64, 1, True, True), (1000, 97, 2, True, True), ((1 << 24) - 1, 200, 3, True, True),
+    (1000, 97, 4, False, True), (1, 50, 5, False, False), (1000, 97, 6, False, False)])
+def test_rtl_equals_model(s_max, period, seed, laser_mode, spindle_override):
     clocks = random_clocks(random.Random(seed), period, s_max, 40 * period)
-    model = run_model(ToolOutputsModel(s_max=s_max, period=period, laser_mode=laser_mode),
-                      clocks)
-    rtl = run_rtl(ToolOutputs(s_max=s_max, period=period, laser_mode=laser_mode), clocks)
+    options = {"laser_mode": laser_mode, "spindle_override": spindle_override}
+    model = run_model(ToolOutputsModel(s_max=s_max, period=period, **options), clocks)
+    rtl = run_rtl(ToolOutputs(s_max=s_max, period=period, **options), clocks)
     for k, (got, want) in enumerate(zip(rtl, model)):
         assert got == want, f"clock {k}: {got} != {want}"
     assert sum(o["pwm"] for o in model) > 0 and any(c.get("halt") for c in clocks)

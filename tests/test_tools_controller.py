@@ -116,6 +116,29 @@ def test_laser_m4_follows_the_feed():
     assert trace[-1][:2] == (300, 0)
 
 
+def test_spindle_override():
+    """OVERRIDE frames' spindle factor (Grbl's spindle override) scales S in the duty, on the
+    fly, whatever is queued: M3 S80 of 100 is 80 clocks a period, 40 after a 50 % override,
+    full (S 120 clamped at s_max) after 150 %, while the line's steps keep their pace."""
+    frames = [p.config((1 << 32) - 1),
+              tool_frame(Spindle.CW, 80),
+              _feed(), p.line(300, 0),
+              tool_frame(Spindle.OFF, 0),
+              p.query()]
+    half, more = 2500, 4500
+    outcomes, trace = _run(frames, 14_000, inject={half: p.override(spindle=50),
+                                                  more: p.override(spindle=150)})
+    assert outcomes == [DONE] * 5
+    moving = [clock for clock in range(1, len(trace)) if trace[clock][:2] != trace[clock - 1][:2]]
+    start, end = moving[0], moving[-1]
+    assert start < half < more < end and trace[-1][:2] == (300, 0)
+    assert {b - a for a, b in zip(moving, moving[1:])} == {20}
+    # A frame of 10 bytes takes 400 clocks on this link; the duty changes a period later.
+    assert set(_duties(trace, start + 2 * PERIOD, half)) == {80}
+    assert set(_duties(trace, half + 400 + 2 * PERIOD, more)) == {40}
+    assert set(_duties(trace, more + 400 + 2 * PERIOD, end)) == {100}
+
+
 def test_estop_turns_the_tool_off():
     frames = [p.config((1 << 32) - 1),
               tool_frame(Spindle.CW, 60, mist=True, flood=True),

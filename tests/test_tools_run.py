@@ -313,16 +313,20 @@ M2
 """
 
 
-def test_the_pins_on_verilator():
+@pytest.mark.parametrize("spindle", [100, 50])
+def test_the_pins_on_verilator(spindle):
     """The tool pins as the RTL drives them (Verilator, `fastrun` recording them): in each
     move, the PWM's share of high time is the S rs274 sets for it over s_max (laser mode, M3:
-    constant power), none in the G0 though the laser stays enabled; all off after M5."""
+    constant power), none in the G0 though the laser stays enabled; all off after M5. With
+    a spindle override of 50 % from the start (``--event spindle=50@0``: an OVERRIDE frame)
+    half of it."""
     if "verilator" not in selected_simulators():
         pytest.skip("SIM selects another simulator")
     from kontur.hdl.motion.tools import TOOL_PINS
     machine = Machine(clock_hz=12.5e6, laser=True, pwm_hz=5000)
     job = prepare(CONSTANT, machine=machine, board="ulx3s", name="constant")
-    result = execute(job, "verilator")
+    events = [(0.0, f"spindle={spindle}")] if spindle != 100 else []
+    result = execute(job, "verilator", events=events)
     assert result.steps == job.steps and result.tool_pins
     enable, pwm = (1 << TOOL_PINS.index(name) for name in ("enable", "pwm"))
     period = machine.pwm_period * result.compress / machine.clock_hz      # machining s
@@ -346,6 +350,6 @@ def test_the_pins_on_verilator():
         index += len(segment.steps)
         assert t1 - t0 > 10 * period
         assert share(t0, t1, enable) == (0.0 if n == 0 else 1.0)     # M3 after the first
-        assert share(t0, t1, pwm) == pytest.approx(power / machine.s_max,
+        assert share(t0, t1, pwm) == pytest.approx(power * spindle / 100 / machine.s_max,
                                                    abs=2 * period / (t1 - t0))
     assert result.tool_pins[-1][1] == 0                 # M5: everything off

@@ -103,8 +103,9 @@ class MotionController(wiring.Component):
     press of the cycle-start button, when it ramps back up; the steps are the engines', so a
     held and resumed program makes the same steps as an uninterrupted one. An OVERRIDE frame
     sets the feed override (the cruise of every move but a rapid) and the rapid override (a
-    rapid's, the FEED frame's flag), applied by the feed generator within the acceleration.
-    These act when their frame ends, queued frames or not. Entering ALARM ends a hold.
+    rapid's, the FEED frame's flag), applied by the feed generator within the acceleration,
+    and the spindle override (S in the tool outputs' duty, from their next PWM period:
+    :class:`~.tools.ToolOutputs`). These act when their frame ends, queued frames or not. Entering ALARM ends a hold.
 
     A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
     clock its filtered level changes, and ALARM from then on: the step/dir stage drops every
@@ -155,8 +156,9 @@ class MotionController(wiring.Component):
     polarity : :class:`dict`
         ``"nc"`` or ``"no"`` per input (:data:`~.inputs.DEFAULT_POLARITY` for the others).
     overrides : :class:`bool`
-        Build the feed generator's overrides (default); without them OVERRIDE frames are
-        taken (and reported) but the rates stay at 100 % (:class:`~.feed.FeedGenerator`).
+        Build the feed generator's overrides and the tool outputs' spindle override
+        (default); without them OVERRIDE frames are taken (and reported) but the rates and S
+        stay at 100 % (:class:`~.feed.FeedGenerator`).
 
     Members
     -------
@@ -317,6 +319,7 @@ class MotionController(wiring.Component):
                                     step_width=self._step_width)
         self.input_stage = Inputs(filter=self._input_filter, polarity=self._polarity, axes=axes)
         self.alarm_unit = Alarm(axes)
+        self.spindle_override = Signal(9, init=OVERRIDE_ONE)   # the tool engine's (.tools)
         for name in ("uart_rx", "uart_tx", "decoder", "queue", "dispatcher", "turns", "replies",
                      "encoder", "feed", "stepdir", "input_stage", "alarm_unit"):
             m.submodules[name] = getattr(self, name)
@@ -421,6 +424,8 @@ class MotionController(wiring.Component):
         with m.If(decoder.override):
             m.d.sync += [feed_override.eq(decoder.feed_override),
                          rapid_override.eq(decoder.rapid_override)]
+            if self._overrides:
+                m.d.sync += self.spindle_override.eq(decoder.spindle_override)
         m.d.comb += [
             feed.hold.eq(hold),
             feed.feed_override.eq(feed_override),

@@ -48,8 +48,10 @@ HOLD      0x23  (none): feed hold: the motion ramps down along the path     no
 RESUME    0x24  (none): leaves the hold: the motion ramps back up          no
 OVERRIDE  0x25  feed: uint16, the feed override as a factor, Q2.7 (128     no
                 is 100 %; 13 to 256, 10 % to 200 %); rapid: uint8, the
-                rapid override in percent (100, 50 or 25); a value out
-                of range drops the frame (ERROR 6), nothing changed
+                rapid override in percent (100, 50 or 25); spindle:
+                uint16, the spindle override as a factor, Q2.7 (13 to
+                256: S times it, for the tool outputs' PWM); a value
+                out of range drops the frame (ERROR 6), nothing changed
 ========  ====  =========================================================  ==========
 
 Machine to host:
@@ -121,13 +123,13 @@ IMMEDIATE = (QUERY, ABORT, UNLOCK, HOLD, RESUME, OVERRIDE)
 #: OVERRIDE's rapid percentages, by the feed generator's shift (0, 1, 2).
 RAPID_PERCENT = (100, 50, 25)
 
-#: OVERRIDE's feed factors (Q2.7): 10 % to 200 %.
+#: OVERRIDE's feed and spindle factors (Q2.7): 10 % to 200 %.
 FEED_OVERRIDE_RANGE = (13, 256)
 
 #: Payload length of every frame type of fixed length, both directions (PROFILE's is the
 #: controller's: :func:`host_lengths`).
 LENGTHS = {LINE: 8, ARC: 17, DWELL: 4, FEED: 10, STOP: 0, CONFIG: 4, QUERY: 0, ABORT: 0,
-           UNLOCK: 0, HOLD: 0, RESUME: 0, OVERRIDE: 3, OUTCOME: 2, STATUS: 20, ERROR: 1,
+           UNLOCK: 0, HOLD: 0, RESUME: 0, OVERRIDE: 5, OUTCOME: 2, STATUS: 20, ERROR: 1,
            LINE3: 12, HELIX: 25}
 
 #: STATUS's payload length by the controller's axes (a position of 4 bytes per axis).
@@ -226,6 +228,8 @@ class FrameDecoder(wiring.Component):
     rapid_override : :py:`Out(2)`
         The OVERRIDE's rapid override as the feed generator's shift (0, 1, 2 for 100, 50,
         25 %), valid with :py:`override`.
+    spindle_override : :py:`Out(9)`
+        The OVERRIDE's spindle factor (Q2.7), valid with :py:`override`.
     error : :py:`Out(stream.Signature(8))`
         Codes of dropped frames (:data:`ERRORS`); a code not yet taken is replaced by the
         next.
@@ -268,6 +272,7 @@ class FrameDecoder(wiring.Component):
             "override":   Out(1),
             "feed_override":  Out(9),
             "rapid_override": Out(2),
+            "spindle_override": Out(9),
             "error":      Out(stream.Signature(8)),
         })
 
@@ -287,17 +292,21 @@ class FrameDecoder(wiring.Component):
         crc = Signal(16)
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
-        # An OVERRIDE's payload: the last three payload bytes taken, shifted in as they pass.
-        values = Signal(24)
+        # An OVERRIDE's payload: the last five payload bytes taken, shifted in as they pass.
+        values = Signal(40)
         feed_factor = values[:16]
-        rapid_percent = values[16:]
+        rapid_percent = values[16:24]
+        spindle_factor = values[24:]
         in_range = Signal()
         m.d.comb += [
             in_range.eq((feed_factor >= FEED_OVERRIDE_RANGE[0]) &
                         (feed_factor <= FEED_OVERRIDE_RANGE[1]) &
+                        (spindle_factor >= FEED_OVERRIDE_RANGE[0]) &
+                        (spindle_factor <= FEED_OVERRIDE_RANGE[1]) &
                         ((rapid_percent == RAPID_PERCENT[0]) | (rapid_percent == RAPID_PERCENT[1])
                          | (rapid_percent == RAPID_PERCENT[2]))),
             self.feed_override.eq(feed_factor),
+            self.spindle_override.eq(spindle_factor),
             self.rapid_override.eq(Mux(rapid_percent == RAPID_PERCENT[0], 0,
                                        Mux(rapid_percent == RAPID_PERCENT[1], 1, 2))),
         ]

@@ -150,24 +150,26 @@ def resume():
 FEED_PERCENT = (10, 200)
 
 
-def feed_factor(percent):
-    """OVERRIDE's feed factor (Q2.7, 128 is 100 %) nearest ``percent`` (a whole number
-    from 10 to 200)."""
+def feed_factor(percent, what="feed"):
+    """OVERRIDE's feed (or spindle: ``what``) factor (Q2.7, 128 is 100 %) nearest
+    ``percent`` (a whole number from 10 to 200)."""
     if isinstance(percent, bool) or not isinstance(percent, int) or \
             not FEED_PERCENT[0] <= percent <= FEED_PERCENT[1]:
-        raise ValueError(f"The feed override must be a whole percentage from "
+        raise ValueError(f"The {what} override must be a whole percentage from "
                          f"{FEED_PERCENT[0]} to {FEED_PERCENT[1]}, not {percent!r}")
     factor = (percent * 128 + 50) // 100
     assert FEED_OVERRIDE_RANGE[0] <= factor <= FEED_OVERRIDE_RANGE[1]
     return factor
 
 
-def override(feed=100, rapid=100):
+def override(feed=100, rapid=100, spindle=100):
     """An OVERRIDE frame: the feed override (percent, 10 to 200, sent as its factor:
-    :func:`feed_factor`) and the rapid override (percent: 100, 50 or 25)."""
+    :func:`feed_factor`), the rapid override (percent: 100, 50 or 25) and the spindle
+    override (percent, 10 to 200, sent as its factor)."""
     if rapid not in RAPID_PERCENT or isinstance(rapid, bool):
         raise ValueError(f"The rapid override must be 100, 50 or 25 %, not {rapid!r}")
-    return frame(OVERRIDE, feed_factor(feed).to_bytes(2, "little") + bytes([rapid]))
+    return frame(OVERRIDE, feed_factor(feed).to_bytes(2, "little") + bytes([rapid])
+                 + feed_factor(spindle, "spindle").to_bytes(2, "little"))
 
 
 #: The bits of STATUS's inputs byte and alarm byte (:data:`kontur.hdl.motion.inputs.INPUTS3`:
@@ -287,7 +289,8 @@ class CommandParser:
 
     :meth:`feed` returns the events the bytes complete: ``("frame", kind, payload)`` for a
     queued frame, ``("query",)``, ``("abort",)``, ``("unlock",)``, ``("hold",)``,
-    ``("resume",)``, ``("override", factor, rapid percent)``, ``("error", code)`` for a
+    ``("resume",)``, ``("override", feed factor, rapid percent, spindle factor)``,
+    ``("error", code)`` for a
     dropped frame (code 6 for an OVERRIDE out of range). Like
     the gateware it hunts for the sync byte, drops a frame at its first bad byte (an unknown
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
@@ -345,7 +348,9 @@ class CommandParser:
                 return ("error", 1)
             if self.kind == OVERRIDE:
                 factor, rapid = int.from_bytes(self.body[2:4], "little"), self.body[4]
+                spindle = int.from_bytes(self.body[5:7], "little")
                 if not FEED_OVERRIDE_RANGE[0] <= factor <= FEED_OVERRIDE_RANGE[1] or \
+                        not FEED_OVERRIDE_RANGE[0] <= spindle <= FEED_OVERRIDE_RANGE[1] or \
                         rapid not in RAPID_PERCENT:
                     return ("error", 6)
             if self.kind == QUERY:
@@ -357,6 +362,7 @@ class CommandParser:
             if self.kind in (HOLD, RESUME):
                 return ("hold",) if self.kind == HOLD else ("resume",)
             if self.kind == OVERRIDE:
-                return ("override", int.from_bytes(self.body[2:4], "little"), self.body[4])
+                return ("override", int.from_bytes(self.body[2:4], "little"), self.body[4],
+                        int.from_bytes(self.body[5:7], "little"))
             return ("frame", self.kind, bytes(self.body[2:]))
         return None

@@ -26,11 +26,14 @@ from .protocol import crc
 
 __all__ = ["Spindle", "ToolCommand", "ToolOutputs", "pwm_period", "min_period", "TOOL",
            "TOOL_UNIT", "ToolFrame", "ToolEngine", "tool_row", "connect_tools", "tool_frame",
-           "TOOL_PINS", "tool_engine"]
+           "TOOL_PINS", "tool_engine", "SPINDLE_ONE"]
 
 #: The TOOL frame's type and the tool engine's turn number (the built-in rows use 1 to 4,
 #: homing 5).
 TOOL, TOOL_UNIT = 0x1B, 7
+
+#: The spindle override's unit (Q2.7, as the feed override's: 128 is 100 %).
+SPINDLE_ONE = 128
 
 #: The tool engine's pins, in the order of the boards' ``tool`` resource.
 TOOL_PINS = ("enable", "direction", "pwm", "mist", "flood")
@@ -88,6 +91,13 @@ class ToolOutputs(wiring.Component):
     result exact, where a fractional rate/cruise or a PWM compare against rate-scaled
     counters would need the same product at every clock.
 
+    **Spindle override.** With ``spindle_override`` built, S in the duty is the commanded S
+    times the factor on :py:`spindle_override` (Q2.7, Grbl's spindle override: 128 is
+    100 %), rounded, and at most ``s_max`` (as Grbl clamps it at ``$30``):
+    ``min((S × factor + 64) >> 7, s_max)``, worked out in the clock it is used from the S
+    register and the factor then (a product of S's width by 9 bits: a multiplier block on
+    the ECP5). A new factor thus takes effect, like a new S, at the next period's duty.
+
     **Halt.** :py:`halt` drops every output in its own clock and clears the state: the
     outputs stay off until the next command.
 
@@ -102,11 +112,16 @@ class ToolOutputs(wiring.Component):
         With ``False`` the laser mode is not built: :py:`laser`, :py:`rate` and :py:`cruise`
         are ignored (M4 is S alone), and the datapath is as wide as ``s_max``, not 24 bits (for
         a device too small for it).
+    spindle_override : :class:`bool`
+        With ``False`` the spindle override is not built: :py:`spindle_override` is ignored
+        (S as commanded).
 
     Members
     -------
     cmd : :py:`In(stream.Signature(ToolCommand(s_max)))`
         A command, taken in any clock but those of :py:`halt` (``ready`` is its inverse).
+    spindle_override : :py:`In(9, init=128)`
+        The spindle override, Q2.7 (128 is 100 %).
     laser : :py:`In(1)`
         Laser mode (Grbl's ``$32``).
     rate, cruise : :py:`In(24)`
@@ -117,7 +132,7 @@ class ToolOutputs(wiring.Component):
         The pins: spindle on, M4, PWM, coolant mist (M7), flood (M8).
     """
 
-    def __init__(self, *, s_max, period, laser_mode=True):
+    def __init__(self, *, s_max, period, laser_mode=True, spindle_override=True):
         if isinstance(s_max, bool) or not isinstance(s_max, int) or not 1 <= s_max < 1 << 24:
             raise TypeError(f"S of full power must be an integer from 1 to 2**24 - 1, not "
                             f"{s_max!r}")
@@ -128,9 +143,14 @@ class ToolOutputs(wiring.Component):
                              f"duty's computation), not {period}")
         if not isinstance(laser_mode, bool):
             raise TypeError(f"Laser mode must be True or False, not {laser_mode!r}")
+        if not isinstance(spindle_override, bool):
+            raise TypeError(f"Spindle override must be True or False, not "
+                            f"{spindle_override!r}")
         self._s_max, self._period, self._laser_mode = s_max, period, laser_mode
+        self._spindle_override = spindle_override
         super().__init__({
             "cmd":       In(stream.Signature(ToolCommand(s_max))),
+            "spindle_override": In(9, init=SPINDLE_ONE),
             "laser":     In(1),
             "rate":      In(24),
             "cruise":    In(24),
@@ -179,6 +199,14 @@ class ToolOutputs(wiring.Component):
             ]
             m.d.comb += off.eq(c.spindle == Spindle.OFF)
 
+        if self._spindle_override:              # S times the factor, rounded, clamped
+            scaled = Signal(len(s) + 9)
+            overridden = Signal.like(s)
+            m.d.comb += [
+                scaled.eq((s * self.spindle_override + (SPINDLE_ONE >> 1)) >> 7),
+                overridden.eq(Mux(scaled > self._s_max, self._s_max, scaled)),
+            ]
+            s = overridden
         result, fresh = self._duty(m, first, off, enable, direction, s)
         with m.If(off):
             m.d.sync += duty.eq(0)
@@ -290,7 +318,7 @@ class ToolEngine(wiring.Component):
 
     Parameters
     ----------
-    s_max, period, laser_mode
+    s_max, period, laser_mode, spindle_override
         As :class:`ToolOutputs`.
     axes : :class:`int`
         The controller's axes (its engines' motion width).
@@ -299,6 +327,8 @@ class ToolEngine(wiring.Component):
     -------
     rate, cruise : :py:`Signal(24)`, in
         The feed generator's rate and the running move's cruise (for the laser mode's power).
+    spindle_override : :py:`Signal(9, init=128)`, in
+        The spindle override (Q2.7), from the host's OVERRIDE frames.
     halt : :py:`Signal(1)`, in
         The alarm's halt.
     settled : :py:`Signal(1)`, in
@@ -308,11 +338,13 @@ class ToolEngine(wiring.Component):
         The pins (:data:`TOOL_PINS`), :class:`ToolOutputs`'.
     """
 
-    def __init__(self, *, s_max, period, laser_mode=True, axes=2):
-        self.outputs = ToolOutputs(s_max=s_max, period=period, laser_mode=laser_mode)
+    def __init__(self, *, s_max, period, laser_mode=True, spindle_override=True, axes=2):
+        self.outputs = ToolOutputs(s_max=s_max, period=period, laser_mode=laser_mode,
+                                   spindle_override=spindle_override)
         super().__init__(EngineSignature(ToolFrame(), axes=axes))
         self._axes = axes
         self.rate, self.cruise, self.halt = Signal(24), Signal(24), Signal()
+        self.spindle_override = Signal(9, init=SPINDLE_ONE)
         self.settled = Signal()
         for name in TOOL_PINS:
             setattr(self, name, Signal(name=name))
@@ -342,6 +374,7 @@ class ToolEngine(wiring.Component):
             outputs.laser.eq(laser),
             outputs.rate.eq(self.rate),
             outputs.cruise.eq(self.cruise),
+            outputs.spindle_override.eq(self.spindle_override),
             outputs.halt.eq(self.halt),
         ]
         m.d.comb += [getattr(self, name).eq(getattr(outputs, name)) for name in TOOL_PINS]
@@ -367,9 +400,10 @@ def tool_frame(spindle=Spindle.OFF, s=0, *, mist=False, flood=False, laser=False
     return bytes([SYNC]) + body + crc(body).to_bytes(2, "big")
 
 
-def tool_row(*, s_max, period, laser_mode=True, axes=2):
+def tool_row(*, s_max, period, laser_mode=True, spindle_override=True, axes=2):
     """The engine-table row of a tool engine: ``MotionController(engines=[tool_row(...)])``."""
-    engine = ToolEngine(s_max=s_max, period=period, laser_mode=laser_mode, axes=axes)
+    engine = ToolEngine(s_max=s_max, period=period, laser_mode=laser_mode,
+                        spindle_override=spindle_override, axes=axes)
     return EngineUnit("tools", TOOL_UNIT, TOOL, engine, profile_bytes(ToolFrame()), raw_bits)
 
 
@@ -381,14 +415,15 @@ def tool_engine(controller):
 
 def connect_tools(m, controller):
     """Wire the tool engine of ``controller``'s table (none: nothing is built): the feed
-    generator's rate, the running move's cruise, the alarm's halt, the step/dir stage's
-    idleness."""
+    generator's rate, the running move's cruise, the spindle override (the last OVERRIDE
+    frame's), the alarm's halt, the step/dir stage's idleness."""
     engine = tool_engine(controller)
     if engine is None:
         return
     m.d.comb += [
         engine.rate.eq(controller.feed.rate),
         engine.cruise.eq(controller.turns.ramp.profile.cruise),
+        engine.spindle_override.eq(controller.spindle_override),
         engine.halt.eq(controller.alarm_unit.halt),
         engine.settled.eq(controller.stepdir.idle),
     ]

@@ -22,7 +22,7 @@ unanswered or says it moves. A board in ALARM (its e-stop, a limit) is Grbl's ``
 (e-stop, as grblHAL numbers it) or ``ALARM:1`` (hard limit); a board that fails the protocol
 (:class:`kontur.send.SendError`) is ``ALARM:3`` with the reason in a ``[MSG:...]``. A soft
 reset sends ``ABORT`` and takes the position where the board stopped. Feed hold, resume and
-the feed and rapid overrides are the board's ``HOLD``, ``RESUME`` and ``OVERRIDE`` frames
+the feed, rapid and spindle overrides are the board's ``HOLD``, ``RESUME`` and ``OVERRIDE`` frames
 (:meth:`kontur.send._Sender.command`), sent at once beside the virtual machine's own (which
 paces the planner); while held no frame is overdue.
 """
@@ -327,13 +327,13 @@ class PortMotion(Motion):
         return result
 
     def override(self, index, percent):
-        """The feed (0) and rapid (1) overrides as the board's OVERRIDE (both as they stand);
-        the spindle's (2) is the virtual machine's only. A board built without overrides
-        (:attr:`kontur.registry.Board.overrides`) keeps 100 %: the sender is told so."""
-        if index < 2 and not registry.board(self.board).overrides:
+        """The feed (0), rapid (1) and spindle (2) overrides as the board's OVERRIDE (all three
+        as they stand: the spindle's scales S in its tool outputs' PWM). A board built without
+        overrides (:attr:`kontur.registry.Board.overrides`) keeps 100 %: the sender is told
+        so."""
+        if not registry.board(self.board).overrides:
             self.say(f"[MSG:the {registry.board(self.board).name}'s controller is built "
-                     f"without the feed and rapid overrides]")
+                     f"without the feed, rapid and spindle overrides]")
             return
         super().override(index, percent)
-        if index < 2:
-            self._operate(("feed", percent) if index == 0 else ("rapid", percent))
+        self._operate((("feed", "rapid", "spindle")[index], percent))

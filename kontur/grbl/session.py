@@ -261,8 +261,8 @@ class Session:
 
     def _speed(self):
         """The spindle speed reported (``FS:``): the machine's S (its last TOOL frame's) while
-        its spindle is on, by the spindle override (the virtual machine's: the TOOL frame
-        carries the programmed S)."""
+        its spindle is on, by the spindle override (the TOOL frame carries the programmed S;
+        a board's OVERRIDE frame its spindle override: :mod:`kontur.grbl.board`)."""
         tool = self.motion.tool
         if tool is None or not tool["spindle"].value:
             return 0.0

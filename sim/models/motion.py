@@ -232,9 +232,9 @@ EVENTS = {"estop": ("estop", True), "estop-release": ("estop", False),
 Z_EVENTS = ("limit-z", "limit-z-release")
 
 #: The events that are the host's frames besides UNLOCK: feed hold and resume (HOLD,
-#: RESUME), and the overrides (OVERRIDE): ``feed=PCT`` (10 to 200 %) and ``rapid=PCT`` (100,
-#: 50 or 25 %).
-FRAME_EVENTS = ("hold", "resume", "feed=PCT", "rapid=PCT")
+#: RESUME), and the overrides (OVERRIDE): ``feed=PCT`` (10 to 200 %), ``rapid=PCT`` (100,
+#: 50 or 25 %) and ``spindle=PCT`` (10 to 200 %: S in the tool outputs' PWM).
+FRAME_EVENTS = ("hold", "resume", "feed=PCT", "rapid=PCT", "spindle=PCT")
 
 #: The overrides an event may set.
 FEED_PERCENT, RAPID_PERCENT = (10, 200), (100, 50, 25)
@@ -242,7 +242,8 @@ FEED_PERCENT, RAPID_PERCENT = (10, 200), (100, 50, 25)
 
 def event_kind(name):
     """What the ``--event`` name ``name`` does: ``("pins", input, pressed)``, ``("unlock",)``,
-    ``("hold",)``, ``("resume",)``, ``("feed", percent)`` or ``("rapid", percent)``.
+    ``("hold",)``, ``("resume",)``, ``("feed", percent)``, ``("rapid", percent)`` or
+    ``("spindle", percent)``.
 
     Raises :exc:`ValueError` (one line) for any other name or an override out of range."""
     if name in EVENTS:
@@ -251,14 +252,14 @@ def event_kind(name):
     if name in ("hold", "resume"):
         return (name,)
     what, equals, value = name.partition("=")
-    if equals and what in ("feed", "rapid"):
+    if equals and what in ("feed", "rapid", "spindle"):
         percent = int(value) if value.isdigit() else None
-        if what == "feed" and percent is not None and \
+        if what != "rapid" and percent is not None and \
                 FEED_PERCENT[0] <= percent <= FEED_PERCENT[1]:
-            return ("feed", percent)
+            return (what, percent)
         if what == "rapid" and percent in RAPID_PERCENT:
             return ("rapid", percent)
-        allowed = "10 to 200" if what == "feed" else "100, 50 or 25"
+        allowed = "10 to 200" if what != "rapid" else "100, 50 or 25"
         raise ValueError(f"Event {name}: the {what} override must be {allowed} %, "
                          f"not {value!r}")
     raise ValueError(f"Event must be one of {', '.join(list(EVENTS) + list(FRAME_EVENTS))}, "

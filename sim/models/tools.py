@@ -10,30 +10,34 @@ class ToolOutputsModel:
     """Clock-by-clock model of :class:`~kontur.hdl.motion.tools.ToolOutputs`.
 
     :meth:`cycle` takes this clock's inputs: ``cmd`` (``None``, or a dict of ``spindle``,
-    ``s``, ``mist``, ``flood``), ``laser``, ``rate``, ``cruise`` and ``halt``; returns the
+    ``s``, ``mist``, ``flood``), ``laser``, ``rate``, ``cruise``, ``halt`` and
+    ``spindle_override`` (Q2.7); returns the
     dict of this clock's outputs (``enable``, ``direction``, ``pwm``, ``mist``, ``flood``, and
     the command stream's ``ready``), then advances. The multiply-divide is kept register by
     register, as the gateware has it, but for a rate above the cruise: clamped here to the
     cruise, found by the gateware in the rate pass's first subtraction (its result is then the
     period, as the clamp's). ``laser_mode=False``: the gateware built without it (``laser``,
-    ``rate`` and ``cruise`` ignored).
+    ``rate`` and ``cruise`` ignored); ``spindle_override=False`` likewise (S as commanded).
     """
 
-    def __init__(self, *, s_max, period, laser_mode=True):
+    def __init__(self, *, s_max, period, laser_mode=True, spindle_override=True):
         self.s_max, self.period, self.laser_mode = s_max, period, laser_mode
+        self.spindle_override = spindle_override
         self.bits = period.bit_length()
         self.enable = self.direction = self.mist = self.flood = self.s = 0
         self.count = self.duty = 0
         self.a = self.b = self.c = self.r = self.q = 0
         self.phase = self.left = self.busy = self.feed = self.fresh = 0
 
-    def cycle(self, cmd=None, *, laser=0, rate=0, cruise=0, halt=0):
+    def cycle(self, cmd=None, *, laser=0, rate=0, cruise=0, halt=0, spindle_override=128):
         on = not halt
         out = {"enable": int(self.enable and on), "direction": int(self.direction and on),
                "mist": int(self.mist and on), "flood": int(self.flood and on),
                "pwm": int(self.enable and on and self.count < self.duty), "ready": int(on)}
         first, last = self.count == 0, self.count == self.period - 1
         enable, direction, s = self.enable, self.direction, self.s
+        if self.spindle_override:           # S times the factor (Q2.7), rounded, clamped
+            s = min((s * spindle_override + 64) >> 7, self.s_max)
         off = bool(halt)
         if halt:
             self.enable = self.direction = self.mist = self.flood = 0
