@@ -1,7 +1,7 @@
 # kontur: `make demo` and `make test` set up what is missing on a fresh machine, then run.
 #   SIM=icarus | SIM=verilator   run the cocotb tests on one simulator (default: both)
 #   WAVES=1                       dump waveforms of the tests into build/waves
-#   make bitstream BOARD=icebreaker|ulx3s [MACHINE=FILE.toml] [SEED=N] the controller's bitstream
+#   make bitstream BOARD=icebreaker|icebreaker-z|ulx3s [MACHINE=FILE.toml] [SEED=N] the controller's bitstream
 SHELL   := /bin/bash
 PYTHON  ?= python3
 VENV    ?= .venv
@@ -49,7 +49,7 @@ test-fast: setup         # Amaranth simulator and models only, no cocotb, no pro
 bench: setup            # writes BENCHMARKS.md from one run (half an hour on 2 idle cores)
 	PYTHONWARNINGS=error $(BIN)/python -m kontur.bench report --out BENCHMARKS.md
 
-bitstream: setup         # the controller for BOARD (icebreaker, ulx3s) and MACHINE; never programs
+bitstream: setup         # the controller for BOARD (icebreaker, icebreaker-z, ulx3s) and MACHINE; never programs
 	$(BIN)/kontur build --board $(BOARD) --top controller $(if $(MACHINE),--machine $(MACHINE))$(if $(SEED), --seed $(SEED))
 
 clean:

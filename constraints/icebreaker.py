@@ -14,6 +14,12 @@ Two sets of extra resources, one per top in ``hdl/top.py`` (a build requests onl
   :data:`kontur.hdl.motion.tools.TOOL_PINS` (active high) on the free pins beside them:
   spindle/laser/torch enable PMOD1A pin 8, direction (M4) PMOD1A 9, PWM PMOD1A 10, mist
   PMOD1B 9, flood PMOD1B 10 (FPGA pins 48, 46, 44, 32, 28; issue 28);
+* the three-axis controller (board ``icebreaker-z``, :func:`platform` with ``axes=3``) has
+  Z on PMOD2: pin 1 step Z, pin 2 dir Z (FPGA pins 27, 25), pin 4 Z's limit switch (FPGA
+  pin 19, pulled up, INPUTS3's bit 6), the rest as above. PMOD2 is the snap-off LED and
+  button section's: left on, its LEDs on pins 1 and 2 show Z's steps and direction and its
+  button 2 (pin 4) is in parallel with the Z limit (pressed: tripped); snapped off, PMOD2 is
+  a plain PMOD;
 * ``shift_in`` (:class:`~kontur.hdl.top.ShiftInTop` through :class:`~kontur.hdl.top.PinnedTop`, for the
   place-and-route benchmarks): inputs on PMOD1B's top row and PMOD2 pins 1-2, outputs on
   PMOD1A and PMOD1B's bottom row; the subsignals carry the names of
@@ -27,7 +33,8 @@ two of its pins, which the benchmark builds never share with the LEDs or buttons
 from amaranth.build import Attrs, Pins, PinsN, Resource, Subsignal
 from amaranth_boards.icebreaker import ICEBreakerPlatform
 
-__all__ = ["ICEBreakerPlatform", "STEPPER", "SWITCHES", "TOOL", "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
+__all__ = ["ICEBreakerPlatform", "STEPPER", "SWITCHES", "STEPPER3", "SWITCHES3", "TOOL",
+           "SHIFT_IN", "FREE_PINS", "platform", "bench_platform"]
 
 _PMOD1A = ("pmod", 0)
 _PMOD1B = ("pmod", 1)
@@ -40,6 +47,23 @@ STEPPER = [
              Subsignal("dir", Pins("3 4", dir="o", conn=_PMOD1A)),     # X, Y; 1 = negative
              Subsignal("enable", PinsN("7", dir="o", conn=_PMOD1A)),   # EN/ENA-: low = on
              _LVCMOS),
+]
+
+#: The three-axis controller's step/dir: Z's on PMOD2's pins 1 and 2.
+STEPPER3 = [
+    Resource("stepper", 0,
+             Subsignal("step", Pins("pmod_0:1 pmod_0:2 pmod_2:1", dir="o")),   # X, Y, Z
+             Subsignal("dir", Pins("pmod_0:3 pmod_0:4 pmod_2:2", dir="o")),    # 1 = negative
+             Subsignal("enable", PinsN("7", dir="o", conn=_PMOD1A)),
+             _LVCMOS),
+]
+
+#: The three-axis controller's switch inputs (:data:`kontur.hdl.motion.inputs.INPUTS3`): Z's
+#: limit on PMOD2's pin 4.
+SWITCHES3 = [
+    Resource("switches", 0,
+             Pins("pmod_1:1 pmod_1:2 pmod_1:3 pmod_1:4 pmod_1:7 pmod_1:8 pmod_2:4", dir="i"),
+             Attrs(IO_STANDARD="SB_LVCMOS", PULLUP=1)),
 ]
 
 #: The switch inputs, in the order of :data:`kontur.hdl.motion.inputs.INPUTS`.
@@ -78,11 +102,15 @@ SHIFT_IN = [
 ]
 
 
-def platform():
+def platform(axes=2):
     """Return a new :class:`ICEBreakerPlatform` with :data:`STEPPER`, :data:`SWITCHES`,
-    :data:`TOOL` and :data:`SHIFT_IN`."""
+    :data:`TOOL` and :data:`SHIFT_IN` (with ``axes=3`` :data:`STEPPER3` and :data:`SWITCHES3`,
+    and no ``shift_in``, which shares PMOD2)."""
     board = ICEBreakerPlatform()
-    board.add_resources(STEPPER + SWITCHES + TOOL + SHIFT_IN)
+    if axes == 3:
+        board.add_resources(STEPPER3 + SWITCHES3 + TOOL)
+    else:
+        board.add_resources(STEPPER + SWITCHES + TOOL + SHIFT_IN)
     return board
 
 

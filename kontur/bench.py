@@ -184,8 +184,8 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
 CONTROLLERS_HEADING = "## The controllers on their boards"
 
 
-def controllers(out=None, *, boards=("icebreaker", "ulx3s"), seeds=(1, 2, 3), build_root=None,
-                builder=None, runs=None):
+def controllers(out=None, *, boards=("icebreaker", "icebreaker-z", "ulx3s"), seeds=(1, 2, 3),
+                build_root=None, builder=None, runs=None):
     """Build each board's controller (:func:`kontur.build.build`, the default machine) with each
     nextpnr seed (or the ``(board, seed)`` pairs of ``runs``); return the rows
     (:func:`kontur.build.report` records) and, with ``out``, write their markdown table there.
@@ -261,7 +261,7 @@ def _write_section(path, heading, body):
 def _controllers_main(argv, out):
     import argparse
     parser = argparse.ArgumentParser(prog="python -m kontur.bench controllers")
-    parser.add_argument("--boards", default="icebreaker,ulx3s")
+    parser.add_argument("--boards", default="icebreaker,icebreaker-z,ulx3s")
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--runs", action="append", metavar="BOARD:SEED,SEED", default=None,
                         help="a board and its seeds (repeatable; instead of --boards/--seeds)")
@@ -288,8 +288,8 @@ RUNS_HEADING = "## The controllers in simulation: `kontur run` on Verilator"
 RUNS_PROGRAM = ROOT / "tests" / "programs" / "rs274" / "offsets.ngc"
 
 
-def runs(program=RUNS_PROGRAM, *, boards=("icebreaker", "ulx3s"), engine="verilator",
-         build_root=None):
+def runs(program=RUNS_PROGRAM, *, boards=("icebreaker", "icebreaker-z", "ulx3s"),
+         engine="verilator", build_root=None):
     """Run ``program`` through each board's whole controller on ``engine``
     (:func:`kontur.machining.execute`, its steps checked against the model's); return one row
     per board: clocks simulated, the wall time of the run (the simulator's build done first
@@ -319,7 +319,7 @@ def runs_table(rows):
 def _runs_main(argv, out):
     import argparse
     parser = argparse.ArgumentParser(prog="python -m kontur.bench runs")
-    parser.add_argument("--boards", default="icebreaker,ulx3s")
+    parser.add_argument("--boards", default="icebreaker,icebreaker-z,ulx3s")
     parser.add_argument("--program", default=str(RUNS_PROGRAM))
     parser.add_argument("--engine", default="verilator", choices=("verilator", "icarus"))
     parser.add_argument("--out", default=None, help="the markdown file whose section is "

@@ -304,7 +304,7 @@ _SCALE = {200: Fraction(254, 10), 210: Fraction(1)}
 UNITS = (None, "mm")
 #: Why a move that changes Z is refused (:func:`planar`).
 Z_REFUSAL = ("Z moves need the third axis, which this board's controller does not have "
-             "(the ulx3s's has it)")
+             "(the icebreaker-z's and the ulx3s's have it)")
 
 #: A 3-axis board's refusal of Z moves in a program with cutter-radius compensation.
 Z_COMPENSATED = ("Z moves in a program with cutter-radius compensation (G41/G42), whose "

@@ -358,6 +358,11 @@ def _icebreaker_platform():
     return icebreaker.platform()
 
 
+def _icebreaker_z_platform():
+    from kontur.constraints import icebreaker
+    return icebreaker.platform(axes=3)
+
+
 def _ulx3s_platform():
     from kontur.constraints import ulx3s
     return ulx3s.platform()
@@ -442,6 +447,17 @@ BOARD_TABLE = (
     # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
+    # The iCEBreaker on three axes (issues 27/28: Z for routers and mills; the two-axis one
+    # above for lasers, plasma and plotters): Z's step, dir and limit on PMOD2; lines in XYZ
+    # by the spatial core, helices by the helix engine around the arc engine on the
+    # textbook's bit-serial node at 16 bits (radii up to 65 535 steps, 819 mm at 80
+    # steps/mm; separate steps, within half a diagonal of the arc where the faithful core is
+    # within half a step; 18 clocks a step, faster than the step/dir timing's 37): the
+    # faithful core at 24 bits made 5963 LC (of 5280), at 16 bits 5455, the serial node at 24
+    # bits with the laser mode 5518. Tool outputs without the laser mode, no overrides.
+    Board("icebreaker-z", "iCEBreaker (iCE40UP5K-SG48), three axes (Z on PMOD2)",
+          _icebreaker_z_platform, None, clock_hz=12e6, arc=("serial", 16), overrides=False,
+          tools=True, laser_mode=False, axes=3),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's element end (block 11's test,
     # the feed's permission, the memory's shift and the frame taken) closes at 22.71 MHz

@@ -283,7 +283,7 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
                          [("rapid", 2, None), ("dwell", 2, Fraction(1, 4)), ("line", 2, None),
                           ("line", 3, None)])
         with self.assertRaisesRegex(GCodeError, r"^line 4: Z moves need the third axis, which "
-                                                r"this board's controller does not have \(the ulx3s's has it\) \(Z from 2 "
+                                                r"this board's controller does not have \(the icebreaker-z's and the ulx3s's have it\) \(Z from 2 "
                                                 r"to 3 mm\)$"):
             planar(program.moves)
         planar(self.read("G1 X1 F10\nG0 Z-1\nG1 X2 Z-1\nG54 G1 X3\n").moves)

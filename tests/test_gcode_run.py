@@ -27,7 +27,7 @@ def test_z_change_refused_with_its_line(tmp_path, capsys):
     assert status == 2 and out == ""
     assert err.splitlines() == [f"kontur: {PROGRAMS / 'zplunge.ngc'}: line 5: Z moves need the "
                                 f"third axis, which this board's controller does not have (the "
-                                f"ulx3s's has it) (Z from 5 "
+                                f"icebreaker-z's and the ulx3s's have it) (Z from 5 "
                                 f"to -2 mm)"]
 
 

@@ -8,7 +8,7 @@ from amaranth import Module, Shape
 from amaranth.lib import wiring
 
 from kontur.hdl.equidistant import EquidistantEngine, Formats
-from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME,
+from kontur.hdl.motion.link import (ABORT, ARC, CONFIG, DWELL, ERROR, FEED, LINE, OUTCOME, OVERRIDE,
                              PAYLOAD_BYTES, PROFILE, QUERY, STATUS, STOP, SYNC, FrameDecoder,
                              FrameEncoder, host_lengths, profile_bytes)
 from kontur.hdl.motion.queue import FrameQueue
@@ -177,6 +177,56 @@ class DecoderTestCase(unittest.TestCase):
         simulate(m, testbench, name="link_queue_full")
         self.assertEqual(levels[-1], 3 * 9)                 # three whole frames of 9 bytes
         self.assertEqual(codes.count(5), 2)
+
+class OverrideTestCase(unittest.TestCase):
+    def overrides(self, data, overrides):
+        """The (feed factor, rapid percent, spindle factor) of each OVERRIDE the decoder
+        signals and the codes of its errors, for ``data`` fed a byte a clock."""
+        dut = FrameDecoder(overrides=overrides)
+        m = Module()
+        m.submodules.decoder = dut
+        m.submodules.queue = queue = FrameQueue(256)
+        wiring.connect(m, dut.q, queue.w)
+        events = []
+
+        async def testbench(ctx):
+            ctx.set(dut.error.ready, 1)
+            pending = list(data)
+            for _ in range(2 * len(data) + 8):
+                ctx.set(dut.i.valid, bool(pending))
+                ctx.set(dut.i.payload, pending[0] if pending else 0)
+                if pending and ctx.get(dut.i.ready):
+                    pending.pop(0)
+                if ctx.get(dut.override):
+                    events.append(("override", ctx.get(dut.feed_override),
+                                   (100, 50, 25)[ctx.get(dut.rapid_override)],
+                                   ctx.get(dut.spindle_override)))
+                if ctx.get(dut.error.valid):
+                    events.append(("error", ctx.get(dut.error.payload)))
+                await ctx.tick()
+
+        simulate(m, testbench, name=f"link_overrides_{overrides}")
+        return events
+
+    def test_overrides_as_the_reference(self):
+        # All three values, and out-of-range ones dropped (ERROR 6); built without the
+        # overrides, every OVERRIDE is taken at 100 % whatever it carries, none dropped.
+        def frame(feed, rapid, spindle):
+            return protocol.frame(OVERRIDE, feed.to_bytes(2, "little") + bytes([rapid])
+                                  + spindle.to_bytes(2, "little"))
+        data = (protocol.override(150, 50, 80) + frame(300, 100, 128) + frame(128, 25, 256)
+                + frame(128, 100, 12) + protocol.override(10, 25, 200))
+        for overrides in (True, False):
+            with self.subTest(overrides=overrides):
+                expected = protocol.CommandParser(overrides=overrides).feed(data)
+                self.assertEqual(self.overrides(data, overrides), expected)
+                if overrides:
+                    self.assertEqual(expected, [("override", 192, 50, 102), ("error", 6),
+                                                ("override", 128, 25, 256), ("error", 6),
+                                                ("override", 13, 25, 256)])
+                else:
+                    self.assertEqual(expected, [("override", 128, 100, 128)] * 5)
+
 
 class ReferenceTestCase(unittest.TestCase):
     def test_reference_never_passes_a_damaged_frame(self):

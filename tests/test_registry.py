@@ -45,7 +45,7 @@ class LookupTestCase(unittest.TestCase):
         self.assertEqual([kind.program for kind in registry.KINDS.values()],
                          [False, False, True])
         self.assertEqual(registry.variant("arc").name, "faithful")
-        self.assertEqual(list(registry.BOARDS), ["icebreaker", "ulx3s"])
+        self.assertEqual(list(registry.BOARDS), ["icebreaker", "icebreaker-z", "ulx3s"])
 
     def test_unknown(self):
         with self.assertRaisesRegex(ValueError,

@@ -78,7 +78,7 @@ class PrepareTestCase(unittest.TestCase):
             ("G1 X1 F100\nG2 X20 R2\n", r"^line 2: the radius 2 is less than half"),
             ("G1 X1 F100\nM62\n", r"^line 2: unknown code M62$"),
             ("G0 Z0\nG1 X1 F100\nG1 X2 Z-1\n", r"^line 3: Z moves need the third axis, which "
-                                               r"this board's controller does not have \(the ulx3s's has it\) \(Z from 0 "
+                                               r"this board's controller does not have \(the icebreaker-z's and the ulx3s's have it\) \(Z from 0 "
                                                r"to -1 mm\)$"),
             ("G0 Z5\nG1 X1 F100\nG0 Z6\n", r"^line 3: Z moves need the third axis"),
             ("G1 X1 F100\nG41 G1 X5\nG4 P1\nG1 Y5\nG40\n",

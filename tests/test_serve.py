@@ -1114,7 +1114,8 @@ def test_z_refused_on_the_icebreaker_and_tools_on_a_board_without():
     lines(grbl, said, (("G0 Z5", ["ok"]),
                        ("G1 X1 Z-1 F100", ["[MSG:line 2: Z moves need the third axis, which "
                                            "this board's controller does not have (the "
-                                           "ulx3s's has it) (Z from 5 to -1 mm)]",
+                                           "icebreaker-z's and the ulx3s's have it) (Z from 5 "
+                                           "to -1 mm)]",
                                            "error:20"]),
                        ("M3 S500", ["ok"]), ("G1 X2 F100", ["ok"]), ("M8", ["ok"]),
                        ("M5 M9 S200", ["ok"])))

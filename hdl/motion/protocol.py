@@ -296,10 +296,13 @@ class CommandParser:
     type, a wrong length) or at a bad CRC, and hunts again from the next byte. ``profile`` is
     the PROFILE payload length of the controller decoded (``None``: it has no profile engine,
     and PROFILE is unknown), as :class:`~kontur.hdl.motion.link.FrameDecoder` takes it;
-    ``axes=3`` a 3-axis controller's (LINE3 and HELIX known, LINE and ARC not).
+    ``axes=3`` a 3-axis controller's (LINE3 and HELIX known, LINE and ARC not);
+    ``overrides=False`` a controller's built without the overrides (an OVERRIDE's values
+    neither read nor checked: ``("override", 128, 100, 128)``).
     """
 
-    def __init__(self, *, profile=None, axes=2):
+    def __init__(self, *, profile=None, axes=2, overrides=True):
+        self.overrides = overrides
         self.lengths = host_lengths(profile)
         if axes == 3:
             del self.lengths[LINE], self.lengths[ARC]
@@ -346,6 +349,8 @@ class CommandParser:
             self.state = "hunt"
             if (self.high << 8 | byte) != crc(self.body):
                 return ("error", 1)
+            if self.kind == OVERRIDE and not self.overrides:
+                return ("override", 128, RAPID_PERCENT[0], 128)
             if self.kind == OVERRIDE:
                 factor, rapid = int.from_bytes(self.body[2:4], "little"), self.body[4]
                 spindle = int.from_bytes(self.body[5:7], "little")

@@ -21,19 +21,17 @@ from amaranth.lib.wiring import In, Out
 
 from ..engine import EngineSignature, Outcome, StatusUnit
 from .dispatch import EngineUnit, raw_bits
+from .feed import OVERRIDE_ONE              # the spindle override's unit too (Q2.7)
 from .link import SYNC, profile_bytes
 from .protocol import crc
 
 __all__ = ["Spindle", "ToolCommand", "ToolOutputs", "pwm_period", "min_period", "TOOL",
            "TOOL_UNIT", "ToolFrame", "ToolEngine", "tool_row", "connect_tools", "tool_frame",
-           "TOOL_PINS", "tool_engine", "SPINDLE_ONE"]
+           "TOOL_PINS", "tool_engine"]
 
 #: The TOOL frame's type and the tool engine's turn number (the built-in rows use 1 to 4,
 #: homing 5).
 TOOL, TOOL_UNIT = 0x1B, 7
-
-#: The spindle override's unit (Q2.7, as the feed override's: 128 is 100 %).
-SPINDLE_ONE = 128
 
 #: The tool engine's pins, in the order of the boards' ``tool`` resource.
 TOOL_PINS = ("enable", "direction", "pwm", "mist", "flood")
@@ -150,7 +148,7 @@ class ToolOutputs(wiring.Component):
         self._spindle_override = spindle_override
         super().__init__({
             "cmd":       In(stream.Signature(ToolCommand(s_max))),
-            "spindle_override": In(9, init=SPINDLE_ONE),
+            "spindle_override": In(9, init=OVERRIDE_ONE),
             "laser":     In(1),
             "rate":      In(24),
             "cruise":    In(24),
@@ -203,7 +201,7 @@ class ToolOutputs(wiring.Component):
             scaled = Signal(len(s) + 9)
             overridden = Signal.like(s)
             m.d.comb += [
-                scaled.eq((s * self.spindle_override + (SPINDLE_ONE >> 1)) >> 7),
+                scaled.eq((s * self.spindle_override + (OVERRIDE_ONE >> 1)) >> 7),
                 overridden.eq(Mux(scaled > self._s_max, self._s_max, scaled)),
             ]
             s = overridden
@@ -344,7 +342,7 @@ class ToolEngine(wiring.Component):
         super().__init__(EngineSignature(ToolFrame(), axes=axes))
         self._axes = axes
         self.rate, self.cruise, self.halt = Signal(24), Signal(24), Signal()
-        self.spindle_override = Signal(9, init=SPINDLE_ONE)
+        self.spindle_override = Signal(9, init=OVERRIDE_ONE)
         self.settled = Signal()
         for name in TOOL_PINS:
             setattr(self, name, Signal(name=name))
