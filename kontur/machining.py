@@ -248,8 +248,10 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     except MachineError as error:
         raise UsageError(str(error)) from None
     if machine.laser and item.tools and not item.laser_mode:
+        others = ", ".join(b.name for b in registry.BOARDS.values() if b.tools and b.laser_mode)
         raise UsageError(f"laser = true, but the {item.name}'s tool outputs have no laser mode "
-                         f"(no room: registry.Board.laser_mode); set laser = false")
+                         f"(no room: registry.Board.laser_mode); set laser = false, or use a "
+                         f"board with it: {others}")
     try:
         program = read(text, name=name, units="mm", tools=tools, start=start,
                        parameters=machine.parameters)

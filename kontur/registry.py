@@ -454,10 +454,11 @@ BOARD_TABLE = (
     # steps/mm; separate steps, within half a diagonal of the arc where the faithful core is
     # within half a step; 18 clocks a step, faster than the step/dir timing's 37): the
     # faithful core at 24 bits made 5963 LC (of 5280), at 16 bits 5455, the serial node at 24
-    # bits with the laser mode 5518. Tool outputs without the laser mode, no overrides.
+    # bits with the laser mode 5518; at 16 bits 4877 LC without the laser mode, 5026 with it
+    # (seed 1). Tool outputs with Grbl's laser mode; no overrides.
     Board("icebreaker-z", "iCEBreaker (iCE40UP5K-SG48), three axes (Z on PMOD2)",
           _icebreaker_z_platform, None, clock_hz=12e6, arc=("serial", 16), overrides=False,
-          tools=True, laser_mode=False, axes=3),
+          tools=True, axes=3),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. That engine's element end (block 11's test,
     # the feed's permission, the memory's shift and the frame taken) closes at 22.71 MHz

@@ -135,11 +135,14 @@ def test_tool_outputs_on_the_icebreaker():
          (12, "off", 400, False)]
     assert "4 TOOL frames to the tool outputs" in summary_text(data)
     # Its tool outputs have no laser mode (no room): a machine file's laser = true is refused
-    # there, taken on the ULX3S.
+    # there, taken on the ULX3S and the three-axis iCEBreaker.
     from kontur.trace import UsageError
-    with pytest.raises(UsageError, match="the icebreaker's tool outputs have no laser mode"):
+    with pytest.raises(UsageError, match="the icebreaker's tool outputs have no laser mode .*"
+                                         "board with it: icebreaker-z, ulx3s$"):
         prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True), board="icebreaker")
     assert prepare(PLASMA, machine=LASER, board="ulx3s").machine.laser
+    assert prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True),
+                   board="icebreaker-z").machine.laser
     toolless = replace(registry.board("icebreaker"), tools=False)
     job = prepare(PLASMA, board=toolless, name="plasma")
     assert kontur_changes(job) == []
@@ -313,18 +316,21 @@ M2
 """
 
 
-@pytest.mark.parametrize("spindle", [100, 50])
-def test_the_pins_on_verilator(spindle):
+@pytest.mark.parametrize("board, spindle", [("ulx3s", 100), ("ulx3s", 50),
+                                            ("icebreaker-z", 100)])
+def test_the_pins_on_verilator(board, spindle):
     """The tool pins as the RTL drives them (Verilator, `fastrun` recording them): in each
     move, the PWM's share of high time is the S rs274 sets for it over s_max (laser mode, M3:
     constant power), none in the G0 though the laser stays enabled; all off after M5. With
     a spindle override of 50 % from the start (``--event spindle=50@0``: an OVERRIDE frame)
-    half of it."""
+    half of it. On the ULX3S and the three-axis iCEBreaker (whose tool outputs have the laser
+    mode too)."""
     if "verilator" not in selected_simulators():
         pytest.skip("SIM selects another simulator")
+    from kontur import registry
     from kontur.hdl.motion.tools import TOOL_PINS
-    machine = Machine(clock_hz=12.5e6, laser=True, pwm_hz=5000)
-    job = prepare(CONSTANT, machine=machine, board="ulx3s", name="constant")
+    machine = Machine(clock_hz=registry.board(board).clock_hz, laser=True, pwm_hz=5000)
+    job = prepare(CONSTANT, machine=machine, board=board, name="constant")
     events = [(0.0, f"spindle={spindle}")] if spindle != 100 else []
     result = execute(job, "verilator", events=events)
     assert result.steps == job.steps and result.tool_pins
