@@ -302,6 +302,9 @@ def _add_machining(commands):
                            "default 100)")
     send.add_argument("--rapid", type=int, default=100, metavar="PCT",
                       help="rapid override: 100, 50 or 25 %% (default 100)")
+    send.add_argument("--spindle", type=int, default=100, metavar="PCT",
+                      help="spindle override, 10-200 %%: S in the tool outputs' PWM "
+                           "(default 100)")
     send.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                       help="how long the board may take to answer a QUERY, and to answer a "
                            "frame beyond its planned time (default 10)")
@@ -594,12 +597,13 @@ def _send(args, out):
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
     from kontur.hdl.motion.protocol import override
+    given = f"--feed {args.feed} --rapid {args.rapid} --spindle {args.spindle}"
     try:
-        override(args.feed, args.rapid)
+        override(args.feed, args.rapid, args.spindle)
     except ValueError as error:
-        raise UsageError(f"--feed {args.feed} --rapid {args.rapid}: {error}") from None
-    if (args.feed, args.rapid) != (100, 100):
-        _check_overrides(args.board, f"--feed {args.feed} --rapid {args.rapid}")
+        raise UsageError(f"{given}: {error}") from None
+    if (args.feed, args.rapid, args.spindle) != (100, 100, 100):
+        _check_overrides(args.board, given)
     homing = _homing(args) if args.home else None
     job = _job(args, start=homing.start_mm if homing else (0, 0))
     from kontur.send import unhonoured
@@ -626,7 +630,7 @@ def _send(args, out):
                 unlock = False
             end = send(job, port, progress=lambda n: bar.update(n - bar.n), out=sys.stderr,
                        timeout=args.timeout, stop=stop, unlock=unlock, feed=args.feed,
-                       rapid=args.rapid, controls=controls)
+                       rapid=args.rapid, spindle=args.spindle, controls=controls)
     except SendInterrupted as error:
         sys.stderr.write(f"kontur: {error}\n")
         return 128 + error.signum

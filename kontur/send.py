@@ -480,7 +480,7 @@ class _Sender:
 
 
 def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=False,
-         feed=100, rapid=100, controls=None):
+         feed=100, rapid=100, spindle=100, controls=None):
     """Stream ``job``'s frames to the controller on ``port`` (an open pyserial port, or
     anything with ``write``, ``read`` and ``in_waiting``) after the handshake; return the final
     position read back (steps).
@@ -491,12 +491,12 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     ``out`` where to write what the machine says besides (a file). ``stop`` (a :class:`Stop`,
     or any callable) returns a signal number once the send must stop. ``unlock``: the
     handshake sends UNLOCK instead of QUERY (its STATUS must then show the ALARM left).
-    ``feed`` and ``rapid``: the overrides (percent: 10-200; 100, 50 or 25), sent in an
-    OVERRIDE frame after the handshake when either is not 100 (a frame's allowed time then
-    stretched by ``100 / feed`` below 100 %). ``controls``, if given, is called while the
-    frames stream and returns the operator's commands since (``"hold"``, ``"resume"``,
-    ``("feed", PCT)``, ``("rapid", PCT)``), each sent at once (HOLD, RESUME, OVERRIDE); no
-    frame is overdue while held.
+    ``feed``, ``rapid`` and ``spindle``: the overrides (percent: 10-200; 100, 50 or 25;
+    10-200), sent in an OVERRIDE frame after the handshake when any is not 100 (a frame's
+    allowed time then stretched by ``100 / feed`` below 100 %). ``controls``, if given, is
+    called while the frames stream and returns the operator's commands since (``"hold"``,
+    ``"resume"``, ``("feed", PCT)``, ``("rapid", PCT)``, ``("spindle", PCT)``), each sent at
+    once (HOLD, RESUME, OVERRIDE); no frame is overdue while held.
 
     Raises
     ------
@@ -509,10 +509,11 @@ def send(job, port, *, progress=None, timeout=10.0, out=None, stop=None, unlock=
     """
     if not (isinstance(timeout, (int, float)) and math.isfinite(timeout) and timeout > 0):
         raise ValueError(f"The timeout must be a positive number of seconds, not {timeout!r}")
-    frame = protocol.override(feed, rapid) if (feed, rapid) != (100, 100) else None
+    frame = protocol.override(feed, rapid, spindle) if (feed, rapid, spindle) != (100,) * 3 \
+        else None
     sender = _Sender(job, port, progress=progress, timeout=timeout, out=out, stop=stop)
     sender.controls = controls or (lambda: ())
-    sender.feed, sender.rapid = feed, rapid
+    sender.feed, sender.rapid, sender.spindle = feed, rapid, spindle
     try:
         sender.handshake(unlock)
         if frame is not None:

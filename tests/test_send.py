@@ -446,6 +446,18 @@ class SendTestCase(unittest.TestCase):
             bad.write_text("G1 X1 F100\nG5\n")
             self.assertEqual(main(["send", str(bad), "--port", "/dev/null-none"]), 2)
             self.assertEqual(main(["send", str(good), "--port", str(Path(folder) / "none")]), 1)
+            # An override out of range, or one on a board built without them: 2, one line,
+            # before the port is opened.
+            for extra, why in ((["--spindle", "5"], "the spindle override must be a whole "
+                                                     "percentage from 10 to 200, not 5"),
+                               (["--spindle", "50"], "the icebreaker's controller is built "
+                                                     "without the feed, rapid and spindle "
+                                                     "overrides")):
+                status, err = _capture_stderr(lambda: main(
+                    ["send", str(good), "--port", "/dev/null-none", *extra]))
+                self.assertEqual(status, 2)
+                self.assertEqual(len(err.splitlines()), 1)
+                self.assertIn(why.replace("the spindle", "The spindle"), err)
 
 
 # ---- the handshake ---------------------------------------------------------------------------
@@ -485,8 +497,14 @@ def test_overrides_sent_after_the_handshake():
     port = FakeMachine(4)
     within(10, send, quick_job(), port, timeout=0.3)
     assert port.overrides == []
+    # --spindle 50 alone: the feed and rapid at 100 %, the spindle factor 64.
+    port = FakeMachine(4)
+    within(10, send, quick_job(), port, timeout=0.3, spindle=50)
+    assert port.overrides == [(128, 100, 0, 64)]
     with pytest.raises(ValueError, match="feed override must be a whole percentage"):
         send(quick_job(), FakeMachine(4), feed=250)
+    with pytest.raises(ValueError, match="spindle override must be a whole percentage"):
+        send(quick_job(), FakeMachine(4), spindle=5)
 
 
 def test_operator_holds_resumes_and_overrides_while_streaming():
