@@ -14,6 +14,9 @@ of rs274's Z at the point's angle (docs/architecture.md, "Helical arcs": the sha
 arc's ``n`` steps made against the share of its angle, and each end of Z rounded to the grid);
 each move ends exactly on rs274's X, Y and Z rounded to the grid.
 
+The same holds on the iCEBreaker's three-axis controller (``icebreaker-z``), whose arcs are
+the bit-serial node's separate steps at 16 bits.
+
 A third of the programs also run on Verilator (the whole controller), whose steps must be the
 model's (:func:`kontur.machining.execute` compares them step for step and raises otherwise).
 """
@@ -144,11 +147,11 @@ def _last_of(job, move):
     return [s for s in job.segments if s.source is move][-1]
 
 
-def _prepare(path, tmp_path):
+def _prepare(path, tmp_path, board=BOARD):
     text = _text(path)
     theirs, _, run = canonical(text, tmp_path)
     assert run.returncode == 0, run.stderr[-300:]
-    job = prepare(text, board=BOARD, name=path.name,
+    job = prepare(text, board=board, name=path.name,
                   tools=read_tool_table(TABLE.read_text()))
     return job, theirs
 
@@ -158,9 +161,12 @@ def test_enough_programs_run():
     assert len(ZRUNS) >= 5, [p.name for p in ZRUNS]
 
 
+@pytest.mark.parametrize("board", [BOARD, "icebreaker-z"])
 @pytest.mark.parametrize("path", RUNS, ids=lambda p: f"{p.parent.name}/{p.name}")
-def test_model_path_is_rs274s(path, tmp_path):
-    job, theirs = _prepare(path, tmp_path)
+def test_model_path_is_rs274s(path, tmp_path, board):
+    # On the three-axis iCEBreaker too: its arcs on the bit-serial node (separate steps)
+    # within the same bounds.
+    job, theirs = _prepare(path, tmp_path, board)
     assert job.steps, path.name
     _check_path(path, job, theirs)
 
