@@ -358,9 +358,12 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
         except subprocess.CalledProcessError as error:
             log = build_dir / f"{name}.tim"
             reason = parse_error(log.read_text(errors="replace")) if log.exists() else None
+            hint = "; the device is nearly full: another nextpnr seed may place it " \
+                   "(kontur build --seed N, make bitstream SEED=N)" \
+                if reason and "legal placement" in reason else ""
             raise ToolchainError(f"the build of {name} failed ({reason or error}); see the logs "
-                                 f"in {build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)",
-                                 reason=reason)
+                                 f"in {build_dir} ({name}.rpt: Yosys, {name}.tim: nextpnr)"
+                                 f"{hint}", reason=reason)
     log = (build_dir / f"{name}.tim").read_text()
     utilisation = parse_utilisation(log)
     return {

@@ -444,7 +444,9 @@ BOARD_TABLE = (
     # core's steps at 4 clocks a step: 5144 -> 4850 LC) and without their laser mode (with it
     # 5252 LC, which did not place): 5117 LC, 12.92 MHz. A smaller line core (the serial node,
     # separate steps) would leave the laser mode room (4971 LC) but is 0.654 steps off
-    # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5).
+    # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5). Since
+    # OVERRIDE's values are not kept without the overrides: 5017 LC, seeds 1-3 placed at
+    # 14.97-15.55 MHz (with the laser mode 5181, 98 %: not adopted; icebreaker-z has it).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
     # The iCEBreaker on three axes (issues 27/28: Z for routers and mills; the two-axis one

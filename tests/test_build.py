@@ -200,3 +200,35 @@ def test_bench_controllers_row_of_a_seed_that_does_not_place(tmp_path):
     with pytest.raises(ToolchainError):
         kontur.bench.controllers(runs=[("icebreaker", 3)], build_root=tmp_path / "b",
                                  builder=builder)
+
+
+def test_a_build_that_does_not_place_says_what_to_try(monkeypatch, tmp_path):
+    # nextpnr's placement failure (the device nearly full): the message gives its reason and
+    # suggests another seed; any other failure gets no such hint.
+    from amaranth import Elaboratable, Module, Signal
+
+    from kontur.constraints import flow, icebreaker
+    from kontur.sim import processes
+
+    class Count(Elaboratable):              # (the tools are not run: any design will do)
+        def elaborate(self, platform):
+            m = Module()
+            count = Signal(4)
+            m.d.sync += count.eq(count + 1)
+            return m
+
+    def failing(error):
+        def run(script, *, cwd, env):
+            (Path(cwd) / "top.tim").write_text(f"Info: placing\nERROR: {error}\n")
+            return subprocess.CompletedProcess(script, 1)
+        return run
+
+    for error, hint in (("Unable to find legal placement for all cells, design is probably "
+                         "at utilisation limit.", True), ("Max frequency not met", False)):
+        monkeypatch.setattr(processes, "run", failing(error))
+        with pytest.raises(flow.ToolchainError) as failure:
+            flow.place_and_route(icebreaker.platform(), Count(), tmp_path / "b", seed=1)
+        assert failure.value.reason == error
+        assert str(failure.value).startswith(f"the build of top failed ({error}); see the logs")
+        assert str(failure.value).endswith("another nextpnr seed may place it (kontur build "
+                                           "--seed N, make bitstream SEED=N)") == hint
