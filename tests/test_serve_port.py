@@ -103,6 +103,24 @@ def test_soft_reset_aborts_the_board(tmp_path):
         process.stdout.close()
 
 
+def test_board_inputs_in_the_status(tmp_path):
+    """The board's inputs active now (its STATUS's inputs byte) are the status report's Pn:
+    field, in Grbl's letters and order: none, none shown; the probe and Y's limit, Pn:YP;
+    the feed-hold and cycle-start buttons, Pn:HS."""
+    board = PtyBoard(Recording(WINDOW))
+    child, link, _ = _serve(tmp_path, board)
+    with board, child as process:
+        port = _connect(process, link)
+        assert port.command("G1 X1 F600") == ["ok"]
+        assert port.wait_idle(30)[:2] == (1.0, 0.0)
+        assert "|Pn:" not in port.reports[-1]
+        for inputs, letters in ((1 << 2 | 1 << 3, "YP"), (1 << 5 | 1 << 4, "HS")):
+            board.machine.inputs = inputs
+            _until(lambda: (port.status(), f"|Pn:{letters}|" in port.reports[-1])[1])
+        port.close()
+        process.stdout.close()
+
+
 def test_board_alarm_and_unlock(tmp_path):
     """A limit trips on the board while it moves (its STATUS in ALARM, limit_x): Grbl's
     ALARM:1 (hard limit), the board ABORTed, Alarm in the status reports; $X sends the board

@@ -33,6 +33,7 @@ import types
 from kontur import registry
 from kontur.grbl.motion import Motion
 from kontur.grbl.protocol import PLANNER_BLOCKS
+from kontur.hdl.motion.protocol import INPUT_NAMES
 from kontur.planner import frames as program_frames, plan, step_length
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
@@ -47,6 +48,11 @@ POLL = 0.1
 #: The board's STATE byte for ALARM, and its inputs' bits (:data:`kontur.hdl.motion.protocol.
 #: INPUT_NAMES`): the e-stop's, the limits'.
 ALARM_STATE, ESTOP, LIMITS = 4, 1, 6
+
+#: The inputs' letters in a status report's ``Pn:`` field, in Grbl's order (the e-stop's is
+#: grblHAL's).
+PIN_LETTERS = (("limit_x", "X"), ("limit_y", "Y"), ("limit_z", "Z"), ("probe", "P"),
+               ("feed_hold", "H"), ("cycle_start", "S"), ("estop", "E"))
 
 
 def reach(machine):
@@ -135,6 +141,18 @@ class PortMotion(Motion):
         status = self.feeder.status
         return self._board_position() if status is not None and self.failed is None \
             else self.position
+
+    @property
+    def pins(self):
+        """The board's inputs active now (its last STATUS's, filtered), as ``Pn:`` letters
+        in Grbl's order: X, Y, Z (limits), P (probe), H (feed hold), S (cycle start), and E
+        for the e-stop (grblHAL's letter, as its ``ALARM:10``)."""
+        status = self.feeder.status
+        if status is None or self.failed is not None:
+            return ""
+        inputs = status[6]
+        return "".join(letter for name, letter in PIN_LETTERS
+                       if inputs >> INPUT_NAMES.index(name) & 1)
 
     @property
     def busy(self):

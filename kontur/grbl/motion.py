@@ -126,6 +126,12 @@ class Motion:
         return self.position
 
     @property
+    def pins(self):
+        """The inputs active now, as a status report's ``Pn:`` letters: none here (the
+        virtual machine has no switches)."""
+        return ""
+
+    @property
     def busy(self):
         """Steps are queued (the machine runs, or would but for a hold)."""
         return bool(self._times) or self._replan_from is not None

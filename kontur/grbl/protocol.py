@@ -60,23 +60,27 @@ def number(value, places=3):
 
 
 def status_report(state, position, *, work=False, buffer=None, feed=0.0, speed=0.0,
-                  overrides=None, inches=False, offset=None, accessories=""):
-    """``<State|MPos:x,y,z|Bf:b,r|FS:f,s|Ov:f,r,s|A:..|WCO:...>`` (WPos with ``work``; Bf
-    when ``buffer`` is given; Ov when ``overrides`` are, with A when ``accessories`` (its
-    letters) are not empty; WCO when ``offset`` is); positions in mm (inches with
-    ``inches``, 4 decimals as Grbl), the feed in mm/min (in/min)."""
+                  overrides=None, inches=False, offset=None, accessories="", pins=""):
+    """``<State|MPos:x,y,z|Bf:b,r|FS:f,s|Pn:..|WCO:...|Ov:f,r,s|A:..>`` (Grbl 1.1's order,
+    report.c; WPos with
+    ``work``; Bf when ``buffer`` is given; Pn when ``pins`` (the active inputs' letters) are
+    not empty; Ov when ``overrides`` are, with A when ``accessories`` (its letters) are not
+    empty; WCO when ``offset`` is); positions in mm (inches with ``inches``, 4 decimals as
+    Grbl), the feed in mm/min (in/min)."""
     scale, places = (1 / 25.4, 4) if inches else (1.0, 3)
     fields = [state, ("WPos:" if work else "MPos:")
               + ",".join(number(c * scale, places) for c in position)]
     if buffer is not None:
         fields.append(f"Bf:{buffer[0]},{buffer[1]}")
     fields.append(f"FS:{number(feed * scale, 0)},{number(speed, 0)}")
+    if pins:
+        fields.append(f"Pn:{pins}")
+    if offset is not None:
+        fields.append("WCO:" + ",".join(number(c * scale, places) for c in offset))
     if overrides is not None:
         fields.append("Ov:" + ",".join(str(v) for v in overrides))
         if accessories:
             fields.append(f"A:{accessories}")
-    if offset is not None:
-        fields.append("WCO:" + ",".join(number(c * scale, places) for c in offset))
     return "<" + "|".join(fields) + ">"
 
 

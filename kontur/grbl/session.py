@@ -256,7 +256,7 @@ class Session:
         return p.status_report(self.state(), position, work=not mask & 1, buffer=buffer,
                                feed=motion.feed(), speed=self._speed(),
                                overrides=tuple(motion.overrides),
-                               accessories=self._accessories(),
+                               accessories=self._accessories(), pins=motion.pins,
                                inches=bool(self.settings.value(13)), offset=offset)
 
     def _speed(self):
