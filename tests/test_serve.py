@@ -1015,8 +1015,9 @@ def _accessories(reports):
     return out
 
 
-def test_z_and_tools_served_as_rs274_orders_them():
-    """On the ULX3S's configuration a served program moves Z (a plunge, a helix: LINE3 and
+@pytest.mark.parametrize("board", ["ulx3s", "icebreaker-z"])
+def test_z_and_tools_served_as_rs274_orders_them(board):
+    """On the ULX3S's configuration (and the three-axis iCEBreaker's) a served program moves Z (a plunge, a helix: LINE3 and
     HELIX frames) and switches the spindle and flood (TOOL frames): MPos ends at the program's
     own end, Z included; the steps are ``kontur run``'s; the TOOL frames sit between the moves
     where LinuxCNC's interpreter (``rs274 -g``) makes its spindle and coolant calls; the
@@ -1032,7 +1033,7 @@ def test_z_and_tools_served_as_rs274_orders_them():
     from .test_tools_run import kontur_changes, rs274_changes
 
     now, reports = [0.0], []
-    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
+    grbl, said = session(board, speed=SPEED, clock=lambda: now[0])
     for line in MILL.encode().splitlines(keepends=True):
         grbl.receive(line)
         for _ in range(3):
@@ -1047,7 +1048,7 @@ def test_z_and_tools_served_as_rs274_orders_them():
         ["ok"] * len(MILL.splitlines())
     assert STATUS.match(reports[-1]).groups()[1:] == \
         tuple(f"{c:.3f}" for c in program_end(MILL, "XYZ"))
-    assert grbl.motion.made == run_steps(MILL, "ulx3s")
+    assert grbl.motion.made == run_steps(MILL, board)
     assert _accessories(reports) == ["", "S", "SF", ""]
     assert dict(FIELDS.findall(reports[-1]))["FS"] == "0,0"
     # the frames of what was made: LINE3, HELIX, the TOOL frames between the moves
