@@ -1,7 +1,7 @@
 """The tool outputs' Verilog on Icarus and Verilator: every pin in every clock against the model.
 
-One ``@cocotb.test`` drives the random commands, laser mode, rates and halts of
-:func:`tests.test_tools.random_clocks` and compares the five pins with
+One ``@cocotb.test`` drives the random commands, laser mode, rates, halts and spindle
+overrides of :func:`tests.test_tools.random_clocks` and compares the five pins with
 :class:`~kontur.sim.models.tools.ToolOutputsModel` clock for clock. The pytest function at the
 bottom builds the component once per simulator and runs it through cocotb's Python runner.
 """
@@ -25,8 +25,8 @@ S_MAX, PERIOD = 1000, 97
 
 @cocotb.test()
 async def random_tool_commands(dut):
-    """Random commands, laser mode, rates, halts: the pins equal the model's in every clock,
-    and the PWM is seen high."""
+    """Random commands, laser mode, rates, halts, spindle overrides: the pins equal the
+    model's in every clock, and the PWM is seen high."""
     layout = ToolCommand(S_MAX)
     clocks = random_clocks(random.Random(5), PERIOD, S_MAX, 40 * PERIOD)
     model = ToolOutputsModel(s_max=S_MAX, period=PERIOD)
@@ -35,6 +35,7 @@ async def random_tool_commands(dut):
     dut.rst.value = 1
     for name in ("cmd__valid", "cmd__payload", "laser", "rate", "cruise", "halt"):
         getattr(dut, name).value = 0
+    dut.spindle_override.value = 128
     await RisingEdge(dut.clk)
     await RisingEdge(dut.clk)
     dut.rst.value = 0
@@ -47,6 +48,7 @@ async def random_tool_commands(dut):
                 {**cmd, "spindle": Spindle(cmd["spindle"])}).as_value().value
         for name in ("laser", "rate", "cruise", "halt"):
             getattr(dut, name).value = clock.get(name, 0)
+        dut.spindle_override.value = clock.get("spindle_override", 128)
         await ReadOnly()
         got = {name: int(getattr(dut, name).value) for name in PINS}
         got["ready"] = int(dut.cmd__ready.value)
