@@ -138,8 +138,10 @@ def report(result):
                                          key=lambda kv: kv[1][2] or float("inf"))
     machine = result.get("machine") or Machine(clock_hz=item.clock_hz)
     path = _clock_path(log, clock)
+    # On three axes the line engine is the spatial core (registry.make_controller).
+    line = ("spatial", item.line[1]) if item.axes == 3 else item.line
     engines = [{"kind": kind, "variant": spec[0], "width": spec[1]}
-               for kind, spec in (("line", item.line), ("arc", item.arc), ("profile", item.profile))
+               for kind, spec in (("line", line), ("arc", item.arc), ("profile", item.profile))
                if spec is not None]
     return {
         "board": result["board"],

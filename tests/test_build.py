@@ -129,6 +129,17 @@ def test_report_of_a_real_icebreaker_build(tmp_path):
     assert rec["seed"] == 1
 
 
+@pytest.mark.parametrize("board, engines", [
+    ("icebreaker", [("line", "exact", 16), ("arc", "faithful", 24)]),
+    ("icebreaker-z", [("line", "spatial", 16), ("arc", "serial", 16)]),
+    ("ulx3s", [("line", "spatial", 16), ("arc", "fast", 24), ("profile", "fast", 16)])])
+def test_report_names_the_cores_each_board_is_built_with(board, engines, tmp_path):
+    # (the real build's logs stand in for each board's: only the engines are looked at)
+    result = _real_result(tmp_path) | {"board": board}
+    rec = kontur.build.report(result)
+    assert [(e["kind"], e["variant"], e["width"]) for e in rec["engines"]] == engines
+
+
 def test_seed_reaches_nextpnr(monkeypatch, tmp_path):
     seeds = []
 
