@@ -184,13 +184,21 @@ def speed(out=None, *, designs=None, seed=SEED, build_root=None):
 CONTROLLERS_HEADING = "## The controllers on their boards"
 
 
-def controllers(out=None, *, boards=("icebreaker", "icebreaker-z", "ulx3s"), seeds=(1, 2, 3),
-                build_root=None, builder=None, runs=None):
+def _boards(boards):
+    """``boards`` (names), or every registered board's."""
+    from kontur import registry
+    return tuple(registry.BOARDS) if boards is None else tuple(boards)
+
+
+def controllers(out=None, *, boards=None, seeds=(1, 2, 3), build_root=None, builder=None,
+                runs=None):
     """Build each board's controller (:func:`kontur.build.build`, the default machine) with each
     nextpnr seed (or the ``(board, seed)`` pairs of ``runs``); return the rows
     (:func:`kontur.build.report` records) and, with ``out``, write their markdown table there.
-    ``builder`` replaces :func:`kontur.build.build` (tests)."""
+    ``boards``: every registered board by default. ``builder`` replaces
+    :func:`kontur.build.build` (tests)."""
     import kontur.build
+    boards = _boards(boards)
     build = builder or kontur.build.build
     root = Path(build_root) if build_root else ROOT / "build" / "bench-controllers"
     rows, errors = [], []
@@ -261,14 +269,14 @@ def _write_section(path, heading, body):
 def _controllers_main(argv, out):
     import argparse
     parser = argparse.ArgumentParser(prog="python -m kontur.bench controllers")
-    parser.add_argument("--boards", default="icebreaker,icebreaker-z,ulx3s")
+    parser.add_argument("--boards", default=None, help="comma-separated (default: every board)")
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--runs", action="append", metavar="BOARD:SEED,SEED", default=None,
                         help="a board and its seeds (repeatable; instead of --boards/--seeds)")
     parser.add_argument("--out", default=None, help="the markdown file whose controllers' "
                         "section is written (BENCHMARKS.md); default: print the table")
     args = parser.parse_args(argv)
-    boards = tuple(args.boards.split(","))
+    boards = args.boards and args.boards.split(",")
     seeds = tuple(int(s) for s in args.seeds.split(","))
     runs = None
     if args.runs:
@@ -288,15 +296,14 @@ RUNS_HEADING = "## The controllers in simulation: `kontur run` on Verilator"
 RUNS_PROGRAM = ROOT / "tests" / "programs" / "rs274" / "offsets.ngc"
 
 
-def runs(program=RUNS_PROGRAM, *, boards=("icebreaker", "icebreaker-z", "ulx3s"),
-         engine="verilator", build_root=None):
-    """Run ``program`` through each board's whole controller on ``engine``
-    (:func:`kontur.machining.execute`, its steps checked against the model's); return one row
-    per board: clocks simulated, the wall time of the run (the simulator's build done first
-    and not counted) and clocks a second."""
+def runs(program=RUNS_PROGRAM, *, boards=None, engine="verilator", build_root=None):
+    """Run ``program`` through each board's whole controller on ``engine`` (every registered
+    board by default; :func:`kontur.machining.execute`, its steps checked against the
+    model's); return one row per board: clocks simulated, the wall time of the run (the
+    simulator's build done first and not counted) and clocks a second."""
     from kontur.machining import execute, prepare
     rows = []
-    for board in boards:
+    for board in _boards(boards):
         job = prepare(Path(program).read_text(), board=board, name=Path(program).name)
         tiny = prepare("G21 G90\nG1 X0.1 F600\n", board=board, name="warm.ngc")
         execute(tiny, engine, build_root=build_root)     # the build, outside the timing
@@ -319,13 +326,13 @@ def runs_table(rows):
 def _runs_main(argv, out):
     import argparse
     parser = argparse.ArgumentParser(prog="python -m kontur.bench runs")
-    parser.add_argument("--boards", default="icebreaker,icebreaker-z,ulx3s")
+    parser.add_argument("--boards", default=None, help="comma-separated (default: every board)")
     parser.add_argument("--program", default=str(RUNS_PROGRAM))
     parser.add_argument("--engine", default="verilator", choices=("verilator", "icarus"))
     parser.add_argument("--out", default=None, help="the markdown file whose section is "
                         "written (BENCHMARKS.md); default: print the table")
     args = parser.parse_args(argv)
-    rows = runs(args.program, boards=tuple(args.boards.split(",")), engine=args.engine)
+    rows = runs(args.program, boards=args.boards and args.boards.split(","), engine=args.engine)
     table = runs_table(rows)
     if args.out:
         command = "python -m kontur.bench runs " + " ".join(argv)

@@ -171,6 +171,9 @@ def test_bench_controllers_table_into_benchmarks(tmp_path):
     assert calls == [("icebreaker", 1), ("icebreaker", 2)]
     kontur.bench.controllers(runs=[("icebreaker", 3)], build_root=tmp_path, builder=builder)
     assert calls[-1] == ("icebreaker", 3)
+    del calls[:]                            # no boards named: every registered one
+    kontur.bench.controllers(seeds=(1,), build_root=tmp_path / "all", builder=builder)
+    assert calls == [(board, 1) for board in registry.BOARDS] and len(calls) == 3
     table = kontur.bench.controllers_table(rows)
     lines = table.splitlines()
     assert len(lines) == 2 + 2 and "| icebreaker | iCE40UP5K | 2 |" in lines[3]
