@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from kontur import registry
-from kontur.sim.models.arc import check_arc, round_sqrt
+from kontur.sim.models.arc import check_arc
 from kontur.sim.models.errors import InputError
 from kontur.sim.models.helix import ride
 from kontur.sim.models.spatial import line_steps as spatial_line_steps
@@ -351,12 +351,13 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         x0, y0 = position[0] - centre[0], position[1] - centre[1]
         x1, y1 = end[0] - centre[0], end[1] - centre[1]
         r_start = math.hypot(x0, y0)      # radii within the tolerance: _centre chose so
-        limit = (1 << widths[1]) - 1
-        if max(abs(x0), abs(y0), round_sqrt(x0 * x0 + y0 * y0)) > limit:
+        try:                              # the start and radius in the engine's registers
+            check_arc(x0, y0, x0, y0, widths[1])
+        except InputError:
             raise ProgramError(move.line, f"the arc's radius, {r_start:.0f} steps "
                                           f"({r_start / machine.steps_per_mm:g} mm), is more "
                                           f"than this board's {widths[1]}-bit arc engine takes "
-                                          f"({limit} steps)")
+                                          f"({(1 << widths[1]) - 1} steps)") from None
         try:
             reach = _path_point(x0, y0, x1, y1, widths[1])
         except InputError as error:
