@@ -105,7 +105,8 @@ class MotionController(wiring.Component):
     sets the feed override (the cruise of every move but a rapid) and the rapid override (a
     rapid's, the FEED frame's flag), applied by the feed generator within the acceleration,
     and the spindle override (S in the tool outputs' duty, from their next PWM period:
-    :class:`~.tools.ToolOutputs`). These act when their frame ends, queued frames or not. Entering ALARM ends a hold.
+    :class:`~.tools.ToolOutputs`). These act when their frame ends, queued frames or not.
+    Entering ALARM ends a hold.
 
     A tripped e-stop or limit switch (:class:`~.alarm.Alarm`) is an ABORT in the
     clock its filtered level changes, and ALARM from then on: the step/dir stage drops every

@@ -61,12 +61,11 @@ def number(value, places=3):
 
 def status_report(state, position, *, work=False, buffer=None, feed=0.0, speed=0.0,
                   overrides=None, inches=False, offset=None, accessories="", pins=""):
-    """``<State|MPos:x,y,z|Bf:b,r|FS:f,s|Pn:..|WCO:...|Ov:f,r,s|A:..>`` (Grbl 1.1's order,
-    report.c; WPos with
-    ``work``; Bf when ``buffer`` is given; Pn when ``pins`` (the active inputs' letters) are
-    not empty; Ov when ``overrides`` are, with A when ``accessories`` (its letters) are not
-    empty; WCO when ``offset`` is); positions in mm (inches with ``inches``, 4 decimals as
-    Grbl), the feed in mm/min (in/min)."""
+    """``<State|MPos:x,y,z|Bf:b,r|FS:f,s|Pn:..|WCO:...|Ov:f,r,s|A:..>``, in Grbl 1.1's order
+    (its report.c): WPos with ``work``; Bf when ``buffer`` is given; Pn when ``pins`` (the
+    active inputs' letters) are not empty; WCO when ``offset`` is given; Ov when
+    ``overrides`` are, with A when ``accessories`` (its letters) are not empty. Positions in
+    mm (inches with ``inches``, 4 decimals as Grbl), the feed in mm/min (in/min)."""
     scale, places = (1 / 25.4, 4) if inches else (1.0, 3)
     fields = [state, ("WPos:" if work else "MPos:")
               + ",".join(number(c * scale, places) for c in position)]
