@@ -343,7 +343,7 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         # The program's arc, its centre rounded to the nearest step: refused as before (radius
         # zero, radii beyond the tolerance); then the lattice centre nearest its circle.
         centre = on_lattice(move.centre, machine)
-        if position == centre:
+        if position[:2] == centre:        # (XY: on three axes the position has Z too)
             raise ProgramError(move.line, "the arc's start is its centre: radius zero")
         check_arc_radii(move.line, (position[0] - centre[0], position[1] - centre[1]),
                         (end[0] - centre[0], end[1] - centre[1]), machine)

@@ -253,6 +253,17 @@ def test_arc_wider_than_the_boards_arc_engine(tmp_path):
     assert job.end == (144000, 0)
 
 
+@pytest.mark.parametrize("board", ["icebreaker", "icebreaker-z", "ulx3s"])
+def test_arc_whose_centre_rounds_to_its_start(board):
+    # A centre 0.001 mm from the start rounds to the start's step: radius zero, refused with
+    # its line on every board (on three axes the position's Z once hid the equality, and the
+    # arc became a circle of one step about a neighbouring point).
+    machine = Machine(clock_hz=registry.board(board).clock_hz, steps_per_mm=SPM)
+    with pytest.raises(ProgramError, match=r"^line 2: the arc's start is its centre: "
+                                           r"radius zero$"):
+        prepare("G21 G90\nG2 X0 Y0 I0.001 J0 F300\nM2\n", machine=machine, board=board)
+
+
 def test_steep_helix_refused(tmp_path):
     # A turn of radius 0.5 mm (40 steps: 226 XY steps) down 5 mm (400 Z steps): steeper than
     # one Z step per XY step.
