@@ -7,6 +7,15 @@ clocks with an XY step, which the host knows exactly from the arc model): every 
 ``|z|`` to an accumulator, and a Z step is made when it passes ``n``. The accumulator starts at
 ``⌊n/2⌋``, so after ``k`` XY steps Z has made ``⌊(⌊n/2⌋ + k|z|)/n⌋`` steps, within half a step of
 ``k·|z|/n``, and after the ``n``-th exactly ``|z|``.
+
+The arc may lie in any of the three planes (G17, G18, G19): the frame's ``plane`` says which
+machine axes the arc's native coordinates ``(a, b)`` and its linear axis ``c`` are, as
+LinuxCNC's and Grbl's canonical arcs name them (the plane's first and second axis, then the
+axis normal to it): 0 (G17) ``(X, Y, Z)``, 1 (G18) ``(Z, X, Y)``, 2 (G19) ``(Y, Z, X)``. A
+clockwise arc is clockwise in ``(a, b)`` in each: looking down the normal axis from its
+positive side. Machine axis ``k`` is native axis ``(k + plane) mod 3``, a rotation of the
+step, direction and position outputs and nothing else: the steps themselves are the G17
+helix's.
 """
 
 from amaranth import *
@@ -23,14 +32,15 @@ class HelixEngine(wiring.Component):
     """Helices in, step/dir on X, Y, Z out: an arc engine with Z following its steps.
 
     Each transfer on :py:`cmd` is an arc frame (:class:`~kontur.hdl.arc.ArcEngine`'s ``x0``,
-    ``y0``, ``x1``, ``y1``, ``cw``) with ``z``, the Z move (signed steps), and ``n``, the arc's
-    step count. The engine takes one helix at a time (:py:`cmd.ready` is low from a helix's
+    ``y0``, ``x1``, ``y1``, ``cw``) with ``z``, the Z move (signed steps), ``n``, the arc's
+    step count, and ``plane`` (0, 1, 2: G17, G18, G19; the fields named X, Y, Z are then the
+    plane's first, second and normal axis, see above). The engine takes one helix at a time (:py:`cmd.ready` is low from a helix's
     acceptance to its outcome's transfer), hands the arc to the arc engine in that same
     transfer (the arc fields are the arc engine's frame: no register holds them) and lets the Z steps ride on its XY steps (one-clock pulses on ``motion.step[2]``, with
     ``motion.dir[2]`` the sign of ``z`` from the acceptance on). :py:`feed.diagonal` is the arc
     engine's plus one when the waiting step carries a Z step: its length class (1, √2, √3).
 
-    A helix with ``|z| > n`` (more than one Z step per XY step) is refused
+    A helix with ``|z| > n`` (more than one Z step per XY step), or with ``plane`` 3, is refused
     (:attr:`~kontur.hdl.engine.Outcome.REFUSED`, nothing moves) before the arc starts; an arc the
     arc engine refuses is refused likewise, with no Z step. The outcome's position is the arc
     engine's X and Y and the Z steps made. :py:`abort` goes to the arc engine; a refused helix
@@ -48,7 +58,7 @@ class HelixEngine(wiring.Component):
     def Frame(coord_width, count_width):
         fields = dict(ArcEngine.Frame(coord_width).members)
         return data.StructLayout({**fields, "z": signed(max(coord_width, count_width + 1)),
-                                  "n": unsigned(count_width)})
+                                  "n": unsigned(count_width), "plane": unsigned(2)})
 
     def __init__(self, arc):
         if not isinstance(arc, ArcEngine):
@@ -94,7 +104,8 @@ class HelixEngine(wiring.Component):
                 sign.eq(p.z[-1]),
             ]
         refused = Signal()
-        m.d.comb += refused.eq(z_wide | (~difference[-1] & difference.any()))
+        m.d.comb += refused.eq(z_wide | (~difference[-1] & difference.any())
+                               | (p.plane == 3))
         xy = Signal()
         coming = Signal()
         m.d.comb += [
@@ -145,14 +156,22 @@ class HelixEngine(wiring.Component):
             self.status.p.number.eq(number),
             self.status.p.outcome.eq(Mux(own_valid, own_outcome, arc.status.p.outcome)),
         ]
+        # The plane, kept from the acceptance to the outcome (no helix is taken before the
+        # outcome of the one before is transferred), rotates the native axes onto the
+        # machine's: machine axis k is native axis (k + plane) mod 3.
+        plane = Signal(2, name="plane")
+        with m.If(accept):
+            m.d.sync += plane.eq(self.cmd.payload.plane)
+
+        def rotated(native):        # the machine's axes X, Y, Z from the native three
+            return [Mux(plane == 1, native[(k + 1) % 3],
+                        Mux(plane == 2, native[(k + 2) % 3], native[k])) for k in range(3)]
+
         # A refused helix's position needs no multiplexer: the arc engine is idle and reads
         # zero then (its counters were cleared by the transfer before this helix was taken,
         # at least two clocks ago), and no Z step was made.
-        m.d.comb += [
-            self.status.p.position[0].eq(arc.status.p.position[0]),
-            self.status.p.position[1].eq(arc.status.p.position[1]),
-            self.status.p.position[2].eq(z_position),
-        ]
+        position = rotated([arc.status.p.position[0], arc.status.p.position[1], z_position])
+        m.d.comb += [self.status.p.position[k].eq(position[k]) for k in range(3)]
         m.d.sync += moved.eq(z_position)
         with m.If(self.status.valid & self.status.ready):
             m.d.sync += [active.eq(0), own.eq(0), number.eq(number + 1), moved.eq(0)]
@@ -162,8 +181,8 @@ class HelixEngine(wiring.Component):
             self.feed.due.eq(arc.feed.due),
             self.feed.diagonal.eq(arc.feed.diagonal + z_coming),
             arc.abort.eq(self.abort),
-            self.motion.step.eq(Cat(arc.motion.step, z_step)),
-            self.motion.dir.eq(Cat(arc.motion.dir, z_dir)),
+            self.motion.step.eq(Cat(*rotated([*arc.motion.step, z_step]))),
+            self.motion.dir.eq(Cat(*rotated([*arc.motion.dir, z_dir]))),
             self.busy.eq(active),
         ]
         return m

@@ -116,6 +116,11 @@ class Move:
     coordinates; ``None`` before the program's first Z word);
     for an arc ``centre`` is ``(x, y)`` and ``cw`` says clockwise; ``side`` is the cutter-radius
     compensation in effect (``"left"``, ``"right"`` or ``None``); ``line`` is the program line.
+    An arc in the XZ or YZ plane (G18, G19: ``plane`` 18 or 19, 17 for every other move) has
+    ``start_z``, the Z it starts at, and its ``centre`` is ``(x, y, z)`` (its coordinate on
+    the plane's normal axis the start's); :attr:`in_plane` gives it in the plane's own
+    coordinates (LinuxCNC's: first and second axis Z, X in G18, Y, Z in G19), where
+    ``cw`` says clockwise as for G17 arcs.
     An arc is a full circle exactly when its programmed end is its start (``full``), as
     LinuxCNC decides: an arc whose end is a hair from its start is that hair of a turn, never a
     whole one, however the ends round. ``radius`` (mm) is the cutter radius the program
@@ -134,6 +139,23 @@ class Move:
     radius: Fraction = None
     radius_source: str = None
     seconds: Fraction = None
+    plane: int = 17
+    start_z: Fraction = None
+
+    @property
+    def in_plane(self):
+        """The move in its plane's coordinates: a G17 arc as it is; a G18 or G19 arc as a G17
+        one whose ``start``, ``end`` and ``centre`` are the plane's first and second axis and
+        whose ``start_z`` and ``z`` are its normal axis (:data:`PLANE_AXES`)."""
+        if self.plane == 17:
+            return self
+        first, second, normal = PLANE_AXES[self.plane]
+        start = (*self.start, self.start_z)
+        end = (*self.end, self.z)
+        return replace(self, start=(start[first], start[second]),
+                       end=(end[first], end[second]),
+                       centre=(self.centre[first], self.centre[second]), plane=17,
+                       start_z=start[normal], z=end[normal])
 
     @property
     def full(self):
@@ -173,6 +195,11 @@ class Program:
     moves: tuple
     name: str = None
     events: tuple = ()
+
+
+#: The machine axes (0 X, 1 Y, 2 Z) of each plane's first and second axis and of its normal,
+#: as LinuxCNC's canonical arcs name them (ARC_FEED's first and second coordinates).
+PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 
 
 def sweep(start, end, centre, cw, *, full):
@@ -266,7 +293,7 @@ _G_GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion
              40: "non-modal", 100: "non-modal", 280: "non-modal", 281: "non-modal",
              300: "non-modal", 301: "non-modal", 530: "non-modal", 920: "non-modal",
              921: "non-modal", 922: "non-modal", 923: "non-modal",
-             170: "plane", 200: "units", 210: "units",
+             170: "plane", 180: "plane", 190: "plane", 200: "units", 210: "units",
              400: "compensation", 410: "compensation", 420: "compensation",
              411: "compensation", 421: "compensation",
              430: "tool length", 431: "tool length", 490: "tool length",
@@ -276,10 +303,11 @@ _G_GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion
              900: "distance", 910: "distance", 901: "arc distance", 911: "arc distance",
              940: "feed mode", 980: "retract mode", 990: "retract mode"}
 _MOTION = {0: "rapid", 10: "line", 20: "arc", 30: "arc"}
+_PLANE_NAMES = {17: "XY", 18: "XZ", 19: "YZ"}
 _CANNED = "canned cycles drill along Z, which needs the third axis (this controller has X and Y)"
 #: G codes LinuxCNC knows that kontur refuses, and why.
-_G_REFUSED = {180: "only the XY plane (G17) is supported", 190: "only the XY plane (G17) is "
-              "supported", 171: "only the XY plane (G17) is supported",
+_G_REFUSED = {**{code: "the UVW planes (G17.1, G18.1, G19.1) are not supported: arcs are in "
+                       "XY (G17), XZ (G18) or YZ (G19)" for code in (171, 181, 191)},
               930: "inverse-time feed (G93) is not supported: give feeds in units a minute "
                    "(G94)",
               950: "feed per revolution (G95) is not supported: give feeds in units a minute "
@@ -296,7 +324,7 @@ _M_GROUPS = {0: "stopping", 1: "stopping", 2: "stopping", 30: "stopping", 6: "to
              61: "tool change",
              3: "spindle", 4: "spindle", 5: "spindle", 7: "coolant", 8: "coolant",
              9: "coolant"}
-_LETTERS = set("DFGHIJLMNPQRSTXYZ")
+_LETTERS = set("DFGHIJKLMNPQRSTXYZ")
 _AXES_NOT_HERE = set("ABCUVW")
 _LATTICE = "this program is read in lattice units (steps), without G20/G21"
 #: Millimetres per unit of each units code.
@@ -451,6 +479,7 @@ class _Interpreter:
         self.motion = None
         self.absolute = True
         self.arc_absolute = False
+        self.plane = 170
         self.side = None
         self.radius = None
         self.radius_source = None
@@ -553,7 +582,7 @@ class _Interpreter:
                   [591, 592, 593][self.cs - 7],
                   "_line": lambda: self.line or 0,
                   "_motion_mode": lambda: -10 if self.motion is None else self.motion,
-                  "_plane": lambda: 170}
+                  "_plane": lambda: self.plane}
         return Fraction(values[name]())
 
     def set_named(self, name, value):
@@ -701,9 +730,6 @@ class _Interpreter:
                     self.fail(f"unknown code {word.text}")
                 mcodes.append((code // 10, word.text))
                 continue
-            if letter == "K":
-                self.fail(f"{word.text}: arcs in the XZ and YZ planes (G18, G19) are not "
-                          f"supported, only XY (G17) with I and J")
             if letter in _AXES_NOT_HERE:
                 self.fail(f"{word.text}: this controller has the axes X and Y (and reads Z), "
                           f"not {letter}")
@@ -825,6 +851,11 @@ class _Interpreter:
             self.scale = scale = _SCALE[gs["units"]]
         if "D" in values:
             self.offset = values["D"]
+        if "plane" in gs:
+            if self.side is not None and gs["plane"] != self.plane:
+                self.fail(f"{_code_text(gs, 'plane')} with cutter-radius compensation on: "
+                          f"turn it off (G40) before changing the plane")
+            self.plane = gs["plane"]
         if "compensation" in gs:
             self.compensation(gs["compensation"], values, texts)
         if "tool length" in gs:
@@ -859,7 +890,7 @@ class _Interpreter:
             self.nonmodal(nonmodal, values, texts)
         elif nonmodal in (281, 301, 921, 922, 923):
             self.nonmodal(nonmodal, values, texts)
-        elif axes or any(a in values for a in "IJR") and nonmodal != 40:
+        elif axes or any(a in values for a in "IJKR") and nonmodal != 40:
             self.move(values, texts, machine=nonmodal == 530)
         elif gs.get("motion") in (0, 10):
             self.move(values, texts)          # LinuxCNC moves to where it is: a move of zero
@@ -883,6 +914,9 @@ class _Interpreter:
             self.side = None
             self.radius = self.radius_source = None
             return
+        if self.plane != 170:
+            self.fail(f"G{code / 10:g}: cutter-radius compensation is in the XY plane (G17) "
+                      f"only, not G{self.plane // 10}")
         self.side = "left" if code in (410, 411) else "right"
         self.radius = self.radius_source = None
         if code in (411, 421):
@@ -1008,10 +1042,10 @@ class _Interpreter:
         if kind != "rapid" and self.feed is None and self.units is not None:
             self.fail(f"G{motion // 10} with no feed rate: give an F before the first feed "
                       f"move (G1, G2, G3)")
-        i, j, r = (values.get(letter) for letter in "IJR")
+        r = values.get("R")
         if kind != "arc":
-            if i is not None or j is not None or r is not None:
-                self.fail(f"I, J and R belong to arcs (G2, G3), not to G{motion // 10}")
+            if any(letter in values for letter in "IJKR"):
+                self.fail(f"I, J, K and R belong to arcs (G2, G3), not to G{motion // 10}")
             self.go(kind, end, feed=None if kind == "rapid" else self.feed,
                     z_word="Z" in values)
             if kind == "rapid":
@@ -1019,22 +1053,44 @@ class _Interpreter:
             return
         if "P" in values and values["P"] != 1:
             self.fail(f"{texts['P']}: an arc of more than one turn is not supported")
-        x0, y0 = self.pos[0], self.pos[1]
+        # The plane's first and second axis (X Y, Z X, Y Z) and their centre words (I J, K I,
+        # J K: the centre word of axis n is "IJK"[n]); the word of the normal axis is refused,
+        # as LinuxCNC refuses it.
+        plane = self.plane // 10
+        first, second, normal = PLANE_AXES[plane]
+        words = "IJK"[first] + "IJK"[second]
+        if "IJK"[normal] in values:
+            self.fail(f"{texts['IJK'[normal]]}: an arc in the {_PLANE_NAMES[plane]} plane "
+                      f"(G{plane}) takes {words[0]} and {words[1]}, not {'IJK'[normal]}")
+        i, j = (values.get(letter) for letter in words)
+        x0, y0 = self.pos[first], self.pos[second]
         scale = self.scale
         cw = motion == 20
         if r is not None:
             if i is not None or j is not None:
-                self.fail("an arc by its centre (I, J) or by its radius (R), not both")
-            centre = _radius_centre((x0, y0), (end[0], end[1]), r * scale, cw, self.fail)
+                self.fail(f"an arc by its centre ({words[0]}, {words[1]}) or by its radius "
+                          f"(R), not both")
+            centre = _radius_centre((x0, y0), (end[first], end[second]), r * scale, cw,
+                                    self.fail)
         elif i is None and j is None:
-            self.fail(f"G{motion // 10} needs the centre: I and J (relative to the start) or R")
+            self.fail(f"G{motion // 10} needs the centre: {words[0]} and {words[1]} "
+                      f"(relative to the start) or R")
         elif self.arc_absolute:
-            centre = ((i or 0) * scale + self.offset_of(0), (j or 0) * scale + self.offset_of(1))
+            centre = ((i or 0) * scale + self.offset_of(first),
+                      (j or 0) * scale + self.offset_of(second))
         elif scale == 1:
             centre = (x0 + i if i else x0, y0 + j if j else y0)
         else:
             centre = (x0 + (i or 0) * scale, y0 + (j or 0) * scale)
-        self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values)
+        if plane == 17:
+            self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values)
+            return
+        # In XZ and YZ the arc moves Z (its centre is where the start is on the normal axis).
+        point = list(self.pos)
+        point[first], point[second] = centre
+        start_z = self.pos[2]
+        self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True)
+        self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z)
 
 
 def _with_feed(move, feed):
@@ -1162,10 +1218,15 @@ def planar(moves, *, name=None, unit="mm", axes=2):
     """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`, the Z values in ``unit``)
     at the first move that changes Z from where the program first put it: a 2-axis controller
     drives X and Y only; Z is read, and where the program first gives it is where the operator
-    has set the tool. With ``axes=3`` (a compensated program on a 3-axis board) the message is
+    has set the tool; an arc in the XZ or YZ plane (G18, G19) is refused wherever it ends.
+    With ``axes=3`` (a compensated program on a 3-axis board) the message is
     :data:`Z_COMPENSATED`."""
     z = None
     for move in moves:
+        if move.plane != 17:              # it moves Z on its way, wherever it ends
+            raise GCodeError(move.line, f"{Z_REFUSAL if axes == 2 else Z_COMPENSATED} "
+                                        f"(an arc in the {_PLANE_NAMES[move.plane]} plane, "
+                                        f"G{move.plane})", name=name)
         if move.z is None:
             continue
         if z is not None and move.z != z:

@@ -39,7 +39,7 @@ from pathlib import Path
 
 from kontur import registry
 from kontur.compensation import program_segments, references
-from kontur.gcode import GCodeError, planar, read, sweep
+from kontur.gcode import PLANE_AXES, GCodeError, planar, read, sweep
 from kontur.hdl.motion.tools import tool_engine
 from kontur.machine import Machine, MachineError
 from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, lift,
@@ -146,6 +146,10 @@ def _move_steps(move, spm):
     and 16 more (the lattice's sweep is the programmed one within the rounding)."""
     if move.kind == "dwell":
         return 0
+    if move.kind == "arc" and move.plane != 17:   # G18, G19: in the plane, and its normal
+        native = move.in_plane
+        return _move_steps(native, spm) + \
+            math.ceil(abs(Fraction(native.z) - Fraction(native.start_z)) * Fraction(spm)) + 2
     coordinates = [*move.start, *move.end, *(move.centre or ())]
     if all(abs(c) < 10 ** 9 for c in coordinates):       # floats exact enough: +2 steps slack
         x0, y0, x1, y1, *centre = map(float, coordinates)
@@ -856,7 +860,8 @@ def deviation(job, steps):
     circle within its programmed sweep, its nearer end outside it, so a turn traced where a
     sliver was programmed is far from it); a compensated contour's, from its exact equidistant
     (the approach to it from its own line). On three axes this is the XY deviation (the
-    steps' X and Y; Z is checked against rs274 in the tests)."""
+    steps' X and Y; Z is checked against rs274 in the tests), and an arc's in the XZ or YZ
+    plane (G18, G19) in its own plane."""
     moves = {move.line: move for move in job.moves if move.kind != "dwell"}
     ids = {id(move) for move in job.moves}
     special = references(job)
@@ -880,6 +885,15 @@ def deviation(job, steps):
         move = segment.source if id(segment.source) in ids else moves[segment.line]
         start = tuple(float(c) for c in move.start)
         end = tuple(float(c) for c in move.end)
+        if move.kind == "arc" and move.plane != 17:      # G18, G19: in the arc's plane
+            first, second, _ = PLANE_AXES[move.plane]
+            native, z = move.in_plane, segment.start[2]
+            for dx, dy, dz in steps[index:index + len(segment.steps)]:
+                x, y, z = x + dx, y + dy, z + dz
+                p = (x / spm, y / spm, z / spm)
+                worst = max(worst, _distance_to_arc((p[first], p[second]), native))
+            index += len(segment.steps)
+            continue
         for dx, dy, *_ in steps[index:index + len(segment.steps)]:
             x, y = x + dx, y + dy
             p = (x / spm, y / spm)

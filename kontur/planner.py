@@ -28,7 +28,7 @@ from fractions import Fraction
 from kontur import registry
 from kontur.sim.models.arc import check_arc
 from kontur.sim.models.errors import InputError
-from kontur.sim.models.helix import ride
+from kontur.sim.models.helix import PLANES, from_axes, ride, to_axes
 from kontur.sim.models.spatial import line_steps as spatial_line_steps
 from kontur.hdl.motion import protocol
 from kontur.hdl.motion.tools import tool_frame
@@ -272,7 +272,8 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     XY only. The steps are ``(dx, dy, dz)``.
 
     ``moves`` have ``line``, ``kind`` (``"rapid"``, ``"line"``, ``"arc"``), ``start``,
-    ``end``, ``centre``, ``cw`` and ``feed`` (mm/min, ``None`` for the machine's maximum), in
+    ``end``, ``centre``, ``cw`` and ``feed`` (on three axes ``z``; an arc in XZ or YZ
+    ``plane`` and :attr:`~kontur.gcode.Move.in_plane`, as :class:`kontur.gcode.Move`) (mm/min, ``None`` for the machine's maximum), in
     millimetres. ``variants`` and ``widths`` are the line and arc engines' (their steps are
     the segments' steps). The first move starts at ``start`` (steps) when it is given (where
     the machine is: after a compensated contour, on its equidistant), else at its own start.
@@ -303,11 +304,17 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 xy = registry.steps(kind, arc, variant, width=width)
                 payload["n"] = len(xy)
                 if abs(payload["z"]) > len(xy):
-                    raise ProgramError(line, f"the helix moves Z {payload['z']} steps over an "
-                                             f"arc of {len(xy)} XY steps: steeper than one Z "
-                                             f"step per XY step, which the helix engine "
-                                             f"refuses (give it more turns, or move Z apart)")
+                    # (an arc in XZ or YZ: its plane's axes and its normal one by name)
+                    arc_axes, normal = (("XY", "Z"), ("XZ", "Y"), ("YZ", "X"))[
+                        payload.get("plane", 0)]
+                    raise ProgramError(line, f"the helix moves {normal} {payload['z']} steps "
+                                             f"over an arc of {len(xy)} {arc_axes} steps: "
+                                             f"steeper than one {normal} step per {arc_axes} "
+                                             f"step, which the helix engine refuses (give it "
+                                             f"more turns, or move {normal} apart)")
                 steps = ride(xy, payload["z"], width=width)
+                if payload.get("plane"):  # G18, G19: the native steps on the machine's axes
+                    steps = [to_axes(step, payload["plane"]) for step in steps]
             else:
                 steps = registry.steps(kind, payload, variant, width=width)
         except InputError as error:
@@ -340,10 +347,30 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                     position, piece, feed)
                 position = piece
             continue
+        # An arc in XZ or YZ (G18, G19) is worked out in its plane's coordinates (first,
+        # second and normal axis, kontur.gcode.PLANE_AXES) as a G17 one; its segments' points,
+        # steps and tangents go back on the machine's axes, and its HELIX frame says the plane
+        # (kontur.hdl.helix.HelixEngine).
+        plane = PLANES[getattr(move, "plane", 17)]
+        machine_end = end
+        if plane:
+            move = move.in_plane
+            position, end = from_axes(position, plane), from_axes(end, plane)
+
+        def emit(kind, payload, start, end, tangents=None, radius=None):
+            if plane:
+                start, end = to_axes(start, plane), to_axes(end, plane)
+                tangents = tangents and tuple(to_axes(t, plane) for t in tangents)
+                if kind == "arc":
+                    payload["plane"] = plane
+            if kind == "line":
+                payload = dict(zip("xyz", (b - a for a, b in zip(start, end))))
+            add(move.line, kind, payload, start, end, feed, tangents, radius)
+
         # The program's arc, its centre rounded to the nearest step: refused as before (radius
         # zero, radii beyond the tolerance); then the lattice centre nearest its circle.
         centre = on_lattice(move.centre, machine)
-        if position[:2] == centre:        # (XY: on three axes the position has Z too)
+        if position[:2] == centre:        # (in the plane: on three axes the position has more)
             raise ProgramError(move.line, "the arc's start is its centre: radius zero")
         check_arc_radii(move.line, (position[0] - centre[0], position[1] - centre[1]),
                         (end[0] - centre[0], end[1] - centre[1]), machine)
@@ -364,14 +391,13 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             raise ProgramError(move.line, str(error)) from None
         reach = _on_sweep(move, (x0, y0), reach, r_start)
         if reach is None:                 # a sweep that rounds to nothing: a line to the end
-            add(move.line, "line", dict(zip("xyz", (b - a for a, b in zip(position, end)))),
-                position, end, feed)
-            position = end
+            emit("line", None, position, end)
+            position = machine_end
             continue
         cw = int(bool(move.cw))
         sign = -1 if cw else 1
         rise = end[2] - position[2] if axes == 3 else 0
-        # On three axes the tangents have Z: the helix's rise over its XY length.
+        # On three axes the tangents have Z: the helix's rise over its length in the plane.
         run = r_start * max(_sweeps(move, (x0, y0), reach)[1], 1e-9)
 
         def tangent(x, y):
@@ -383,12 +409,10 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         payload = {"x0": x0, "y0": y0, "x1": reach[0], "y1": reach[1], "cw": cw}
         if axes == 3:
             payload["z"] = rise
-        add(move.line, "arc", payload, position, arrive, feed,
-            (tangent(x0, y0), tangent(*reach)), r_start)
+        emit("arc", payload, position, arrive, (tangent(x0, y0), tangent(*reach)), r_start)
         if arrive != end:                 # finish exactly on the programmed end
-            add(move.line, "line", dict(zip("xyz", (b - a for a, b in zip(arrive, end)))),
-                arrive, end, feed)
-        position = end
+            emit("line", None, arrive, end)
+        position = machine_end
     return segments
 
 
@@ -584,7 +608,8 @@ def _move_frame(segment):
             protocol.line(p["x"], p["y"])
     if segment.kind == "arc":
         if "n" in p:                      # a 3-axis controller's: a helix (Z may be 0)
-            return protocol.helix(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"], p["z"], p["n"])
+            return protocol.helix(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"], p["z"], p["n"],
+                                  p.get("plane", 0))
         return protocol.arc(p["x0"], p["y0"], p["x1"], p["y1"], p["cw"])
     return protocol.profile(p["frame"], width=p["width"])
 

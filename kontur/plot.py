@@ -103,6 +103,21 @@ def _polylines(paths, limit=MAX_POINTS):
 
 
 def _move_path(move):
+    """The move's path in XY: an arc in XZ or YZ (G18, G19) drawn in its plane and seen from
+    above (its normal axis moving evenly along it)."""
+    if move.kind == "arc" and move.plane != 17:
+        from kontur.gcode import PLANE_AXES
+        native = move.in_plane
+        arc = _move_path(native)
+        c0, c1 = float(native.start_z), float(native.z)
+        first, second, normal = PLANE_AXES[move.plane]
+        out = []
+        for i, point in enumerate(arc):
+            p = [0.0] * 3
+            p[first], p[second] = point
+            p[normal] = c0 + (c1 - c0) * i / (len(arc) - 1)
+            out.append((p[0], p[1]))
+        return out
     start = tuple(float(c) for c in move.start)
     end = tuple(float(c) for c in move.end)
     if move.kind == "arc":

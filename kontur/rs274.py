@@ -17,6 +17,8 @@ import tempfile
 from fractions import Fraction
 from pathlib import Path
 
+from kontur.gcode import PLANE_AXES
+
 __all__ = ["RS274", "canonical", "path_distance", "compare_steps", "available"]
 
 RS274 = "/usr/bin/rs274"
@@ -45,7 +47,10 @@ def canonical(text, tools=None, *, folder=None):
     given to it in inches): ``(moves, events, run)``, its moves in mm and machine coordinates
     (dicts: ``kind`` ``"rapid"``, ``"line"``, ``"arc"`` or ``"dwell"``; ``end``; an arc's
     ``centre``, ``cw``, ``turns``; ``z``, ``feed``, ``unit``), its tool events, and the
-    completed process (``returncode``, ``stderr``: its refusal)."""
+    completed process (``returncode``, ``stderr``: its refusal). An arc in the XZ or YZ plane
+    (after SELECT_PLANE, ARC_FEED's first and second axis Z X or Y Z) has ``plane`` 18 or 19
+    and its ``centre`` as ``(x, y, z)``, its coordinate on the plane's normal axis the
+    start's (where the move before ended), as :class:`kontur.gcode.Move` gives it."""
     executable = available()
     if executable is None:
         raise FileNotFoundError("rs274 (LinuxCNC's interpreter, package linuxcnc-uspace) is "
@@ -64,7 +69,8 @@ def canonical(text, tools=None, *, folder=None):
                                  stdin=subprocess.DEVNULL, cwd=where)
             if run.returncode >= 0:
                 break
-    unit, g5x, g92, feed = 1.0, [0.0] * 3, [0.0] * 3, None
+    unit, g5x, g92, feed, plane = 1.0, [0.0] * 3, [0.0] * 3, None, 17
+    at = [0.0] * 3                        # where the last move ended (mm, machine)
     moves, events = [], []
     for line in run.stdout.splitlines():
         match = _CALL.match(line)
@@ -77,19 +83,33 @@ def canonical(text, tools=None, *, folder=None):
             g5x = [c * unit for c in _numbers(args)[1:4]]
         elif name == "SET_G92_OFFSET":
             g92 = [c * unit for c in _numbers(args)[0:3]]
+        elif name == "SELECT_PLANE":
+            plane = {"CANON_PLANE_XY": 17, "CANON_PLANE_XZ": 18, "CANON_PLANE_YZ": 19}.get(
+                args.strip(), plane)
         elif name == "SET_FEED_RATE":
             feed = _numbers(args)[0] * unit
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
             v = _numbers(args)
             off = [g5x[i] + g92[i] for i in range(3)]
             move = {"end": (v[0] * unit + off[0], v[1] * unit + off[1]), "unit": unit}
-            if name == "ARC_FEED":
+            if name == "ARC_FEED" and plane != 17:
+                # first end, second end, first centre, second centre, rotation, normal end
+                first, second, normal = PLANE_AXES[plane]
+                end, centre = [0.0] * 3, list(at)
+                end[first], end[second], end[normal] = v[0], v[1], v[5]
+                centre[first], centre[second] = v[2] * unit + off[first], \
+                    v[3] * unit + off[second]
+                end = [c * unit + o for c, o in zip(end, off)]
+                move.update(kind="arc", end=tuple(end[:2]), centre=tuple(centre), cw=v[4] < 0,
+                            turns=abs(v[4]), z=end[2], feed=feed, plane=plane)
+            elif name == "ARC_FEED":
                 move.update(kind="arc", centre=(v[2] * unit + off[0], v[3] * unit + off[1]),
                             cw=v[4] < 0, turns=abs(v[4]), z=v[5] * unit + off[2], feed=feed)
             else:
                 move.update(kind="rapid" if name == "STRAIGHT_TRAVERSE" else "line",
                             z=v[2] * unit + off[2], feed=feed)
             moves.append(move)
+            at = [*move["end"], move["z"]]
         elif name == "DWELL":
             moves.append({"kind": "dwell", "seconds": _numbers(args)[0]})
         elif name == "CHANGE_TOOL":

@@ -79,18 +79,28 @@ class InterpretTestCase(unittest.TestCase):
             ("G2 R5\n", r"^line 1: an arc by radius \(R\) cannot end where it starts"),
             ("G2 X2 I1 R1\n", r"^line 1: an arc by its centre \(I, J\) or by its radius \(R\), "
                               r"not both$"),
-            ("G1 X1 R2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
+            ("G1 X1 R2\n", r"^line 1: I, J, K and R belong to arcs \(G2, G3\), not to G1$"),
             ("G1.5 X1\n", r"^line 1: unknown code G1\.5$"),
             ("G1 X1 X2\n", r"^line 1: X given twice \(X1 and X2\)$"),
             ("G6 X1\n", r"^line 1: unknown code G6$"),
             ("G21\n", r"^line 1: G21: this program is read in lattice units \(steps\), "
                       r"without G20/G21$"),
-            ("G18\n", r"^line 1: G18: only the XY plane \(G17\) is supported$"),
+            ("G18.1\n", r"^line 1: G18.1: the UVW planes \(G17.1, G18.1, G19.1\) are not "
+                         r"supported"),
+            ("G41.1 D2\nG18\n", r"^line 2: G18 with cutter-radius compensation on"),
+            ("G19 G42.1 D2\n", r"^line 1: G42.1: cutter-radius compensation is in the XY "
+                                r"plane \(G17\) only, not G19$"),
+            ("G18 G2 X1 I1 J1 F10\n", r"^line 1: J1: an arc in the XZ plane \(G18\) takes K "
+                                      r"and I, not J$"),
+            ("G19 G3 Y1 I1 F10\n", r"^line 1: I1: an arc in the YZ plane \(G19\) takes J and "
+                                   r"K, not I$"),
+            ("G18 G2 X1 F10\n", r"^line 1: G2 needs the centre: K and I \(relative to the "
+                                r"start\) or R$"),
             ("G1 G2 X1\n", r"^line 1: two motion codes in one block \(G1 and G2\)$"),
             ("M5.5\n", r"^line 1: unknown code M5\.5$"),
             ("M62\n", r"^line 1: unknown code M62$"),
             ("X1\n", r"^line 1: coordinates without a motion code \(G0, G1, G2 or G3\)$"),
-            ("G1 X1 I2\n", r"^line 1: I, J and R belong to arcs \(G2, G3\), not to G1$"),
+            ("G1 X1 I2\n", r"^line 1: I, J, K and R belong to arcs \(G2, G3\), not to G1$"),
             ("G3 X1 Y1\n", r"^line 1: G3 needs the centre: I and J \(relative to the start\) "
                            r"or R$"),
             ("G1 X1 F0\n", r"^line 1: the feed must be positive, not F0$"),
@@ -183,7 +193,8 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
                                r"supported: give the tool table with --tool-table$"),
             ("G92\n", r"^line 1: G92 needs an axis word$"),
             ("G93 G1 X1 F1\n", r"^line 1: G93: inverse-time feed"),
-            ("G1 X1 F10\nG2 X2 Y1 I1 Z1 K2\n", r"^line 2: K2: arcs in the XZ and YZ planes"),
+            ("G1 X1 F10\nG2 X2 Y1 I1 Z1 K2\n", r"^line 2: K2: an arc in the XY plane \(G17\) "
+                                                r"takes I and J, not K$"),
             ("G53 G2 X1 Y1 R1 F10\n", r"^line 1: G53 \(machine coordinates\) takes G0 or G1"),
             ("G41.1 G1 X1 F10\n", r"^line 1: G41\.1 needs D: the cutter's diameter$"),
             ("M6 M61 Q1\n", r"^line 1: two tool change codes in one block \(M6 and M61\)$"),

@@ -176,3 +176,35 @@ def test_rtl_aborts(variant):
     moved = [p for _, _, _, p in outcomes]
     assert [sum(p[a] for p in moved) for a in range(3)] == \
         [sum(s[a] for s in made) for a in range(3)]
+
+
+#: A native step ``(a, b, c)`` (the arc's first and second coordinate, its linear axis) as
+#: ``(dx, dy, dz)`` in each plane, written out from LinuxCNC's canonical arcs (G18: first Z,
+#: second X, normal Y; G19: first Y, second Z, normal X), not from the model's rotation.
+PLANE_AXES = {0: lambda a, b, c: (a, b, c), 1: lambda a, b, c: (b, c, a),
+              2: lambda a, b, c: (c, a, b)}
+
+
+def test_rtl_planes():
+    """Helices in G17, G18 and G19 (the frame's ``plane`` 0, 1, 2) back to back: the RTL is
+    the model clock for clock, each helix's steps are the G17 helix's with its axes renamed as
+    LinuxCNC names them, its outcome's position is its end on the machine's axes; plane 3 is
+    refused with no step."""
+    rng = random.Random(17)
+    frames = [{**f, "plane": rng.randint(0, 2)} for f in _frames(rng, 9)]
+    frames.insert(4, {**frames[0], "plane": 3})
+    job = Job(frames=frames, tick=[int(rng.random() < 0.7) for _ in range(23)],
+              gaps=[rng.choice([0, 0, 2]) for _ in frames])
+    expected = run_model(_model(), job)
+    actual = run_amaranth(_engine(), job)
+    assert first_difference(expected, actual) is None
+    assert {f["plane"] for f in frames} == {0, 1, 2, 3}
+    outcomes = record_outcomes(actual)
+    assert [outcome for _, _, outcome, _ in outcomes] == [0] * 4 + [1] + [0] * 5
+    made = record_steps(actual, 3)
+    taken = [f for f in frames if f["plane"] != 3]
+    assert made == [PLANE_AXES[f["plane"]](*s) for f in taken for s in _helix(f, "fast")]
+    for (_, _, _, position), frame in zip(outcomes, frames):
+        if frame["plane"] != 3:
+            native = (frame["x1"] - frame["x0"], frame["y1"] - frame["y0"], frame["z"])
+            assert tuple(position) == PLANE_AXES[frame["plane"]](*native)

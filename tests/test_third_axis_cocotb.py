@@ -63,15 +63,15 @@ def _frames(rng, count):
                 (top + 1, 0, 0), (0, 0, -(top + 1)), (3, -5, 7)]
         frames = [dict(zip("xyz", end)) for end in ends]
         return frames + [{axis: rng.randint(-40, 40) for axis in "xyz"} for _ in range(count)]
-    frames = [{"x0": 4, "y0": -4, "x1": -4, "y1": -4, "cw": 1, "z": 9, "n": 8},
-              {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 0, "z": 0, "n": 0}]
+    frames = [{"x0": 4, "y0": -4, "x1": -4, "y1": -4, "cw": 1, "z": 9, "n": 8, "plane": 1},
+              {"x0": 0, "y0": 0, "x1": 0, "y1": 0, "cw": 0, "z": 0, "n": 0, "plane": 2}]
     for _ in range(count):
         r = rng.randint(1, 12)
         x0 = rng.randint(-r, r)
         y0 = rng.choice([-1, 1]) * math.isqrt(r * r - x0 * x0)
         cw = rng.randint(0, 1)
         x1, y1 = points_ahead(x0, y0, rng.randint(1, 8 * r), cw=cw, width=width)[-1]
-        frame = helix_frame(x0, y0, x1, y1, 0, cw=cw, width=width)
+        frame = helix_frame(x0, y0, x1, y1, 0, cw=cw, width=width, plane=rng.randint(0, 2))
         frame["z"] = rng.randint(-frame["n"], frame["n"])
         frames.append(frame)
     return frames

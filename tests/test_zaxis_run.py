@@ -82,8 +82,9 @@ def _along(p, a, b, centre, cw, hint=None):
     along = (sign * (angle(p) - angle(a))) % (2 * math.pi)
     if hint is not None and abs(along + 2 * math.pi - hint * sweep) < abs(along - hint * sweep):
         along += 2 * math.pi             # a full turn's end: its start's angle, once round
-    if along > sweep:                    # past the end (or a hair before the start)
-        along = sweep if along - sweep < 2 * math.pi - along else 0.0
+    if along > sweep:                    # past the end (or a hair before the start; a
+        # full turn's end a hair past its start has had 2π added: nearer its end)
+        along = sweep if along - sweep < (2 * math.pi - along) % (2 * math.pi) else 0.0
     radius = math.hypot(a[0] - cx, a[1] - cy)
     return abs(math.hypot(p[0] - cx, p[1] - cy) - radius), along / sweep
 

@@ -59,7 +59,8 @@ def _helix_cmd(cmd, payload):
     # n is unsigned 32 in the frame; the engine's field is narrower: a larger n is cut, and
     # the host never sends one (it is the arc's step count, below 8·2**w + 8).
     return _arc_cmd(cmd, payload) + [cmd.z.eq(little(payload, 17, 4, signed_value=True)),
-                                      cmd.n.eq(little(payload, 21, 4))]
+                                      cmd.n.eq(little(payload, 21, 4)),
+                                      cmd.plane.eq(payload[16][1:3])]
 
 
 class MotionController(wiring.Component):

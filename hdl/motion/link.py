@@ -30,7 +30,10 @@ LINE3     0x18  x, y, z: int32: a relative move on three axes (only a      yes
 HELIX     0x19  x0, y0, x1, y1: int32, cw: uint8 (ARC's fields); z:       yes
                 int32, the Z move; n: uint32, the arc's step count (Z's
                 steps are spread over the arc's n steps; |z| > n is
-                REFUSED); only on a 3-axis controller
+                REFUSED); only on a 3-axis controller. Bits 1-2 of
+                the cw byte: the plane, 0 G17, 1 G18, 2 G19 (x, y, z
+                are then the plane's first, second and normal axis:
+                Z X Y in G18, Y Z X in G19; 3 is REFUSED)
 PROFILE   0x16  one frame of the controller's equidistant engine (cutter    yes
                 compensation, :class:`kontur.hdl.equidistant.EquidistantEngine`):
                 the bits of its ``Frame(formats)`` layout, least

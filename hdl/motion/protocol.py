@@ -59,10 +59,16 @@ def line3(x, y, z):
     return frame(LINE3, struct.pack("<iii", x, y, z))
 
 
-def helix(x0, y0, x1, y1, cw, z, n):
+def helix(x0, y0, x1, y1, cw, z, n, plane=0):
     """A HELIX frame: an ARC's fields, the Z move ``z`` (steps) and the arc's step count ``n``
-    over which the Z steps are spread (a 3-axis controller's; ``|z| > n`` is refused)."""
-    return frame(HELIX, struct.pack("<iiiiBiI", x0, y0, x1, y1, int(bool(cw)), z, n))
+    over which the Z steps are spread (a 3-axis controller's; ``|z| > n`` is refused), in
+    ``plane`` 0, 1 or 2 (G17, G18, G19: the fields named X, Y, Z are the plane's first,
+    second and normal axis, :class:`kontur.hdl.helix.HelixEngine`), in bits 1-2 of the ``cw``
+    byte."""
+    if plane not in (0, 1, 2):
+        raise ValueError(f"A HELIX frame's plane is 0, 1 or 2, not {plane!r}")
+    return frame(HELIX, struct.pack("<iiiiBiI", x0, y0, x1, y1, int(bool(cw)) | plane << 1,
+                                    z, n))
 
 
 def dwell(clocks):

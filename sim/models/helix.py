@@ -5,19 +5,40 @@ A helix is an arc frame (``x0``, ``y0``, ``x1``, ``y1``, ``cw``) with ``z``, the
 are the plain arc's; Z steps ride on them, spread by Bresenham's rule over ``n``: an accumulator
 starting at ``⌊n/2⌋`` gains ``|z|`` at every XY step and a Z step is made, in that step's clock,
 whenever it reaches ``n`` (then it loses ``n``).
+
+``plane`` (0, 1, 2: G17, G18, G19) names the machine axes of the arc's native coordinates and
+its linear axis: ``(X, Y, Z)``, ``(Z, X, Y)``, ``(Y, Z, X)``, as LinuxCNC's canonical arcs
+(first, second, normal axis); the steps are made natively and rotated (:func:`to_axes`).
 """
 
 from .arc import arc_steps
 from .engine import ABORTED, REFUSED
 from .errors import InputError
 
-__all__ = ["helix_frame", "check_helix", "helix_steps", "ride", "HelixEngineModel"]
+__all__ = ["PLANES", "helix_frame", "check_helix", "helix_steps", "ride", "to_axes", "from_axes",
+           "HelixEngineModel"]
+
+#: The HELIX frame's ``plane`` by G-code plane (G17, G18, G19).
+PLANES = {17: 0, 18: 1, 19: 2}
 
 
-def helix_frame(x0, y0, x1, y1, z, *, cw=0, width=24):
+def to_axes(native, plane):
+    """A native triple ``(a, b, c)`` (the arc's first and second coordinate, its linear axis)
+    as the machine's ``(x, y, z)`` in ``plane`` (0, 1, 2): axis ``k`` is native ``(k + plane)
+    mod 3``."""
+    return tuple(native[(k + plane) % 3] for k in range(3))
+
+
+def from_axes(point, plane):
+    """The machine's ``(x, y, z)`` as the native triple of ``plane``: :func:`to_axes` undone."""
+    return tuple(point[(k - plane) % 3] for k in range(3))
+
+
+def helix_frame(x0, y0, x1, y1, z, *, cw=0, width=24, plane=0):
     """The helix frame to ``z`` over the arc, its step count ``n`` from the arc model."""
     n = len(arc_steps(x0, y0, x1, y1, cw=bool(cw), width=width))
-    return {"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": int(bool(cw)), "z": z, "n": n}
+    return {"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": int(bool(cw)), "z": z, "n": n,
+            "plane": plane}
 
 
 def check_helix(z, n, width):
@@ -29,10 +50,11 @@ def check_helix(z, n, width):
         raise InputError(f"an arc of {n} steps is too long for the {width}-bit engine")
 
 
-def helix_steps(x0, y0, x1, y1, cw=0, z=0, n=None, *, width=24):
+def helix_steps(x0, y0, x1, y1, cw=0, z=0, n=None, *, width=24, plane=0):
     """Return the steps ``(dx, dy, dz)`` of the helix (``n`` by default the arc's step
-    count)."""
-    return ride(arc_steps(x0, y0, x1, y1, cw=bool(cw), width=width), z, n, width=width)
+    count), on the machine's axes for ``plane``."""
+    steps = ride(arc_steps(x0, y0, x1, y1, cw=bool(cw), width=width), z, n, width=width)
+    return [to_axes(step, plane) for step in steps] if plane else steps
 
 
 def ride(xy, z, n=None, *, width=24):
@@ -73,6 +95,7 @@ class HelixEngineModel:
         self.moved = 0
         self.rate = self.back = self.ahead = 0
         self.moves = self.sign = 0
+        self.plane = 0
 
     def state(self):
         return {**self.arc.state(), "z_ahead": self.ahead, "z_moved": self.moved}
@@ -85,7 +108,8 @@ class HelixEngineModel:
         limit = (1 << self.count_width) - 1
         z = payload["z"] if payload is not None else 0
         n = payload["n"] if payload is not None else 0
-        refused = int(abs(z) > limit or abs(z) > n)
+        plane = payload.get("plane", 0) if payload is not None else 0
+        refused = int(abs(z) > limit or abs(z) > n or plane == 3)
         arc_valid = int(bool(valid) and not self.active and not refused and not abort)
         frame = (None if payload is None
                  else {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")})
@@ -103,11 +127,16 @@ class HelixEngineModel:
             status = [self.number, self.own_outcome, [0, 0, 0]] if status_ready else None
         elif arc_out["status"] is not None:
             _, outcome, position = arc_out["status"]
-            status = [self.number, outcome, [*position, z_position]]
+            status = [self.number, outcome, list(to_axes((*position, z_position), self.plane))]
         else:
             status = None
-        outputs = {"ready": ready, "step": arc_out["step"] | z_step << 2,
-                   "dir": arc_out["dir"] | self.sign << 2, "busy": self.active,
+
+        def rotated(bits):
+            return sum(b << k for k, b in enumerate(to_axes([bits >> k & 1 for k in range(3)],
+                                                            self.plane)))
+
+        outputs = {"ready": ready, "step": rotated(arc_out["step"] | z_step << 2),
+                   "dir": rotated(arc_out["dir"] | self.sign << 2), "busy": self.active,
                    "due": arc_out["due"], "diagonal": arc_out["diagonal"] + coming,
                    "status": status}
 
@@ -120,6 +149,7 @@ class HelixEngineModel:
             self.back = self.rate - n
             self.ahead = (n >> 1) + self.rate - n
             self.moves, self.sign = int(z != 0), int(z < 0)
+            self.plane = plane
         if abort and self.own:
             self.own_outcome = ABORTED
         self.moved = z_position
