@@ -1199,7 +1199,7 @@ class Stream:
 
     def modes(self):
         """The modal state as a dict: ``motion`` (ten times the G code, ``None`` after G80),
-        ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in the program's units),
+        ``plane`` (ten times its G code), ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in the program's units),
         ``side``, ``coordinate_system`` (1-9: G54-G59.3), ``tool``, ``speed``, and the offset
         in force (``offset``: G5x plus G92, machine units) with each system's
         (``systems``), G92's and the G28/G30 positions (``g92``, ``home``)."""
@@ -1207,6 +1207,7 @@ class Stream:
         return {"motion": state.motion, "absolute": state.absolute,
                 "arc_absolute": state.arc_absolute, "inches": state.scale != 1,
                 "feed": None if state.feed is None else state.feed / state.scale,
+                "plane": state.plane,
                 "side": state.side, "coordinate_system": state.cs, "tool": state.tool,
                 "speed": state.speed,
                 "offset": tuple(state.offset_of(axis) for axis in range(3)),

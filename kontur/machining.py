@@ -972,6 +972,9 @@ def summary(job, result):
     if len(job.start) == 3:
         data["z_steps"] = sum(1 for step in steps if step[2])
         data["helices"] = sum(1 for s in job.segments if s.kind == "arc" and s.payload.get("z"))
+        data["plane_arcs"] = {f"G{17 + plane}": sum(1 for s in job.segments if s.kind == "arc"
+                                                    and s.payload.get("plane") == plane)
+                              for plane in (1, 2)}
     if job.contours:
         data["cutter_radius_mm"] = float(job.contours[0].radius_mm)
         data["cutter_radius_steps"] = float(job.contours[0].radius)
@@ -1026,8 +1029,11 @@ def summary_text(data, out_dir=None):
                      f"({contour['radius_steps']} steps, {contour['radius_from']}), "
                      f"{contour['steps']} steps")
     if data.get("axes") == 3:
+        planes = ", ".join(f"{count} in {'XZ (G18)' if plane == 'G18' else 'YZ (G19)'}"
+                           for plane, count in data.get("plane_arcs", {}).items() if count)
         lines.append(f"z          {data['z_steps']} steps move Z, {data['helices']} helices "
-                     f"(HELIX frames: Z spread over the arc's steps)")
+                     f"(HELIX frames: the normal axis spread over the arc's steps)"
+                     + (f"; arcs {planes}" if planes else ""))
     if data.get("dwells"):
         lines.append(f"dwells     {data['dwells']} (G4), {data['dwell_seconds']:g} s, as DWELL "
                      f"frames")
@@ -1045,7 +1051,9 @@ def summary_text(data, out_dir=None):
     lines += [
         f"deviation  {data['max_deviation_mm']:.4f} mm at most from the programmed contour"
         + (" (a compensated one's: from its equidistant)" if data.get("contours") else "")
-        + (" in XY" if data.get("axes") == 3 else ""),
+        + (" in XY" if data.get("axes") == 3 else "")
+        + (" (an arc in XZ or YZ: in its plane)" if any(data.get("plane_arcs", {}).values())
+           else ""),
         f"end        ({', '.join(f'{c:.4f}' for c in data['end_mm'])}) mm = "
         f"({', '.join(str(c) for c in data['end_steps'])}) steps"
         + (", the programmed end" if data["end_steps"] == data["programmed_end_steps"]

@@ -47,6 +47,7 @@ CORPUS = {
     WRITTEN / "zplunge.ngc": rf"^line 5: {Z} \(Z from 5 to -2 mm\)$",
     WRITTEN / "helix.ngc": rf"^line 4: {Z} \(Z from 0 to -1 mm\)$",
     PROGRAMS / "xyz" / "zaxis.ngc": rf"^line 5: {Z} \(Z from 2 to 0.5 mm\)$",
+    PROGRAMS / "xyz" / "planes.ngc": rf"^line 6: {Z} \(Z from 5 to 0 mm\)$",
     WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
     WRITTEN / "drill.ngc": r"^line 4: G81: canned cycles drill along Z, which needs the third "
                            r"axis",

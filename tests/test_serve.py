@@ -454,6 +454,9 @@ def session(board="icebreaker", machine=None, **options):
     ("G53 G2 X1 I1 F100", 30),      # G53 with another motion than G0/G1
     ("G80 X5", 31),                 # axis words no command uses
     ("S-5", 4),                     # a negative spindle speed
+    ("G18 G2 X4 I2 J1 F100", 36),   # J in the XZ plane: a word no command uses
+    ("G18 G2 X4 F100", 35),         # an arc in XZ with no offset in its plane (I, K)
+    ("G18 G2 X4 I2 F100", 20),      # an arc in XZ on two axes: it moves Z
 ])
 def test_error_codes(line, code):
     """Grbl's codes for each kind of refusal (interface.md's table), then the next line
@@ -1212,3 +1215,42 @@ def test_laser_mode_served_as_run():
     # (kontur run makes one stop of the changes between the same two moves: 6, then 18-19)
     assert served_stops == [4, 6, 17, 19] and run_stops[0] == 6 and run_stops[-1] == 19
     assert grbl.motion.tool["spindle"].name == "OFF" and not grbl.motion.tool["flood"]
+
+
+#: Arcs in XZ and YZ (G18, G19) as a Grbl sender streams them: a half round groove across X,
+#: back by a radius, a quarter in YZ with Y advancing. By hand: it ends at X-6 Y6 Z-6.
+PLANES = """G21 G90
+G0 X-6 Y0 Z0
+G18 G2 X6 Z0 I6 K0 F600
+G3 X-6 Z0 R8
+G19 G2 Y6 Z-6 J0 K-6
+"""
+
+
+@pytest.mark.parametrize("board", ["ulx3s", "icebreaker-z"])
+def test_planes_served(board):
+    """A served program's arcs in XZ and YZ are ``kontur run``'s steps (HELIX frames with
+    their plane), MPos ends at the program's end, ``$G`` reports the plane in force (G19)."""
+    from kontur.hdl.motion import protocol
+
+    now = [0.0]
+    grbl, said = session(board, speed=SPEED, clock=lambda: now[0])
+    for line in PLANES.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        grbl.poll()
+    while grbl.motion.busy or grbl.rx:
+        grbl.poll()
+        now[0] += 0.02
+    assert [s for s in said if s == "ok" or s.startswith("error")] == \
+        ["ok"] * len(PLANES.splitlines())
+    assert STATUS.match(grbl.status()).groups()[1:] == ("-6.000", "6.000", "-6.000")
+    assert grbl.motion.made == run_steps(PLANES, board)
+    helices = [s.payload for s in grbl.motion.segments if s.kind == "arc"]
+    assert [h["plane"] for h in helices] == [1, 1, 2]
+    # (the frame: sync, type, length, then the payload; the cw byte's bits 1-2 the plane)
+    assert [protocol.helix(**h)[1] for h in helices] == [protocol.HELIX] * 3
+    assert [protocol.helix(**h)[3 + 16] >> 1 for h in helices] == [1, 1, 2]
+    said.clear()
+    grbl.receive(b"$G\n")
+    grbl.poll()
+    assert re.match(r"^\[GC:G2 G54 G19 G21 G90 G94 ", said[0]), said

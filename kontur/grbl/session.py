@@ -359,6 +359,10 @@ class Session:
             raise LineError(20, "cutter compensation (G41/G42) is not served yet: kontur "
                                 "run compensates a whole program")
         for move in moves:
+            if move.plane != 17 and self.axes == 2:     # it moves Z, wherever it ends
+                raise LineError(20, f"{Z_REFUSAL} (an arc in the "
+                                    f"{'XZ' if move.plane == 18 else 'YZ'} plane, "
+                                    f"G{move.plane})")
             if move.z is None or self.axes == 3:
                 continue
             if self.z is None:
@@ -554,7 +558,7 @@ class Session:
         system = modes["coordinate_system"]
         system = f"G{53 + system}" if system <= 6 else f"G59.{system - 6}"
         feed = float(modes["feed"] or 0)
-        return (f"[GC:{motion} {system} G17 G{20 if inches else 21} "
+        return (f"[GC:{motion} {system} G{modes['plane'] // 10} G{20 if inches else 21} "
                 f"G{90 if modes['absolute'] else 91} G94 {self.spindle} {self.coolant} "
                 f"T{modes['tool']} F{p.number(feed, 1 if inches else 0)} "
                 f"S{p.number(float(modes['speed']), 0)}]")
