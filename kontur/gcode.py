@@ -288,8 +288,17 @@ def parse(text, *, name=None):
     return blocks
 
 
+#: The canned cycles kontur runs (code times ten), as LinuxCNC's interp_cycles.cc makes them: the
+#: words each needs the first time (after another motion mode) beside R and Z, and the moves
+#: at the hole (from the R plane; "feed"/"rapid" to a depth, "dwell" P seconds).
+_CYCLES = {730: "Q", 810: "", 820: "P", 830: "Q", 850: "", 890: "P"}
+#: G83's and G73's back-off above the last depth before the next peck: 0.010 inch (LinuxCNC's
+#: G83_RAPID_DELTA), in millimetres.
+PECK_CLEARANCE = Fraction(254, 1000)
+
 #: Modal groups of the G codes kontur takes, by code times ten (G91.1 is 911), as LinuxCNC's.
 _G_GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion",
+             **{code: "motion" for code in _CYCLES},
              40: "non-modal", 100: "non-modal", 280: "non-modal", 281: "non-modal",
              300: "non-modal", 301: "non-modal", 530: "non-modal", 920: "non-modal",
              921: "non-modal", 922: "non-modal", 923: "non-modal",
@@ -304,7 +313,9 @@ _G_GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion
              940: "feed mode", 980: "retract mode", 990: "retract mode"}
 _MOTION = {0: "rapid", 10: "line", 20: "arc", 30: "arc"}
 _PLANE_NAMES = {17: "XY", 18: "XZ", 19: "YZ"}
-_CANNED = "canned cycles drill along Z, which needs the third axis (this controller has X and Y)"
+_CANNED = ("spindle-synchronised and oriented cycles (G74, G84 tapping, G76 threading, G86-G88 "
+           "boring with the spindle stopped) are not supported: the drilling and boring cycles "
+           "G73, G81-G83, G85 and G89 are")
 #: G codes LinuxCNC knows that kontur refuses, and why.
 _G_REFUSED = {**{code: "the UVW planes (G17.1, G18.1, G19.1) are not supported: arcs are in "
                        "XY (G17), XZ (G18) or YZ (G19)" for code in (171, 181, 191)},
@@ -315,11 +326,10 @@ _G_REFUSED = {**{code: "the UVW planes (G17.1, G18.1, G19.1) are not supported: 
               50: "splines (G5) are not supported", 51: "splines (G5.1) are not supported",
               52: "NURBS (G5.2) are not supported", 70: "lathe diameter mode (G7) is not "
               "supported", 330: "spindle-synchronised motion (G33) is not supported",
-              331: "rigid tapping (G33.1) is not supported", 760: "threading (G76) is not "
-              "supported", 432: "G43.2 (added tool length) is not supported",
+              331: "rigid tapping (G33.1) is not supported",
+              432: "G43.2 (added tool length) is not supported",
               **{code: "probing (G38.x) is not supported" for code in (382, 383, 384, 385)},
-              **{code: _CANNED for code in (730, 740, 810, 820, 830, 840, 850, 860, 870, 880,
-                                            890)}}
+              **{code: _CANNED for code in (740, 760, 840, 860, 870, 880)}}
 _M_GROUPS = {0: "stopping", 1: "stopping", 2: "stopping", 30: "stopping", 6: "tool change",
              61: "tool change",
              3: "spindle", 4: "spindle", 5: "spindle", 7: "coolant", 8: "coolant",
@@ -480,6 +490,9 @@ class _Interpreter:
         self.absolute = True
         self.arc_absolute = False
         self.plane = 170
+        self.r_plane = True               # G99 (the retract to R), as rs274 starts
+        self.cycle = None                 # the canned cycle last made, and its sticky words
+        self.cycle_words = {}
         self.side = None
         self.radius = None
         self.radius_source = None
@@ -786,13 +799,15 @@ class _Interpreter:
         nonmodal = gs.get("non-modal")
         motion = gs.get("motion", self.motion)
         if "P" in values and not (nonmodal in (40, 100) or gs.get("path control") == 640
-                                  or motion in (20, 30)):
+                                  or motion in (20, 30, 820, 890)):
             self.fail(f"{texts['P']}: no code in this block takes P (G4 dwell, G10, G64, "
-                      f"G2/G3 turns)")
-        if "Q" in values and gs.get("path control") != 640 and not self.m61:
-            self.fail(f"{texts['Q']}: no code in this block takes Q (G64, M61)")
-        if "L" in values and nonmodal != 100:
-            self.fail(f"{texts['L']}: no code in this block takes L (G10)")
+                      f"G2/G3 turns, G82/G89 dwell)")
+        if "Q" in values and gs.get("path control") != 640 and not self.m61 \
+                and motion not in (730, 830):
+            self.fail(f"{texts['Q']}: no code in this block takes Q (G64, M61, G73/G83 peck)")
+        if "L" in values and nonmodal != 100 and motion not in _CYCLES:
+            self.fail(f"{texts['L']}: no code in this block takes L (G10, a canned cycle's "
+                      f"repeats)")
         if "H" in values and gs.get("tool length") != 430:
             self.fail(f"{texts['H']}: no code in this block takes H (G43)")
         if nonmodal == 100 and "L" not in values:
@@ -876,12 +891,16 @@ class _Interpreter:
             for letter in "PQ":
                 if letter in values and values[letter] < 0:
                     self.fail(f"G64 {texts[letter]}: a tolerance must not be negative")
+        if "retract mode" in gs:
+            self.r_plane = gs["retract mode"] == 990
         if "distance" in gs:
             self.absolute = gs["distance"] == 900
         if "arc distance" in gs:
             self.arc_absolute = gs["arc distance"] == 901
         if "motion" in gs:
             self.motion = None if gs["motion"] == 800 else gs["motion"]
+            if self.motion not in _CYCLES:
+                self.cycle = None
         axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
         if nonmodal in (100, 280, 300, 920):
             if "motion" in gs and gs["motion"] != 800 and axes:
@@ -1032,6 +1051,11 @@ class _Interpreter:
         motion = self.motion
         if motion is None:
             self.fail("coordinates without a motion code (G0, G1, G2 or G3)")
+        if motion in _CYCLES:
+            if machine:
+                self.fail(f"G53 (machine coordinates) takes G0 or G1, not G{motion / 10:g}")
+            self.canned_cycle(motion, values, texts)
+            return
         kind = _MOTION[motion]
         if machine:
             if kind == "arc":
@@ -1091,6 +1115,101 @@ class _Interpreter:
         start_z = self.pos[2]
         self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True)
         self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z)
+
+
+    def canned_cycle(self, motion, values, texts):
+        """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's X Y, as
+        LinuxCNC's interpreter makes it (interp_cycles.cc): up to R first if below it, then for
+        each of L repeats a rapid in XY at the current height (later ones: at the clearance
+        height, R with G99, the height the cycles began at with G98) and down to R, the hole,
+        and the retract. In G91 X and Y are increments repeated L times, R an increment from
+        the start's Z, Z one from R. R, Z, P, Q are kept for the same cycle's next blocks."""
+        name = f"G{motion / 10:g}"
+        if self.plane != 170:
+            self.fail(f"{name}: canned cycles are in the XY plane (G17) only")
+        if self.side is not None:
+            self.fail(f"{name} with cutter-radius compensation on: turn it off (G40) first")
+        if self.feed is None and self.units is not None:
+            self.fail(f"{name} with no feed rate: give an F before the cycle")
+        same = self.cycle == motion
+        words = dict(self.cycle_words) if same else {}
+        for letter in "RZ" + _CYCLES[motion]:
+            if letter in values:
+                words[letter] = values[letter]
+            elif letter not in words:
+                what = {"R": "the retract plane", "Z": "the depth",
+                        "P": "the dwell, seconds", "Q": "the peck, the depth of each"}[letter]
+                self.fail(f"{name} needs {letter}: {what}")
+        if "Q" in words and words["Q"] <= 0:
+            self.fail(f"{name} Q{float(words['Q']):g}: a peck must be positive")
+        if "P" in words and words["P"] < 0:
+            self.fail(f"{name} P{float(words['P']):g}: a dwell must not be negative")
+        repeats = values.get("L", 1)
+        if repeats < 1 or repeats.denominator != 1:
+            self.fail(f"{name} {texts['L']}: the repeats are a whole number, 1 or more")
+        scale = self.scale
+        x, y, start = self.pos
+        if self.absolute:
+            end = self.target(values)
+            x, y = end[0], end[1]
+            step = (0, 0)
+            offset = self.offset_of(2)
+            r, depth = words["R"] * scale + offset, words["Z"] * scale + offset
+        else:
+            step = (values.get("X", 0) * scale, values.get("Y", 0) * scale)
+            r = start + words["R"] * scale
+            depth = r + words["Z"] * scale
+        if r < depth:
+            self.fail(f"{name}: R ({float(r):g} mm) is below Z ({float(depth):g} mm)")
+        if start < r:                     # up to R first, where the machine is
+            self._cycle_rapid(self.pos[0], self.pos[1], r)
+            start = r
+        clear = r if self.r_plane else start
+        level = start
+        for _ in range(int(repeats)):
+            x, y = x + step[0], y + step[1]
+            self._cycle_rapid(x, y, level)
+            if level != r:
+                self._cycle_rapid(x, y, r)
+            self._hole(motion, x, y, r, clear, depth, words)
+            level = clear
+        self.cycle, self.cycle_words = motion, words
+
+    def _rapid_feed(self):
+        self.moves[-1] = _with_feed(self.moves[-1], self.feed)
+
+    def _cycle_rapid(self, x, y, z):
+        self.go("rapid", [x, y, z], z_word=True)
+        self._rapid_feed()
+
+    def _hole(self, motion, x, y, r, clear, depth, words):
+        """The moves of one hole from the R plane (interp_cycles.cc's convert_cycle_g*)."""
+        def feed(z):
+            self.go("line", [x, y, z], feed=self.feed, z_word=True)
+
+        def dwell():
+            here = (x, y)
+            self.moves.append(Move(self.line, "dwell", here, here, side=self.side,
+                                   feed=self.feed, z=self.z(), seconds=words["P"]))
+
+        if motion in (730, 830):          # pecks: back to R (G83) or a hair (G73) between
+            peck = words["Q"] * self.scale
+            below = r - peck
+            while below > depth:
+                feed(below)
+                if motion == 830:
+                    self._cycle_rapid(x, y, r)
+                self._cycle_rapid(x, y, below + PECK_CLEARANCE)
+                below -= peck
+        feed(depth)
+        if motion in (820, 890):
+            dwell()
+        if motion == 850:                 # bore: out at the feed to R, then up
+            feed(r)
+        if motion == 890:                 # bore with a dwell: out at the feed to clearance
+            feed(clear)
+        else:
+            self._cycle_rapid(x, y, clear)
 
 
 def _with_feed(move, feed):

@@ -67,7 +67,7 @@ STEEP = {"ulx3s": r"^line 33: the helix moves X -160 steps over an arc of 143 YZ
 #: compression; inch.ngc is 420 million).
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
                                                      "tools.ngc", "zplunge.ngc", "helix.ngc",
-                                                     "planes.ngc")]
+                                                     "planes.ngc", "drill.ngc")]
 
 
 def _grid(value):

@@ -71,7 +71,8 @@ class InterpretTestCase(unittest.TestCase):
 
     def test_refusals_name_the_line(self):
         cases = [
-            ("G1 X1\nQ3\n", r"^line 2: Q3: no code in this block takes Q \(G64, M61\)$"),
+            ("G1 X1\nQ3\n", r"^line 2: Q3: no code in this block takes Q \(G64, M61, G73/G83 "
+                          r"peck\)$"),
             ("G1 X1\nE3\n", r"^line 2: unknown word E3$"),
             ("G2 X20 R5\n", r"^line 1: the radius 5 is less than half the distance to the end "
                             r"\(10\)$"),
@@ -96,6 +97,21 @@ class InterpretTestCase(unittest.TestCase):
                                    r"K, not I$"),
             ("G18 G2 X1 F10\n", r"^line 1: G2 needs the centre: K and I \(relative to the "
                                 r"start\) or R$"),
+            # canned cycles: what LinuxCNC refuses, and the cycles kontur does not make
+            ("F100 G81 X1 Z-1\n", r"^line 1: G81 needs R: the retract plane$"),
+            ("F100 G81 X1 R1\n", r"^line 1: G81 needs Z: the depth$"),
+            ("F100 G83 X1 Z-1 R1\n", r"^line 1: G83 needs Q: the peck, the depth of each$"),
+            ("F100 G73 X1 Z-1 R1 Q-1\n", r"^line 1: G73 Q-1: a peck must be positive$"),
+            ("F100 G82 X1 Z-1 R1\n", r"^line 1: G82 needs P: the dwell, seconds$"),
+            ("F100 G81 X1 Z-1 R1\nG82 X2\n", r"^line 2: G82 needs R: the retract plane$"),
+            ("F100 G81 X1 Z2 R1\n", r"^line 1: G81: R \(1 mm\) is below Z \(2 mm\)$"),
+            ("F100 G81 X1 Z-1 R1 L0\n", r"^line 1: G81 L0: the repeats are a whole number"),
+            ("F100 G18 G81 X1 Z-1 R1\n", r"^line 1: G81: canned cycles are in the XY plane"),
+            ("F100 G41.1 D2 G81 X1 Z-1 R1\n", r"^line 1: G81 with cutter-radius compensation "
+                                              r"on"),
+            ("F100 G84 X1 Z-1 R1\n", r"^line 1: G84: spindle-synchronised and oriented "
+                                     r"cycles \(G74, G84 tapping"),
+            ("F100 G81 X1 Z-1 R1 Q2\n", r"^line 1: Q2: no code in this block takes Q"),
             ("G1 G2 X1\n", r"^line 1: two motion codes in one block \(G1 and G2\)$"),
             ("M5.5\n", r"^line 1: unknown code M5\.5$"),
             ("M62\n", r"^line 1: unknown code M62$"),
@@ -182,11 +198,23 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
         return [tuple(float(c) for c in m.end) for m in self.read(text, **options).moves
                 if m.kind != "dwell"]
 
+    def test_peck_drilling(self):
+        """G83 by hand from LinuxCNC's documentation: down to R, pecks of Q each back out to
+        R and down again to 0.254 mm (0.010 inch) above the last depth, the last peck to Z,
+        the retract to R (G99)."""
+        moves = self.read("G21 F100\nG0 Z10\nG99 G83 X1 Z-3 R2 Q2\n").moves
+        self.assertEqual([(m.kind[0], float(m.end[0]), float(m.z)) for m in moves],
+                         [("r", 0, 10), ("r", 1, 10), ("r", 1, 2), ("l", 1, 0), ("r", 1, 2),
+                          ("r", 1, 0.254), ("l", 1, -2), ("r", 1, 2), ("r", 1, -1.746),
+                          ("l", 1, -3), ("r", 1, 2)])
+
     def test_messages_name_the_right_word(self):
         cases = [
             ("G1 X1 F10\nG1 X2 P0.05\n", r"^line 2: P0\.05: no code in this block takes P"),
             ("G1 X1 F10 H1\n", r"^line 1: H1: no code in this block takes H \(G43\)$"),
-            ("G1 X1 F10 L2\n", r"^line 1: L2: no code in this block takes L \(G10\)$"),
+            ("G81 X1 Z-1 R1\n", r"^line 1: G81 with no feed rate: give an F before the cycle$"),
+            ("G1 X1 F10 L2\n", r"^line 1: L2: no code in this block takes L \(G10, a canned "
+                                r"cycle's repeats\)$"),
             ("G4\n", r"^line 1: G4 needs P: the dwell in seconds$"),
             ("G10 P1 X1\n", r"^line 1: G10 needs L"),
             ("G10 L1 P1 R1\n", r"^line 1: G10 L1: only L2 and L20 \(work offsets\) are "

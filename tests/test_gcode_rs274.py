@@ -49,8 +49,8 @@ CORPUS = {
     PROGRAMS / "xyz" / "zaxis.ngc": rf"^line 5: {Z} \(Z from 2 to 0.5 mm\)$",
     PROGRAMS / "xyz" / "planes.ngc": rf"^line 6: {Z} \(Z from 5 to 0 mm\)$",
     WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
-    WRITTEN / "drill.ngc": r"^line 4: G81: canned cycles drill along Z, which needs the third "
-                           r"axis",
+    WRITTEN / "drill.ngc": rf"^line 4: {Z} \(Z from 5 to 2 mm\)$",
+    WRITTEN / "cycles.ngc": rf"^line 9: {Z} \(Z from 15 to 2 mm\)$",
     WRITTEN / "plane.ngc": rf"^line 3: {Z} \(an arc in the XZ plane, G18\)$",
     WRITTEN / "rotary.ngc": r"^line 3: A90: this controller has the axes X and Y \(and reads "
                             r"Z\), not A$",
@@ -70,7 +70,7 @@ CORPUS = {
     LINUXCNC / "b-index.ngc": r"^line 4: B0: this controller has the axes X and Y",
     LINUXCNC / "comp.ngc": r"^line 40: G42: cutter-radius compensation is in the XY plane "
                            r"\(G17\) only, not G18$",
-    LINUXCNC / "mmount.ngc": r"^line 67: G81: canned cycles drill along Z",
+    LINUXCNC / "mmount.ngc": r"^line 250: D15: tool 15 is not in the tool table$",
     LINUXCNC / "systems.ngc": r"^line 15: G5.1: splines \(G5.1\) are not supported$",
     LINUXCNC / "polar.ngc": r"^line 10: .*polar coordinates \(@ and \^\) are not supported$",
     LINUXCNC / "tort.ngc": rf"^line 6: {Z} \(Z from 20 to 16 mm\)$",
