@@ -41,7 +41,7 @@ from typing import NamedTuple
 from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
-           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTableError", "Z_REFUSAL",
+           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTable", "ToolTableError", "Z_REFUSAL",
            "Z_COMPENSATED"]
 
 
@@ -504,6 +504,7 @@ class _Interpreter:
         self.g92 = [zero, zero, zero]
         self.g92_saved = [zero, zero, zero]
         self.g92_on = False
+        self.tlo = [zero, zero, zero]         # the tool length offset (G43, G43.1; mm)
         self.home = {28: [zero, zero, zero], 30: [zero, zero, zero]}
         self.selected = 0
         self.tool = 0
@@ -525,7 +526,9 @@ class _Interpreter:
         raise GCodeError(self.line if line is None else line, reason, name=self.name)
 
     def offset_of(self, axis):
-        return self.g5x[self.cs][axis] + self.g92[axis]
+        """Where the program's zero of ``axis`` is in machine coordinates: the work offset,
+        G92's and the tool length offset (G43, G43.1), as LinuxCNC adds them."""
+        return self.g5x[self.cs][axis] + self.g92[axis] + self.tlo[axis]
 
     def _virtual(self, n):
         """Where numbered parameter ``n`` lives in the state, if it is one of LinuxCNC's
@@ -875,13 +878,24 @@ class _Interpreter:
             self.compensation(gs["compensation"], values, texts)
         if "tool length" in gs:
             code = gs["tool length"]
+            # The tool length offset shifts the program's zero (offset_of): the machine does
+            # not move now, the next position given in the program lands that much higher.
             if code == 430:
                 tool = values.get("H", self.tool)
-                self.event("tool_length", f"G43 H{float(tool):g}", tool)
+                if tool < 0 or tool.denominator != 1:
+                    self.fail(f"G43 {texts.get('H', '')}: a tool number is a whole number")
+                tool = int(tool)
+                if self.tools is not None and tool not in self.tools:
+                    self.fail(f"G43 H{tool}: tool {tool} is not in the tool table")
+                length = getattr(self.tools, "lengths", {}).get(tool, Fraction(0))
+                self.tlo = [Fraction(0), Fraction(0), length]
+                self.event("tool_length", f"G43 H{tool}", tool)
             elif code == 431:
+                self.tlo = [values.get(a, Fraction(0)) * scale for a in "XYZ"]
                 self.event("tool_length", "G43.1" + "".join(
                     f" {texts[a]}" for a in "XYZ" if a in values), values.get("Z"))
             else:
+                self.tlo = [Fraction(0)] * 3
                 self.event("tool_length", "G49")
         if "coordinate system" in gs:
             code = gs["coordinate system"]
@@ -980,10 +994,7 @@ class _Interpreter:
                 if machine:
                     out[axis] = v
                 elif absolute:
-                    offset = self.g5x[self.cs][axis]
-                    if offset:
-                        v = v + offset
-                    offset = self.g92[axis]
+                    offset = self.offset_of(axis)
                     out[axis] = v + offset if offset else v
                 else:
                     out[axis] = self.pos[axis] + v
@@ -1027,14 +1038,15 @@ class _Interpreter:
             for axis, letter in enumerate("XYZ"):
                 if letter in values:
                     v = values[letter] * scale
-                    system[axis] = v if level == 2 else self.pos[axis] - self.g92[axis] - v
+                    system[axis] = v if level == 2 else \
+                        self.pos[axis] - self.g92[axis] - self.tlo[axis] - v
         elif code == 920:
             if not any(letter in values for letter in "XYZ"):
                 self.fail("G92 needs an axis word")
             for axis, letter in enumerate("XYZ"):
                 if letter in values:
                     self.g92[axis] = (self.pos[axis] - self.g5x[self.cs][axis]
-                                      - values[letter] * scale)
+                                      - self.tlo[axis] - values[letter] * scale)
             self.g92_saved[:] = self.g92
             self.g92_on = True
         elif code == 921:
@@ -1321,7 +1333,8 @@ class Stream:
         ``plane`` (ten times its G code), ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in the program's units),
         ``side``, ``coordinate_system`` (1-9: G54-G59.3), ``tool``, ``speed``, and the offset
         in force (``offset``: G5x plus G92, machine units) with each system's
-        (``systems``), G92's and the G28/G30 positions (``g92``, ``home``)."""
+        (``systems``), G92's, the tool length offset and the G28/G30 positions (``g92``,
+        ``tlo``, ``home``)."""
         state = self.state
         return {"motion": state.motion, "absolute": state.absolute,
                 "arc_absolute": state.arc_absolute, "inches": state.scale != 1,
@@ -1331,7 +1344,8 @@ class Stream:
                 "speed": state.speed,
                 "offset": tuple(state.offset_of(axis) for axis in range(3)),
                 "systems": {n: tuple(v) for n, v in state.g5x.items()},
-                "g92": tuple(state.g92), "home": {n: tuple(v) for n, v in state.home.items()}}
+                "g92": tuple(state.g92), "tlo": tuple(state.tlo),
+                "home": {n: tuple(v) for n, v in state.home.items()}}
 
 
 def planar(moves, *, name=None, unit="mm", axes=2):
@@ -1370,11 +1384,21 @@ class ToolTableError(ValueError):
     """A tool table that cannot be read: the message names the line."""
 
 
+class ToolTable(dict):
+    """A tool table: ``{tool: diameter in mm}``, and :attr:`lengths`, ``{tool: its Z length
+    offset in mm}`` (what G43 applies)."""
+
+    def __init__(self, *args, lengths=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.lengths = dict(lengths or {})
+
+
 def read_tool_table(text, *, name=None, units="mm"):
-    """LinuxCNC's tool table (``T1 P1 D6.0 Z0 ;comment``, one tool a line): ``{tool:
-    diameter in mm}``. The diameters are in ``units`` (``"mm"``, the machine's units, as
-    LinuxCNC reads a table on a metric machine; or ``"inch"``); the other words (P, X-W, I, J,
-    Q) are read and not used.
+    """LinuxCNC's tool table (``T1 P1 D6.0 Z0 ;comment``, one tool a line): a
+    :class:`ToolTable`, ``{tool: diameter in mm}`` with the Z lengths (``Z``, for G43) in
+    :attr:`~ToolTable.lengths`. Both are in ``units`` (``"mm"``, the machine's units, as
+    LinuxCNC reads a table on a metric machine; or ``"inch"``); the other words (P, X, Y,
+    A-W, I, J, Q) are read and not used.
 
     Raises
     ------
@@ -1382,7 +1406,7 @@ def read_tool_table(text, *, name=None, units="mm"):
         For a line that is not a tool: no T, a word that is not a number, a tool twice.
     """
     factor = {"mm": Fraction(1), "inch": Fraction(254, 10)}[units]
-    tools = {}
+    tools = ToolTable()
     for number, raw in enumerate(text.splitlines(), start=1):
         code = raw.split(";", 1)[0].strip()
         if not code:
@@ -1407,4 +1431,5 @@ def read_tool_table(text, *, name=None, units="mm"):
         if diameter < 0:
             raise ToolTableError(f"{where}: tool {tool}'s diameter is negative")
         tools[tool] = diameter * factor
+        tools.lengths[tool] = fields.get("Z", Fraction(0)) * factor
     return tools

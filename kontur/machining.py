@@ -961,6 +961,7 @@ def summary(job, result):
         "dwells": len(dwells),
         "dwell_seconds": float(sum(move.seconds for move in dwells)),
         "tool_events": [event.as_dict() for event in job.events if event.kind in TOOL_EVENTS],
+        "tool_outputs": registry.board(job.board).tools,
         # The TOOL frames sent (a board with tool outputs): the state each sets, and its line.
         "tool_frames": [{"line": segment.line, **{key: value.name.lower() if key == "spindle"
                                                    else value for key, value in
@@ -1041,6 +1042,8 @@ def summary_text(data, out_dir=None):
         driven = data.get("tool_frames")
         lines.append(f"tools      {len(data['tool_events'])} tool events ("
                      + (f"{len(driven)} TOOL frames to the tool outputs" if driven else
+                        "no TOOL frame: none switches the tool outputs"
+                        if data.get("tool_outputs", True) else
                         "not driven: the controller has no tool outputs") + "): "
                      + ", ".join(f"{e['text']} (line {e['line']})"
                                  for e in data["tool_events"][:6])

@@ -9,6 +9,7 @@ compensation``). rs274 reads a tool table's diameters in inches (its default mac
 :func:`canonical` takes the table in millimetres and writes it so.
 """
 
+import fcntl
 import math
 import re
 import shutil
@@ -36,9 +37,13 @@ def available():
 
 
 def inch_table(tools):
-    """A tool table ``{tool: diameter, mm}`` in LinuxCNC's format with its diameters in
+    """A tool table ``{tool: diameter, mm}`` (and its ``lengths``, mm, when it has them:
+    :class:`kontur.gcode.ToolTable`) in LinuxCNC's format with its diameters and lengths in
     inches, as the standalone rs274 reads them."""
-    return "".join(f"T{tool} P{tool} D{float(Fraction(diameter) / Fraction(254, 10)):.6f} Z0\n"
+    lengths = getattr(tools, "lengths", {})
+    inch = Fraction(254, 10)
+    return "".join(f"T{tool} P{tool} D{float(Fraction(diameter) / inch):.6f} "
+                   f"Z{float(Fraction(lengths.get(tool, 0)) / inch):.6f}\n"
                    for tool, diameter in tools.items())
 
 
@@ -47,7 +52,9 @@ def canonical(text, tools=None, *, folder=None):
     given to it in inches): ``(moves, events, run)``, its moves in mm and machine coordinates
     (dicts: ``kind`` ``"rapid"``, ``"line"``, ``"arc"`` or ``"dwell"``; ``end``; an arc's
     ``centre``, ``cw``, ``turns``; ``z``, ``feed``, ``unit``), its tool events, and the
-    completed process (``returncode``, ``stderr``: its refusal). An arc in the XZ or YZ plane
+    completed process (``returncode``, ``stderr``: its refusal). Machine coordinates: the
+    work offsets, G92's and the tool length offset (USE_TOOL_LENGTH_OFFSET) added to what it
+    prints, as LinuxCNC's motion adds them. An arc in the XZ or YZ plane
     (after SELECT_PLANE, ARC_FEED's first and second axis Z X or Y Z) has ``plane`` 18 or 19
     and its ``centre`` as ``(x, y, z)``, its coordinate on the plane's normal axis the
     start's (where the move before ended), as :class:`kontur.gcode.Move` gives it."""
@@ -61,15 +68,19 @@ def canonical(text, tools=None, *, folder=None):
         table = Path(where) / "tools-inch.tbl"
         table.write_text(inch_table(tools or {}))
         # (in its own folder: rs274 keeps files in its working directory, and runs side by
-        # side must not share them). A run killed by a signal (seen once: SIGBUS, with no
-        # message, on a loaded machine) is no answer: it is run again, twice at most.
-        for _ in range(3):
-            run = subprocess.run([executable, "-t", str(table), "-g", str(path)],
-                                 capture_output=True, text=True, timeout=60,
-                                 stdin=subprocess.DEVNULL, cwd=where)
-            if run.returncode >= 0:
-                break
-    unit, g5x, g92, feed, plane = 1.0, [0.0] * 3, [0.0] * 3, None, 17
+        # side must not share them). Runs side by side with different tool tables read one
+        # another's (LinuxCNC 2.9 keeps the tool table in shared memory): one runs at a time,
+        # under a lock. A run killed by a signal (seen once: SIGBUS, with no message, on a
+        # loaded machine) is no answer: it is run again, twice at most.
+        with open(Path(tempfile.gettempdir()) / "kontur-rs274.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            for _ in range(3):
+                run = subprocess.run([executable, "-t", str(table), "-g", str(path)],
+                                     capture_output=True, text=True, timeout=60,
+                                     stdin=subprocess.DEVNULL, cwd=where)
+                if run.returncode >= 0:
+                    break
+    unit, g5x, g92, tlo, feed, plane = 1.0, [0.0] * 3, [0.0] * 3, [0.0] * 3, None, 17
     at = [0.0] * 3                        # where the last move ended (mm, machine)
     moves, events = [], []
     for line in run.stdout.splitlines():
@@ -83,6 +94,8 @@ def canonical(text, tools=None, *, folder=None):
             g5x = [c * unit for c in _numbers(args)[1:4]]
         elif name == "SET_G92_OFFSET":
             g92 = [c * unit for c in _numbers(args)[0:3]]
+        elif name == "USE_TOOL_LENGTH_OFFSET":    # x y z, a b c, u v w: program units
+            tlo = [c * unit for c in _numbers(args)[0:3]]
         elif name == "SELECT_PLANE":
             plane = {"CANON_PLANE_XY": 17, "CANON_PLANE_XZ": 18, "CANON_PLANE_YZ": 19}.get(
                 args.strip(), plane)
@@ -90,7 +103,7 @@ def canonical(text, tools=None, *, folder=None):
             feed = _numbers(args)[0] * unit
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
             v = _numbers(args)
-            off = [g5x[i] + g92[i] for i in range(3)]
+            off = [g5x[i] + g92[i] + tlo[i] for i in range(3)]
             move = {"end": (v[0] * unit + off[0], v[1] * unit + off[1]), "unit": unit}
             if name == "ARC_FEED" and plane != 17:
                 # first end, second end, first centre, second centre, rotation, normal end

@@ -29,9 +29,9 @@ import pytest
 
 from kontur.machining import execute, prepare
 from kontur.planner import ProgramError
-from kontur.gcode import PLANE_AXES, read_tool_table
+from kontur.gcode import PLANE_AXES
 
-from .test_gcode_rs274 import CORPUS, TABLE, Z, canonical, _text
+from .test_gcode_rs274 import CORPUS, Z, canonical, tools_of, _text
 from .conftest import selected_simulators
 from .test_zaxis_run import _along, _to_segment
 
@@ -171,10 +171,9 @@ def _prepare(path, tmp_path, board=BOARD, *, whole=False):
     text = _text(path)
     if path.name in PARTS and not whole:
         text = "\n".join(text.splitlines()[:PARTS[path.name]]) + "\nM2\n"
-    theirs, _, run = canonical(text, tmp_path)
+    theirs, _, run = canonical(text, tmp_path, path)
     assert run.returncode == 0, run.stderr[-300:]
-    job = prepare(text, board=board, name=path.name,
-                  tools=read_tool_table(TABLE.read_text()))
+    job = prepare(text, board=board, name=path.name, tools=tools_of(path))
     return job, theirs
 
 

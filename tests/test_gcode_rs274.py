@@ -34,6 +34,9 @@ PROGRAMS = HERE / "programs"
 WRITTEN = PROGRAMS / "rs274"
 LINUXCNC = Path("/usr/share/linuxcnc/ncfiles")
 TABLE = WRITTEN / "tools.tbl"
+#: Programs read with a table of their own (tool lengths: the corpus's tools have none, since
+#: rs274's standalone position after a tool change is its own stub's, not a machine's).
+TABLES = {"toollength.ngc": WRITTEN / "lengths.tbl"}
 Z = re.escape(Z_REFUSAL)
 
 #: The programs and what kontur does with each: ``None`` (runs), or the regular expression of
@@ -51,6 +54,7 @@ CORPUS = {
     WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
     WRITTEN / "drill.ngc": rf"^line 4: {Z} \(Z from 5 to 2 mm\)$",
     WRITTEN / "cycles.ngc": rf"^line 9: {Z} \(Z from 15 to 2 mm\)$",
+    WRITTEN / "toollength.ngc": rf"^line 9: {Z} \(Z from 17.5 to 11.5 mm\)$",
     WRITTEN / "plane.ngc": rf"^line 3: {Z} \(an arc in the XZ plane, G18\)$",
     WRITTEN / "rotary.ngc": r"^line 3: A90: this controller has the axes X and Y \(and reads "
                             r"Z\), not A$",
@@ -70,7 +74,7 @@ CORPUS = {
     LINUXCNC / "b-index.ngc": r"^line 4: B0: this controller has the axes X and Y",
     LINUXCNC / "comp.ngc": r"^line 40: G42: cutter-radius compensation is in the XY plane "
                            r"\(G17\) only, not G18$",
-    LINUXCNC / "mmount.ngc": r"^line 250: D15: tool 15 is not in the tool table$",
+    LINUXCNC / "mmount.ngc": r"^line 200: G43 H5: tool 5 is not in the tool table$",
     LINUXCNC / "systems.ngc": r"^line 15: G5.1: splines \(G5.1\) are not supported$",
     LINUXCNC / "polar.ngc": r"^line 10: .*polar coordinates \(@ and \^\) are not supported$",
     LINUXCNC / "tort.ngc": rf"^line 6: {Z} \(Z from 20 to 16 mm\)$",
@@ -92,21 +96,27 @@ def _uncompensated(text):
     return "\n".join(out) + "\n"
 
 
-def _inch_table(tmp_path):
-    """The corpus's tool table for rs274, which reads diameters in inches (its default
-    machine units)."""
-    path = tmp_path / "tools-inch.tbl"
-    path.write_text(inch_table(read_tool_table(TABLE.read_text())))
-    return path
+def tools_of(path=None):
+    """The tool table a corpus program is read with (:data:`TABLES`, else the corpus's)."""
+    name = getattr(path, "name", None)
+    return read_tool_table(TABLES.get(name, TABLE).read_text())
 
 
-def canonical(text, tmp_path):
+def _inch_table(tmp_path, path=None):
+    """A program's tool table for rs274, which reads diameters and lengths in inches (its
+    default machine units)."""
+    out = tmp_path / "tools-inch.tbl"
+    out.write_text(inch_table(tools_of(path)))
+    return out
+
+
+def canonical(text, tmp_path, path=None):
     """rs274's canonical commands for ``text`` (:func:`kontur.rs274.canonical`, with the
-    corpus's tool table): its moves (in mm, machine coordinates), its events, and its
-    output."""
+    tool table of the corpus program ``path``): its moves (in mm, machine coordinates), its
+    events, and its output."""
     assert available(), \
         "rs274 (LinuxCNC's interpreter, package linuxcnc-uspace) is missing: run make setup"
-    return rs274_canonical(text, read_tool_table(TABLE.read_text()), folder=tmp_path)
+    return rs274_canonical(text, tools_of(path), folder=tmp_path)
 
 
 def _events(program):
@@ -150,8 +160,7 @@ def compare(mine, theirs):
 
 
 def _read(path, text):
-    tools = read_tool_table(TABLE.read_text())
-    return read(text, name=path.name, units="mm", tools=tools)
+    return read(text, name=path.name, units="mm", tools=tools_of(path))
 
 
 def _text(path):
@@ -164,7 +173,7 @@ def _text(path):
 @pytest.mark.parametrize("path", list(CORPUS), ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_reader_is_rs274(path, tmp_path):
     text = _text(path)
-    theirs, events, run = canonical(_uncompensated(text), tmp_path)
+    theirs, events, run = canonical(_uncompensated(text), tmp_path, path)
     refusal = CORPUS[path]
     try:
         program = _read(path, text)
@@ -221,6 +230,8 @@ def test_tool_table_radius(tmp_path):
 
 
 def test_inch_table(tmp_path):
-    """A table in inches (as rs274's) gives the same radius, converted."""
-    table = _inch_table(tmp_path)
-    assert read_tool_table(table.read_text(), units="inch")[1] == pytest.approx(6, abs=1e-4)
+    """A table in inches (as rs274's) gives the same radius and length, converted."""
+    table = read_tool_table(_inch_table(tmp_path, WRITTEN / "toollength.ngc").read_text(),
+                            units="inch")
+    assert table[1] == pytest.approx(6, abs=1e-4)
+    assert table.lengths == {1: pytest.approx(12.5, abs=1e-4), 2: pytest.approx(-3.2, abs=1e-4)}

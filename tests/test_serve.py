@@ -1254,3 +1254,31 @@ def test_planes_served(board):
     grbl.receive(b"$G\n")
     grbl.poll()
     assert re.match(r"^\[GC:G2 G54 G19 G21 G90 G94 ", said[0]), said
+
+
+def test_tool_length_offset():
+    """G43.1 Z (Grbl's dynamic tool length offset) shifts Z's program zero: ``$#`` reports it
+    as ``[TLO:]``, the status's WCO has it in Z, the machine does not move for it, and the
+    next Z word lands that much higher (the ULX3S's three axes); G49 takes it back."""
+    now = [0.0]
+    grbl, said = session("ulx3s", speed=SPEED, clock=lambda: now[0])
+    def run(*lines):
+        for line in lines:
+            grbl.receive(line)
+            grbl.poll()
+        while grbl.motion.busy or grbl.rx:
+            grbl.poll()
+            now[0] += 0.02
+
+    run(b"G21 G90 G0 Z1\n", b"G43.1 Z2.5\n")
+    assert STATUS.match(grbl.status()).groups()[1:] == ("0.000", "0.000", "1.000")
+    run(b"$#\n", b"G0 Z3\n")
+    assert "[TLO:2.500]" in said
+    assert STATUS.match(grbl.status()).groups()[1:] == ("0.000", "0.000", "5.500")
+    grbl._reports = 0                                 # the next report carries WCO
+    fields = dict(FIELDS.findall(grbl.status()))
+    assert fields["WCO"] == "0.000,0.000,2.500"
+    said.clear()
+    grbl.receive(b"G49\n$#\n")
+    grbl.poll()
+    assert "[TLO:0.000]" in said

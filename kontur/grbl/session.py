@@ -571,7 +571,8 @@ class Session:
             return ",".join(p.number(float(v)) for v in values)
         return [*(f"[G{53 + n}:{three(modes['systems'][n])}]" for n in range(1, 7)),
                 f"[G28:{three(modes['home'][28])}]", f"[G30:{three(modes['home'][30])}]",
-                f"[G92:{three(modes['g92'])}]", "[TLO:0.000]", "[PRB:0.000,0.000,0.000:0]"]
+                f"[G92:{three(modes['g92'])}]", f"[TLO:{p.number(float(modes['tlo'][2]))}]",
+                "[PRB:0.000,0.000,0.000:0]"]
 
     def _idle_command(self, text):
         if text == "$#":
