@@ -149,6 +149,10 @@ def test_tool_outputs_on_the_icebreaker():
     data = summary(job, execute(job, "model"))
     assert data["tool_frames"] == []
     assert "not driven: the controller has no tool outputs" in summary_text(data)
+    # A board with them, given tool words that switch nothing (G43.1), says so, not "none".
+    job = prepare("G21 G43.1 Z0 G0 X1\nG49\nM2\n", board="icebreaker", name="tlo")
+    text = summary_text(summary(job, execute(job, "model")))
+    assert "no TOOL frame: none switches the tool outputs" in text
 
 
 #: tests/programs/comp/rrect_out_g42.ngc with M3/M5 put where ``{before}``, ``{inside}`` are.
