@@ -241,26 +241,68 @@ def controllers_table(rows):
 
 
 def _write_controllers(path, rows, command):
-    """Put the controllers' table into ``path`` (BENCHMARKS.md)."""
+    """Put the controllers' table into ``path`` (BENCHMARKS.md): the rows of the boards built
+    replace theirs; the rows of a board not built this time stay (a run of one board does not
+    drop the others' figures), in the registry's order of the boards."""
+    table = controllers_table(rows).rstrip("\n").split("\n")
+    built = {row["board"] for row in rows}
+    kept = [line for line in _section_table(path, CONTROLLERS_HEADING)
+            if line.split("|")[1].strip() not in built]
+    from kontur import registry
+    order = {name: n for n, name in enumerate(registry.BOARDS)}
+
+    def board_of(line):
+        return order.get(line.split("|")[1].strip(), len(order))
+    body = sorted(kept + table[2:], key=board_of)          # (sorted is stable: seeds in order)
     _write_section(path, CONTROLLERS_HEADING,
                    f"The machine controller (`kontur build`, the default machine file's step/dir "
-                   f"timing) on each board, per nextpnr seed; written by `{command}`. The step "
-                   f"rate is the controller clock over `dir_setup + step_width + 1` clocks.\n\n"
-                   f"{controllers_table(rows)}")
+                   f"timing) on each board, per nextpnr seed; written by `python -m kontur.bench "
+                   f"controllers --out BENCHMARKS.md`, a board's rows kept until it is built "
+                   f"again (last: `{command}`). The step rate is the controller clock over "
+                   f"`dir_setup + step_width + 1` clocks.\n\n"
+                   + "\n".join(table[:2] + body))
+
+
+def _section_table(path, heading):
+    """The body rows (lines) of the first table in ``path``'s section ``heading`` (none when
+    there is no such section)."""
+    text = Path(path).read_text() if Path(path).exists() else ""
+    if heading not in text:
+        return []
+    rest = text.split(heading, 1)[1]
+    rest = rest[:rest.index("\n## ")] if "\n## " in rest else rest
+    lines = [line for line in rest.split("\n")]
+    rows = [n for n, line in enumerate(lines) if line.startswith("|")]
+    if not rows:
+        return []
+    end = rows[0]
+    while end < len(lines) and lines[end].startswith("|"):
+        end += 1
+    return lines[rows[0] + 2:end]
 
 
 def _write_section(path, heading, body):
     """Put a section into ``path`` (BENCHMARKS.md): replaced where ``heading`` is, or added
-    before ``## How``."""
+    before ``## How``. What the old section had after its first table (notes written by hand
+    on the figures) is kept after the new one."""
     text = Path(path).read_text() if Path(path).exists() else "# Benchmarks\n"
     section = f"{heading}\n\n{body}\n"
     if heading in text:
         head, rest = text.split(heading, 1)
         tail = rest[rest.index("\n## "):] if "\n## " in rest else ""
-        text = head + section + tail.lstrip("\n")
+        old = rest[:len(rest) - len(tail)].split("\n")
+        table = [n for n, line in enumerate(old) if line.startswith("|")]
+        notes = ""
+        if table:
+            end = table[0]
+            while end < len(old) and old[end].startswith("|"):
+                end += 1
+            notes = "\n".join(old[end:]).strip("\n")
+        text = head + section + (f"\n{notes}\n" if notes else "") + \
+            ("\n" if tail else "") + tail.lstrip("\n")
     elif "\n## How" in text:
         head, tail = text.split("\n## How", 1)
-        text = head + "\n" + section + "## How" + tail
+        text = head + "\n" + section + "\n## How" + tail
     else:
         text = text + "\n" + section
     Path(path).write_text(text)

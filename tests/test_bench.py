@@ -269,6 +269,37 @@ class ReportTestCase(unittest.TestCase):
             self.assertIn(heading, text)
 
 
+class ControllersSectionTestCase(unittest.TestCase):
+    """``bench controllers --out``: the boards built replace their rows, the others' stay,
+    the notes written under the table stay, the next section is untouched."""
+
+    ROW = {"device": "D", "cells_used": 1, "cells_available": 2, "logic_cell": "LC",
+           "flip_flops": 3, "block_ram": (0, 30), "clock_mhz": 12, "fmax_mhz": 20.0,
+           "steps_per_s": 5, "clocks_per_step": 37, "critical_path": None, "seconds": 9}
+
+    def test_rows_and_notes_kept(self):
+        with tempfile.TemporaryDirectory() as root:
+            path = Path(root) / "BENCHMARKS.md"
+            path.write_text("# Benchmarks\n\nintro\n\n## How\n\nhow\n")
+            first = [{**self.ROW, "board": board, "seed": seed}
+                     for board in ("icebreaker", "ulx3s") for seed in (1, 2)]
+            bench._write_controllers(path, first, "first")
+            text = path.read_text()
+            text = text.replace("\n\n## How", "\n\nNotes on the figures, by hand.\n\n## How")
+            path.write_text(text)
+            again = [{**self.ROW, "board": "icebreaker", "seed": 3, "fmax_mhz": 17.5}]
+            bench._write_controllers(path, again, "again")
+            text = path.read_text()
+        rows = [line for line in text.splitlines() if line.startswith("| ") and
+                not line.startswith("| board")]
+        self.assertEqual([(r.split("|")[1].strip(), r.split("|")[3].strip()) for r in rows],
+                         [("icebreaker", "3"), ("ulx3s", "1"), ("ulx3s", "2")])
+        self.assertIn("17.50", rows[0])
+        self.assertIn("(last: `again`)", text)
+        self.assertIn("|\n\nNotes on the figures, by hand.\n\n## How\n\nhow\n", text)
+        self.assertNotIn("\n\n\n", text)
+
+
 class AreaSplitTestCase(unittest.TestCase):
     """What an area target's row says of a design over it: where its cells go."""
 
