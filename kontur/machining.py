@@ -419,13 +419,8 @@ def tool_stops(segments, contours, moves, events, machine):
     frame, :func:`kontur.planner.dwell_frames`) and ``"stop"`` whether the machine stops for it
     (:func:`kontur.planner.plan`), before the segments of the first move after the change (the
     change at the end: after the last). The controller takes it after the move before has
-    ended, before the move after begins.
-
-    Raises
-    ------
-    ProgramError
-        For a change inside a compensated contour (the equidistant engine takes the contour
-        whole), naming its line.
+    ended, before the move after begins; inside a compensated contour, between two of the
+    equidistant engine's elements (the contour's segments count it).
     """
     changes = tool_changes(events, machine, moves)
     if not changes:
@@ -439,13 +434,11 @@ def tool_stops(segments, contours, moves, events, machine):
                           if segments[i].line >= moves[at].line), len(segments))
         for n, contour in enumerate(contours):
             if contour.first < place < contour.first + contour.count:
-                text = next((e.text for e in events if e.line == line
-                             and e.kind in ("spindle", "speed", "coolant")), "a tool change")
-                raise ProgramError(line, f"{text} inside the compensated contour "
-                                         f"of lines {contour.lines[0]}-"
-                                         f"{contour.lines[1]}: the equidistant engine "
-                                         f"takes the contour whole; change the tool "
-                                         f"before G41/G42 or after G40")
+                # Between two of its elements: the TOOL frame's turn comes when the element
+                # before has ended on its equidistant (where LinuxCNC's compensated move
+                # before the change ends), the engine holding the next one until it is done.
+                contours[n] = replace(contour, count=contour.count + 1)
+                continue
             if contour.first >= place:
                 contours[n] = replace(contour, first=contour.first + 1,
                                       approach=None if contour.approach is None

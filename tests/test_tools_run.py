@@ -161,11 +161,62 @@ CONTOUR = (PROGRAMS / "comp" / "rrect_out_g42.ngc").read_text() \
     .replace("M2", "M5\nM2")
 
 
-def test_a_change_inside_a_contour_is_refused():
-    with pytest.raises(ProgramError) as error:
-        prepare(CONTOUR.format(before="", inside="M3 S100\n"), machine=ULX3S, board="ulx3s")
-    assert error.value.line == 7
-    assert "inside the compensated contour of lines" in error.value.reason
+#: A square cut outside (G42: convex corners, which LinuxCNC and the equidistant engine go
+#: round on arcs of the cutter's radius) with the flood and the spindle switched at two of them.
+SQUARE = """G21 G90 G17 F600
+G0 X-10 Y-5
+G42.1 D6 G1 X0 Y0
+G1 X30 Y0
+M8
+G1 X30 Y20
+M3 S200
+G1 X0 Y20
+G1 X0 Y0
+G40 G1 X-10 Y-5
+M5 M9
+M2
+"""
+
+
+def _tool_points(job, steps):
+    """Where the machine is (steps, from the steps made) when each TOOL frame takes effect."""
+    x, y = job.start[:2]
+    index, out = 0, []
+    for segment in job.segments:
+        if "tool" in segment.payload:
+            out.append((x, y))
+        for dx, dy, *_ in steps[index:index + len(segment.steps)]:
+            x, y = x + dx, y + dy
+        index += len(segment.steps)
+    return out
+
+
+@pytest.mark.parametrize("name, text", [("rrect", CONTOUR.format(before="", inside="M3 S100\n")),
+                                        ("square", SQUARE)])
+def test_a_change_inside_a_contour(name, text):
+    """A spindle or coolant change between two compensated moves (LinuxCNC runs it): the TOOL
+    frame goes between the equidistant engine's elements, and the machine is where rs274's
+    compensated move before the change ends (within 1.5 steps: the lattice's rounding of the
+    equidistant) when it takes effect, with rs274's pins; the machine stops for it; on
+    Verilator the RTL makes the model's steps with every frame DONE."""
+    assert available(), "rs274 is missing: run make setup"
+    job = prepare(text, machine=ULX3S, board="ulx3s", name=name)
+    (contour,) = job.contours
+    tools = [n for n, s in enumerate(job.segments) if "tool" in s.payload]
+    assert any(contour.first < n < contour.first + contour.count for n in tools)
+    expected = rs274_changes(text)
+    made = _tool_points(job, job.steps)
+    assert [pins for _, pins in kontur_changes(job)] == [pins for _, pins in expected]
+    for (x, y), (point, _) in zip(made, expected):
+        assert math.hypot(x - point[0], y - point[1]) <= 1.5, (made, expected)
+    rest = math.sqrt(2 * ULX3S.accel / ULX3S.steps_per_mm) + 1e-9
+    for n in tools:
+        assert job.items[n - 1].exit <= rest
+        assert n + 1 == len(job.segments) or job.items[n + 1].entry == 0
+    if name == "square" or "verilator" not in selected_simulators():
+        return
+    result = execute(job, "verilator")     # every frame DONE, the steps the model's (checked)
+    assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
 
 
 def test_a_change_before_a_contour():
