@@ -266,15 +266,19 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
     moves = list(program.moves)
     if not any(move.kind != "dwell" for move in moves):
         raise ProgramError(None, "the program has no moves")
-    dwell = next((move for move in moves if move.kind == "dwell" and move.side), None)
-    if dwell is not None:
-        raise ProgramError(dwell.line, "a dwell (G4) inside a compensated contour: the "
-                                       "equidistant engine takes the contour whole; dwell "
-                                       "before G41/G42 or after G40")
     estimate_steps(moves, machine, max_steps=max_steps)
     contours = []
     if any(move.side is not None for move in moves):
-        segments, contours = program_segments(moves, machine, board)
+        # A dwell inside a contour waits between two of the engine's elements: the contour is
+        # made without it, and it goes in after (contour_dwells).
+        dwells, kept = [], []
+        for move in moves:
+            if move.kind == "dwell" and move.side:
+                dwells.append((len(kept), move))
+            else:
+                kept.append(move)
+        segments, contours = program_segments(kept, machine, board)
+        segments, contours = contour_dwells(segments, contours, kept, dwells)
         if item.axes == 3:
             segments = lift(segments)
     else:
@@ -423,30 +427,48 @@ def tool_stops(segments, contours, moves, events, machine):
     equidistant engine's elements (the contour's segments count it).
     """
     changes = tool_changes(events, machine, moves)
-    if not changes:
-        return segments, contours
     segments, contours = list(segments), list(contours)
-    head = 1 if contours else 0                 # RADIUS heads a program with contours
     for at, line, state, stop in reversed(changes):
-        place = len(segments)
-        if at < len(moves):
-            place = next((i for i in range(head, len(segments))
-                          if segments[i].line >= moves[at].line), len(segments))
-        for n, contour in enumerate(contours):
-            if contour.first < place < contour.first + contour.count:
-                # Between two of its elements: the TOOL frame's turn comes when the element
-                # before has ended on its equidistant (where LinuxCNC's compensated move
-                # before the change ends), the engine holding the next one until it is done.
-                contours[n] = replace(contour, count=contour.count + 1)
-                continue
-            if contour.first >= place:
-                contours[n] = replace(contour, first=contour.first + 1,
-                                      approach=None if contour.approach is None
-                                      else contour.approach + 1)
-        position = segments[place - 1].end if place else segments[0].start
-        segments.insert(place, tool_stop(segments[-1].line if line is None else line, state,
-                                         stop, position))
+        _insert_stop(segments, contours, moves[at] if at < len(moves) else None,
+                     lambda position: tool_stop(segments[-1].line if line is None else line,
+                                                state, stop, position))
     return segments, contours
+
+
+def contour_dwells(segments, contours, moves, dwells):
+    """``segments`` and ``contours`` with the dwells (G4) of ``dwells`` (``(index, move)``:
+    the dwells inside compensated contours, taken out of ``moves`` before the contours were
+    made, each before the move of ``moves`` at its index) put in as segments of kind
+    ``"dwell"`` between the equidistant engine's elements, as :func:`tool_stops` puts a tool
+    change."""
+    segments, contours = list(segments), list(contours)
+    for at, dwell in reversed(dwells):
+        _insert_stop(segments, contours, moves[at] if at < len(moves) else None,
+                     lambda position: Segment(dwell.line, "dwell", {"seconds": dwell.seconds},
+                                              position, position, 0.0, [], None, None, dwell))
+    return segments, contours
+
+
+def _insert_stop(segments, contours, before, make):
+    """Insert ``make(position)`` into ``segments`` before the segments of the move ``before``
+    (``None``: at the end), where the machine is then; inside a compensated contour between two
+    of its elements (the TOOL or DWELL frame's turn comes when the element before has ended
+    on its equidistant, where LinuxCNC's compensated move before it ends; the engine holds the
+    next element, already formed, until that turn is done): ``contours`` count it."""
+    head = 1 if contours else 0                 # RADIUS heads a program with contours
+    place = len(segments)
+    if before is not None:
+        place = next((i for i in range(head, len(segments))
+                      if segments[i].line >= before.line), len(segments))
+    for n, contour in enumerate(contours):
+        if contour.first < place < contour.first + contour.count:
+            contours[n] = replace(contour, count=contour.count + 1)
+        elif contour.first >= place:
+            contours[n] = replace(contour, first=contour.first + 1,
+                                  approach=None if contour.approach is None
+                                  else contour.approach + 1)
+    position = segments[place - 1].end if place else segments[0].start
+    segments.insert(place, make(position))
 
 
 def check_travel(segments, machine, start):

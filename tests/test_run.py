@@ -81,8 +81,6 @@ class PrepareTestCase(unittest.TestCase):
                                                r"this board's controller does not have \(the icebreaker-z's and the ulx3s's have it\) \(Z from 0 "
                                                r"to -1 mm\)$"),
             ("G0 Z5\nG1 X1 F100\nG0 Z6\n", r"^line 3: Z moves need the third axis"),
-            ("G1 X1 F100\nG41 G1 X5\nG4 P1\nG1 Y5\nG40\n",
-             r"^line 3: a dwell \(G4\) inside a compensated contour"),
             ("G1 X1 F100\nG2 X3.2 Y0 I1 J0\n", r"^line 2: the arc's radius is .* more than the "
                                                r"0.05 mm tolerance$"),
             ("(nothing)\n", r"no moves"),

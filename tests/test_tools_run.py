@@ -219,6 +219,37 @@ def test_a_change_inside_a_contour(name, text):
     assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
 
 
+def test_a_dwell_inside_a_contour():
+    """G4 between two compensated moves (LinuxCNC runs it; it was refused): a dwell segment
+    between the equidistant engine's elements, the machine at rest around it, where the
+    element before ends on its equidistant, the time waited; on Verilator the RTL's steps are
+    the model's, every frame DONE."""
+    text = CONTOUR.format(before="", inside="G4 P0.25\n")
+    job = prepare(text, machine=ULX3S, board="ulx3s", name="dwell")
+    (contour,) = job.contours
+    (n,) = [n for n, s in enumerate(job.segments) if s.kind == "dwell" and s.payload["seconds"]]
+    assert contour.first < n < contour.first + contour.count
+    assert job.items[n - 1].exit <= math.sqrt(2 * ULX3S.accel / ULX3S.steps_per_mm) + 1e-9
+    assert job.items[n + 1].entry == 0
+    assert job.items[n].seconds == pytest.approx(0.25)
+    plain = prepare(CONTOUR.format(before="", inside=""), machine=ULX3S, board="ulx3s")
+    assert job.steps == plain.steps                  # the path is the contour's without it
+    # Where it waits: within 1.5 steps of the end of rs274's compensated move before its DWELL.
+    theirs, _, run = canonical(text)
+    assert run.returncode == 0, run.stderr
+    (k,) = [k for k, move in enumerate(theirs) if move["kind"] == "dwell"]
+    x, y = job.start[:2]
+    for segment in job.segments[:n]:
+        for dx, dy, *_ in segment.steps:
+            x, y = x + dx, y + dy
+    ex, ey = (c * SPM for c in theirs[k - 1]["end"])
+    assert math.hypot(x - ex, y - ey) <= 1.5
+    if "verilator" not in selected_simulators():
+        return
+    result = execute(job, "verilator")
+    assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
+
+
 def test_a_change_before_a_contour():
     job = prepare(CONTOUR.format(before="M3 S100\n", inside=""), machine=ULX3S, board="ulx3s")
     (contour,) = job.contours
