@@ -34,10 +34,11 @@ class HelixEngine(wiring.Component):
     Each transfer on :py:`cmd` is an arc frame (:class:`~kontur.hdl.arc.ArcEngine`'s ``x0``,
     ``y0``, ``x1``, ``y1``, ``cw``) with ``z``, the Z move (signed steps), ``n``, the arc's
     step count, and ``plane`` (0, 1, 2: G17, G18, G19; the fields named X, Y, Z are then the
-    plane's first, second and normal axis, see above). The engine takes one helix at a time (:py:`cmd.ready` is low from a helix's
-    acceptance to its outcome's transfer), hands the arc to the arc engine in that same
-    transfer (the arc fields are the arc engine's frame: no register holds them) and lets the Z steps ride on its XY steps (one-clock pulses on ``motion.step[2]``, with
-    ``motion.dir[2]`` the sign of ``z`` from the acceptance on). :py:`feed.diagonal` is the arc
+    plane's first, second and normal axis, see above). The engine takes one helix at a time
+    (:py:`cmd.ready` is low from a helix's acceptance to its outcome's transfer), hands the arc to
+    the arc engine in that same transfer (the arc fields are the arc engine's frame: no register
+    holds them) and lets the Z steps ride on its XY steps (one-clock pulses on ``motion.step[2]``,
+    with ``motion.dir[2]`` the sign of ``z`` from the acceptance on). :py:`feed.diagonal` is the arc
     engine's plus one when the waiting step carries a Z step: its length class (1, √2, √3).
 
     A helix with ``|z| > n`` (more than one Z step per XY step), or with ``plane`` 3, is refused

@@ -41,7 +41,8 @@ from typing import NamedTuple
 from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
-           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTable", "ToolTableError", "Z_REFUSAL",
+           "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTable", "ToolTableError",
+           "Z_REFUSAL",
            "Z_COMPENSATED"]
 
 
@@ -288,9 +289,9 @@ def parse(text, *, name=None):
     return blocks
 
 
-#: The canned cycles kontur runs (code times ten), as LinuxCNC's interp_cycles.cc makes them: the
-#: words each needs the first time (after another motion mode) beside R and Z, and the moves
-#: at the hole (from the R plane; "feed"/"rapid" to a depth, "dwell" P seconds).
+#: The canned cycles kontur runs (code times ten), as LinuxCNC's interp_cycles.cc makes them
+#: (:meth:`_Interpreter.canned_cycle`), and the words each needs the first time (after another
+#: motion mode) beside R and Z: P the dwell, Q the peck.
 _CYCLES = {730: "Q", 810: "", 820: "P", 830: "Q", 850: "", 890: "P"}
 #: G83's and G73's back-off above the last depth before the next peck: 0.010 inch (LinuxCNC's
 #: G83_RAPID_DELTA), in millimetres.
@@ -1128,7 +1129,6 @@ class _Interpreter:
         self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True)
         self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z)
 
-
     def canned_cycle(self, motion, values, texts):
         """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's X Y, as
         LinuxCNC's interpreter makes it (interp_cycles.cc): up to R first if below it, then for
@@ -1330,11 +1330,11 @@ class Stream:
 
     def modes(self):
         """The modal state as a dict: ``motion`` (ten times the G code, ``None`` after G80),
-        ``plane`` (ten times its G code), ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in the program's units),
-        ``side``, ``coordinate_system`` (1-9: G54-G59.3), ``tool``, ``speed``, and the offset
-        in force (``offset``: G5x plus G92, machine units) with each system's
-        (``systems``), G92's, the tool length offset and the G28/G30 positions (``g92``,
-        ``tlo``, ``home``)."""
+        ``plane`` (ten times its G code), ``absolute``, ``arc_absolute``, ``inches``, ``feed`` (in
+        the program's units), ``side``, ``coordinate_system`` (1-9: G54-G59.3), ``tool``, ``speed``,
+        and the offset in force (``offset``: G5x, G92 and the tool length offset, machine
+        units) with each system's (``systems``), G92's, the tool length offset and the G28/G30
+        positions (``g92``, ``tlo``, ``home``)."""
         state = self.state
         return {"motion": state.motion, "absolute": state.absolute,
                 "arc_absolute": state.arc_absolute, "inches": state.scale != 1,

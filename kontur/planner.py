@@ -272,11 +272,13 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     XY only. The steps are ``(dx, dy, dz)``.
 
     ``moves`` have ``line``, ``kind`` (``"rapid"``, ``"line"``, ``"arc"``), ``start``,
-    ``end``, ``centre``, ``cw`` and ``feed`` (on three axes ``z``; an arc in XZ or YZ
-    ``plane`` and :attr:`~kontur.gcode.Move.in_plane`, as :class:`kontur.gcode.Move`) (mm/min, ``None`` for the machine's maximum), in
-    millimetres. ``variants`` and ``widths`` are the line and arc engines' (their steps are
-    the segments' steps). The first move starts at ``start`` (steps) when it is given (where
-    the machine is: after a compensated contour, on its equidistant), else at its own start.
+    ``end``, ``centre``, ``cw`` and ``feed`` (mm/min, ``None`` for the machine's maximum), in
+    millimetres; on three axes ``z``, and an arc in XZ or YZ (G18, G19) its ``plane`` and
+    :attr:`~kontur.gcode.Move.in_plane` (:class:`kontur.gcode.Move`): it is worked out in its
+    plane as a G17 arc, its HELIX frame naming the plane. ``variants`` and ``widths`` are the line
+    and arc engines' (their steps are the segments' steps). The first move starts at ``start``
+    (steps) when it is given (where the machine is: after a compensated contour, on its
+    equidistant), else at its own start.
 
     Raises
     ------

@@ -63,8 +63,8 @@ PARTS = {"tort.ngc": 32}
 STEEP = {"ulx3s": r"^line 33: the helix moves X -160 steps over an arc of 143 YZ steps: "
                   r"steeper than one X step per YZ step",
          "icebreaker-z": r"^line 49: the helix moves Y 280 steps over an arc of 190 XZ steps"}
-#: A third of them on Verilator (an arc in XZ among them): the quickest (3 to 6 million clocks each at the run's time
-#: compression; inch.ngc is 420 million).
+#: A third of them on Verilator (an arc in XZ among them): the quickest (3 to 6 million clocks each
+#: at the run's time compression; inch.ngc is 420 million).
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
                                                      "tools.ngc", "zplunge.ngc", "helix.ngc",
                                                      "planes.ngc", "drill.ngc")]
