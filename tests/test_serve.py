@@ -1282,3 +1282,34 @@ def test_tool_length_offset():
     grbl.receive(b"G49\n$#\n")
     grbl.poll()
     assert "[TLO:0.000]" in said
+
+
+#: A drilling cycle as a sender streams it (grblHAL has them; Grbl 1.1 has not): G81 at two
+#: holes, R and Z kept from the first block to the second. By hand: it ends at X20 Y10 Z2 (G99).
+DRILL = """G21 G90 G0 X0 Y0 Z10
+G99 G81 X10 Y10 Z-2 R2 F300
+X20
+G80
+"""
+
+
+@pytest.mark.parametrize("board, ok", [("ulx3s", True), ("icebreaker", False)])
+def test_drilling_cycle_served(board, ok):
+    """A served canned cycle makes ``kontur run``'s steps on a three-axis board (the cycle's
+    words kept from line to line as the reader keeps them); on the two-axis iCEBreaker its Z
+    moves are ``error:20``."""
+    now = [0.0]
+    grbl, said = session(board, speed=SPEED, clock=lambda: now[0])
+    for line in DRILL.encode().splitlines(keepends=True):
+        grbl.receive(line)
+        grbl.poll()
+    while grbl.motion.busy or grbl.rx:
+        grbl.poll()
+        now[0] += 0.02
+    answers = [s for s in said if s == "ok" or s.startswith("error")]
+    if not ok:                  # (the refused line changes nothing: X20 is then a G0)
+        assert answers == ["ok", "error:20", "ok", "ok"], said
+        return
+    assert answers == ["ok"] * 4
+    assert STATUS.match(grbl.status()).groups()[1:] == ("20.000", "10.000", "2.000")
+    assert grbl.motion.made == run_steps(DRILL, board)
