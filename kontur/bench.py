@@ -286,7 +286,7 @@ def _write_section(path, heading, body):
     before ``## How``. What the old section had after its first table (notes written by hand
     on the figures) is kept after the new one."""
     text = Path(path).read_text() if Path(path).exists() else "# Benchmarks\n"
-    section = f"{heading}\n\n{body}\n"
+    section = f"{heading}\n\n{body.rstrip(chr(10))}\n"
     if heading in text:
         head, rest = text.split(heading, 1)
         tail = rest[rest.index("\n## "):] if "\n## " in rest else ""
