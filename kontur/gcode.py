@@ -1092,11 +1092,12 @@ class _Interpreter:
             self.fail(f"{texts['P']}: an arc of more than one turn is not supported")
         # The plane's first and second axis (X Y, Z X, Y Z) and their centre words (I J, K I,
         # J K: the centre word of axis n is "IJK"[n]); the word of the normal axis is refused,
-        # as LinuxCNC refuses it.
+        # as LinuxCNC refuses it, unless it is zero: Grbl ignores it, and FreeCAD's Grbl post
+        # writes K0 on every XY arc.
         plane = self.plane // 10
         first, second, normal = PLANE_AXES[plane]
         words = "IJK"[first] + "IJK"[second]
-        if "IJK"[normal] in values:
+        if values.get("IJK"[normal], 0) != 0:
             self.fail(f"{texts['IJK'[normal]]}: an arc in the {_PLANE_NAMES[plane]} plane "
                       f"(G{plane}) takes {words[0]} and {words[1]}, not {'IJK'[normal]}")
         i, j = (values.get(letter) for letter in words)

@@ -31,7 +31,7 @@ from kontur.machining import execute, prepare
 from kontur.planner import ProgramError
 from kontur.gcode import PLANE_AXES
 
-from .test_gcode_rs274 import CORPUS, Z, canonical, tools_of, _text
+from .test_gcode_rs274 import CORPUS, Z, canonical, rs274_text, tools_of, _text
 from .conftest import selected_simulators
 from .test_zaxis_run import _along, _to_segment
 
@@ -67,7 +67,8 @@ STEEP = {"ulx3s": r"^line 33: the helix moves X -160 steps over an arc of 143 YZ
 #: at the run's time compression; inch.ngc is 420 million).
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
                                                      "tools.ngc", "zplunge.ngc", "helix.ngc",
-                                                     "planes.ngc", "drill.ngc")]
+                                                     "planes.ngc", "drill.ngc",
+                                                     "freecad_grbl.ngc")]
 
 
 def _grid(value):
@@ -171,7 +172,7 @@ def _prepare(path, tmp_path, board=BOARD, *, whole=False):
     text = _text(path)
     if path.name in PARTS and not whole:
         text = "\n".join(text.splitlines()[:PARTS[path.name]]) + "\nM2\n"
-    theirs, _, run = canonical(text, tmp_path, path)
+    theirs, _, run = canonical(rs274_text(path, text), tmp_path, path)
     assert run.returncode == 0, run.stderr[-300:]
     job = prepare(text, board=board, name=path.name, tools=tools_of(path))
     return job, theirs

@@ -198,6 +198,13 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
         return [tuple(float(c) for c in m.end) for m in self.read(text, **options).moves
                 if m.kind != "dwell"]
 
+    def test_zero_normal_word_on_an_arc(self):
+        """K0 on an XY arc (FreeCAD's grbl post writes it; Grbl ignores it) is the arc without
+        it; J0 on an XZ arc likewise; K1 is refused (above)."""
+        plain = self.read("G21 F100\nG2 X2 Y0 I1 J0\nG18 G2 X4 Z0 I1\n").moves
+        zero = self.read("G21 F100\nG2 X2 Y0 I1 J0 K0.000\nG18 G2 X4 Z0 I1 J-0\n").moves
+        self.assertEqual(plain, zero)
+
     def test_peck_drilling(self):
         """G83 by hand from LinuxCNC's documentation: down to R, pecks of Q each back out to
         R and down again to 0.254 mm (0.010 inch) above the last depth, the last peck to Z,
