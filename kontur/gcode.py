@@ -122,6 +122,9 @@ class Move:
     the plane's normal axis the start's); :attr:`in_plane` gives it in the plane's own
     coordinates (LinuxCNC's: first and second axis Z, X in G18, Y, Z in G19), where
     ``cw`` says clockwise as for G17 arcs.
+    ``turns`` (G2/G3 P) is how many times an arc passes its end's angle: ``turns - 1`` whole
+    turns, then its sweep (:attr:`sweep`, one turn's) to the end, the normal axis moving
+    evenly over the whole angle (:attr:`total_sweep`).
     An arc is a full circle exactly when its programmed end is its start (``full``), as
     LinuxCNC decides: an arc whose end is a hair from its start is that hair of a turn, never a
     whole one, however the ends round. ``radius`` (mm) is the cutter radius the program
@@ -142,6 +145,7 @@ class Move:
     seconds: Fraction = None
     plane: int = 17
     start_z: Fraction = None
+    turns: int = 1
 
     @property
     def in_plane(self):
@@ -157,6 +161,12 @@ class Move:
                        end=(end[first], end[second]),
                        centre=(self.centre[first], self.centre[second]), plane=17,
                        start_z=start[normal], z=end[normal])
+
+    @property
+    def total_sweep(self):
+        """The whole angle an arc turns (radians): its ``turns - 1`` whole turns and
+        :attr:`sweep`."""
+        return (self.turns - 1) * 2 * math.pi + self.sweep
 
     @property
     def full(self):
@@ -1088,8 +1098,12 @@ class _Interpreter:
             if kind == "rapid":
                 self.moves[-1] = _with_feed(self.moves[-1], self.feed)
             return
-        if "P" in values and values["P"] != 1:
-            self.fail(f"{texts['P']}: an arc of more than one turn is not supported")
+        turns = values.get("P", 1)
+        if turns < 1 or turns.denominator != 1:
+            self.fail(f"{texts['P']}: an arc's turns are a whole number, 1 or more")
+        if turns > 1 and self.side is not None:
+            self.fail(f"{texts['P']}: an arc of more than one turn with cutter-radius "
+                      f"compensation on (the equidistant engine traces one turn at most)")
         # The plane's first and second axis (X Y, Z X, Y Z) and their centre words (I J, K I,
         # J K: the centre word of axis n is "IJK"[n]); the word of the normal axis is refused,
         # as LinuxCNC refuses it, unless it is zero: Grbl ignores it, and FreeCAD's Grbl post
@@ -1122,13 +1136,15 @@ class _Interpreter:
             centre = (x0 + (i or 0) * scale, y0 + (j or 0) * scale)
         if plane == 17:
             self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values)
+            if turns != 1:
+                self.moves[-1] = replace(self.moves[-1], turns=int(turns))
             return
         # In XZ and YZ the arc moves Z (its centre is where the start is on the normal axis).
         point = list(self.pos)
         point[first], point[second] = centre
         start_z = self.pos[2]
         self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True)
-        self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z)
+        self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z, turns=int(turns))
 
     def canned_cycle(self, motion, values, texts):
         """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's X Y, as

@@ -159,7 +159,7 @@ def _move_steps(move, spm):
         cx, cy = centre
         radius = math.ceil(max(math.hypot(x0 - cx, y0 - cy), math.hypot(x1 - cx, y1 - cy))
                            * spm) + 2
-        return math.ceil((8 * radius + 8) * move.sweep / (2 * math.pi)) + 16
+        return math.ceil((8 * radius + 8) * move.total_sweep / (2 * math.pi)) + 16
     spm = Fraction(spm)
 
     def steps(a, b):                       # a coordinate difference (mm) in whole steps, up
@@ -171,8 +171,8 @@ def _move_steps(move, spm):
     cx, cy = move.centre
     radius = max(math.isqrt(steps(cx, x) ** 2 + steps(cy, y) ** 2) + 1
                  for x, y in ((x0, y0), (x1, y1)))
-    return math.ceil(Fraction(8 * radius + 8) * Fraction(move.sweep) / Fraction(2 * math.pi)) \
-        + 16
+    return math.ceil(Fraction(8 * radius + 8) * Fraction(move.total_sweep)
+                     / Fraction(2 * math.pi)) + 16
 
 
 def _figure(number, unit=1):
@@ -863,7 +863,8 @@ def _distance_to_arc(p, move):
     end = tuple(float(c) for c in move.end)
     centre = tuple(float(c) for c in move.centre)
     radius = math.hypot(start[0] - centre[0], start[1] - centre[1])
-    if move.full or sweep(start, p, centre, move.cw, full=False) <= move.sweep + 1e-12:
+    if move.full or move.turns > 1 or \
+            sweep(start, p, centre, move.cw, full=False) <= move.sweep + 1e-12:
         return abs(math.hypot(p[0] - centre[0], p[1] - centre[1]) - radius)
     return min(math.hypot(p[0] - start[0], p[1] - start[1]),
                math.hypot(p[0] - end[0], p[1] - end[1]))

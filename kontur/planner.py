@@ -392,26 +392,43 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         except InputError as error:
             raise ProgramError(move.line, str(error)) from None
         reach = _on_sweep(move, (x0, y0), reach, r_start)
-        if reach is None:                 # a sweep that rounds to nothing: a line to the end
-            emit("line", None, position, end)
-            position = machine_end
-            continue
         cw = int(bool(move.cw))
         sign = -1 if cw else 1
-        rise = end[2] - position[2] if axes == 3 else 0
-        # On three axes the tangents have Z: the helix's rise over its length in the plane.
-        run = r_start * max(_sweeps(move, (x0, y0), reach)[1], 1e-9)
 
-        def tangent(x, y):
+        def tangent(x, y, rise, run):
+            # On three axes the tangents have Z: the helix's rise over its length in the plane.
             if axes == 3:
                 return _unit(-sign * y / r_start * run, sign * x / r_start * run, rise)
             return _unit(-sign * y, sign * x)
 
+        # G2/G3 P: the whole turns first, each a full circle from the start, the normal axis
+        # rising evenly over the whole angle (rs274's ARC_FEED with its turns).
+        turns = getattr(move, "turns", 1)
+        first = position
+        for k in range(1, turns):
+            here = position
+            position = position[:2] + tuple(
+                start + round((stop - start) * 2 * math.pi * k / move.total_sweep)
+                for start, stop in zip(first[2:3], end[2:3]))
+            payload = {"x0": x0, "y0": y0, "x1": x0, "y1": y0, "cw": cw}
+            if axes == 3:
+                payload["z"] = position[2] - here[2]
+            run = r_start * 2 * math.pi
+            rise = payload.get("z", 0)
+            emit("arc", payload, here, position,
+                 (tangent(x0, y0, rise, run), tangent(x0, y0, rise, run)), r_start)
+        if reach is None:                 # a sweep that rounds to nothing: a line to the end
+            emit("line", None, position, end)
+            position = machine_end
+            continue
+        rise = end[2] - position[2] if axes == 3 else 0
+        run = r_start * max(_sweeps(move, (x0, y0), reach)[1], 1e-9)
         arrive = (centre[0] + reach[0], centre[1] + reach[1]) + tuple(end[2:])
         payload = {"x0": x0, "y0": y0, "x1": reach[0], "y1": reach[1], "cw": cw}
         if axes == 3:
             payload["z"] = rise
-        emit("arc", payload, position, arrive, (tangent(x0, y0), tangent(*reach)), r_start)
+        emit("arc", payload, position, arrive,
+             (tangent(x0, y0, rise, run), tangent(*reach, rise, run)), r_start)
         if arrive != end:                 # finish exactly on the programmed end
             emit("line", None, arrive, end)
         position = machine_end

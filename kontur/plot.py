@@ -2,6 +2,7 @@
 ``kontur run``'s ``toolpath.png``."""
 
 import math
+from dataclasses import replace
 
 __all__ = ["plot_profile", "plot_toolpath", "decimate", "MAX_POINTS"]
 
@@ -103,12 +104,19 @@ def _polylines(paths, limit=MAX_POINTS):
 
 
 def _move_path(move):
-    """The move's path in XY: an arc in XZ or YZ (G18, G19) drawn in its plane and seen from
-    above (its normal axis moving evenly along it)."""
-    if move.kind == "arc" and move.plane != 17:
+    """The move's path in XY: an arc of several turns (G2/G3 P) with its whole turns first; an
+    arc in XZ or YZ (G18, G19) drawn in its plane and seen from above (its normal axis moving
+    evenly along it)."""
+    if move.kind == "arc" and (move.plane != 17 or move.turns > 1):
         from kontur.gcode import PLANE_AXES
         native = move.in_plane
-        arc = _move_path(native)
+        last = _move_path(replace(native, turns=1))
+        centre = tuple(float(c) for c in native.centre)
+        whole = _arc_points(centre, math.dist(last[0], centre), last[0], last[0], native.cw,
+                            True)
+        arc = whole * (move.turns - 1) + last
+        if move.plane == 17:
+            return arc
         c0, c1 = float(native.start_z), float(native.z)
         first, second, normal = PLANE_AXES[move.plane]
         out = []

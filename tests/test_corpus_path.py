@@ -68,7 +68,7 @@ STEEP = {"ulx3s": r"^line 33: the helix moves X -160 steps over an arc of 143 YZ
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
                                                      "tools.ngc", "zplunge.ngc", "helix.ngc",
                                                      "planes.ngc", "drill.ngc",
-                                                     "freecad_grbl.ngc")]
+                                                     "freecad_grbl.ngc", "turns.ngc")]
 
 
 def _grid(value):
@@ -86,9 +86,9 @@ def _to_line(p, a, b):
     return math.hypot(px - ax - t * dx, py - ay - t * dy)
 
 
-def _to_arc(p, a, b, centre, cw):
+def _to_arc(p, a, b, centre, cw, turns=1):
     """Distance (steps) from ``p`` to the arc from ``a`` to ``b`` about ``centre`` (a full
-    circle when ``a`` is ``b``)."""
+    circle when ``a`` is ``b``, or when it turns more than once)."""
     cx, cy = centre
     radius = math.hypot(a[0] - cx, a[1] - cy)
     sign = -1 if cw else 1
@@ -97,9 +97,19 @@ def _to_arc(p, a, b, centre, cw):
         return math.atan2(q[1] - cy, q[0] - cx)
     sweep = (sign * (angle(b) - angle(a))) % (2 * math.pi) or 2 * math.pi
     along = (sign * (angle(p) - angle(a))) % (2 * math.pi)
-    if along <= sweep:
+    if along <= sweep or turns > 1:
         return abs(math.hypot(p[0] - cx, p[1] - cy) - radius)
     return min(math.hypot(p[0] - q[0], p[1] - q[1]) for q in (a, b))
+
+
+def _sweep(a, b, centre, cw):
+    """The sweep (radians) of an arc from ``a`` to ``b`` about ``centre``, a full turn when
+    they are one point."""
+    sign = -1 if cw else 1
+
+    def angle(q):
+        return math.atan2(q[1] - centre[1], q[0] - centre[0])
+    return (sign * (angle(b) - angle(a))) % (2 * math.pi) or 2 * math.pi
 
 
 def _check_path(path, job, theirs):
@@ -131,17 +141,31 @@ def _check_path(path, job, theirs):
         def native(point):
             return tuple(point[i] for i in order) if len(point) == 3 else tuple(point)
 
+        # An arc of several turns (G2/G3 P) is its whole turns (full circles from its start)
+        # and then the last sweep, segment by segment: this segment's turn, and the angle of
+        # the whole arc before it and in it, over which rs274's normal axis rises evenly.
+        turns = int(ref.get("turns", 1))
+        turn = sum(1 for s in job.segments[:job.segments.index(segment)]
+                   if s.source is segment.source and s.kind == "arc")
         for k, step in enumerate(segment.steps, 1):
             position = [c + d for c, d in zip(position, step)]
             if ref["kind"] == "arc":
                 centre = native(tuple(c * SPM for c in ref["centre"]))[:2]
                 p, a_n, b_n = native(position), native(a), native(b)
-                off = _to_arc(p[:2], a_n[:2], b_n[:2], centre, ref["cw"])
+                off = _to_arc(p[:2], a_n[:2], b_n[:2], centre, ref["cw"], turns)
                 bound = ARC_BOUND
                 if helix:
-                    _, share = _along(p, a_n, b_n, centre, ref["cw"], k / len(segment.steps))
+                    last = _sweep(a_n, b_n, centre, ref["cw"])
+                    whole = turn < turns - 1 and segment.kind == "arc"
+                    _, share = _along(p, a_n, a_n if whole else b_n, centre, ref["cw"],
+                                      k / len(segment.steps))
+                    total = (turns - 1) * 2 * math.pi + last
+                    share = (min(turn, turns - 1) * 2 * math.pi
+                             + share * (2 * math.pi if whole else last)) / total
                     z_ref = a_n[2] + (b_n[2] - a_n[2]) * share
-                    z_bound = 1 + abs(segment.payload["z"]) * (0.0865 + 1 / len(segment.steps))
+                    # (a whole turn's end on the normal axis is rounded to the grid too)
+                    z_bound = 1 + abs(segment.payload["z"]) * (0.0865 + 1 / len(segment.steps)) \
+                        + (0.5 if turns > 1 else 0)
                     assert abs(p[2] - z_ref) <= z_bound, \
                         (f"{path.name}: line {segment.line}: step point {position}: the "
                          f"normal axis {abs(p[2] - z_ref):.3f} steps off rs274's helix")

@@ -112,6 +112,10 @@ class InterpretTestCase(unittest.TestCase):
             ("F100 G84 X1 Z-1 R1\n", r"^line 1: G84: spindle-synchronised and oriented "
                                      r"cycles \(G74, G84 tapping"),
             ("F100 G81 X1 Z-1 R1 Q2\n", r"^line 1: Q2: no code in this block takes Q"),
+            ("G2 X2 I1 P0\n", r"^line 1: P0: an arc's turns are a whole number, 1 or more$"),
+            ("G2 X2 I1 P1.5\n", r"^line 1: P1.5: an arc's turns are a whole number"),
+            ("G41.1 D1 G1 X5\nG2 X7 I1 P2\n", r"^line 2: P2: an arc of more than one turn "
+                                                 r"with cutter-radius compensation on"),
             ("G1 G2 X1\n", r"^line 1: two motion codes in one block \(G1 and G2\)$"),
             ("M5.5\n", r"^line 1: unknown code M5\.5$"),
             ("M62\n", r"^line 1: unknown code M62$"),

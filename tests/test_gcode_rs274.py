@@ -56,6 +56,7 @@ CORPUS = {
     WRITTEN / "helix.ngc": rf"^line 4: {Z} \(Z from 0 to -1 mm\)$",
     PROGRAMS / "xyz" / "zaxis.ngc": rf"^line 5: {Z} \(Z from 2 to 0.5 mm\)$",
     PROGRAMS / "xyz" / "planes.ngc": rf"^line 6: {Z} \(Z from 5 to 0 mm\)$",
+    PROGRAMS / "xyz" / "turns.ngc": rf"^line 4: {Z} \(Z from 2 to 0 mm\)$",
     WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
     WRITTEN / "drill.ngc": rf"^line 4: {Z} \(Z from 5 to 2 mm\)$",
     WRITTEN / "cycles.ngc": rf"^line 9: {Z} \(Z from 15 to 2 mm\)$",
@@ -167,7 +168,7 @@ def compare(mine, theirs):
             assert len(move.centre) == len(ref["centre"]), where
             assert max(abs(float(a) - b) for a, b in zip(move.centre, ref["centre"])) \
                 < tolerance, where
-            assert move.cw == ref["cw"] and ref["turns"] == 1, where
+            assert move.cw == ref["cw"] and move.turns == ref["turns"], where
         if move.kind != "rapid":
             assert abs(float(move.feed) - ref["feed"]) < 1.5e-4 * ref["unit"], where
         if move.z is not None:

@@ -122,7 +122,7 @@ _REFUSALS = [
     (r"no feed rate|feed .* below the lowest|feed must be positive, not F0*\.?0*$", 22),
     (r"feed must be positive|must not be negative", 4),
     (r"coordinates without a motion code", 31),
-    (r"no code in this block takes [PL]|belong to arcs|not both|more than one turn"
+    (r"no code in this block takes [PL]|belong to arcs|not both|turns are a whole number"
      r"|plane \(G1[789]\) takes", 36),
     (r"no code in this block takes", 20),        # Q, H: letters Grbl does not know
     (r"^G(4|10) needs [LP]", 28),                # a value word missing
