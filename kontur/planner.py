@@ -49,6 +49,14 @@ class ProgramError(ValueError):
         super().__init__(f"line {line}: {reason}" if line is not None else reason)
 
 
+class _Steep(ProgramError):
+    """A helix steeper than the helix engine takes (:func:`lattice` makes it in chords)."""
+
+
+#: How far (steps) a chord of a steep helix may be from its circle on the lattice.
+CHORD_SAGITTA = 0.25
+
+
 def _round(value):
     """The nearest integer (halves away from zero), exactly."""
     value = Fraction(value)
@@ -284,9 +292,10 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
     ------
     ProgramError
         For an arc whose radii differ by more than the tolerance, an arc of radius zero, or an
-        arc the engines cannot make (too wide for their registers); on three axes a helix
-        steeper than one Z step per XY step. A line longer than the line engine's registers is
-        made in pieces (:func:`line_pieces`).
+        arc the engines cannot make (too wide for their registers). A line longer than the
+        line engine's registers is made in pieces (:func:`line_pieces`); on three axes a helix
+        steeper than one step of its normal axis per step of its arc, which the helix engine
+        refuses, in chords (:data:`CHORD_SAGITTA`).
     """
     segments = []
     position = None if start is None else tuple(start)
@@ -305,15 +314,9 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 arc = {name: payload[name] for name in ("x0", "y0", "x1", "y1", "cw")}
                 xy = registry.steps(kind, arc, variant, width=width)
                 payload["n"] = len(xy)
-                if abs(payload["z"]) > len(xy):
-                    # (an arc in XZ or YZ: its plane's axes and its normal one by name)
-                    arc_axes, normal = (("XY", "Z"), ("XZ", "Y"), ("YZ", "X"))[
-                        payload.get("plane", 0)]
-                    raise ProgramError(line, f"the helix moves {normal} {payload['z']} steps "
-                                             f"over an arc of {len(xy)} {arc_axes} steps: "
-                                             f"steeper than one {normal} step per {arc_axes} "
-                                             f"step, which the helix engine refuses (give it "
-                                             f"more turns, or move {normal} apart)")
+                if abs(payload["z"]) > len(xy):     # (made in chords instead: below)
+                    raise _Steep(line, f"the helix moves {payload['z']} steps over an arc "
+                                       f"of {len(xy)}")
                 steps = ride(xy, payload["z"], width=width)
                 if payload.get("plane"):  # G18, G19: the native steps on the machine's axes
                     steps = [to_axes(step, payload["plane"]) for step in steps]
@@ -401,6 +404,40 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 return _unit(-sign * y / r_start * run, sign * x / r_start * run, rise)
             return _unit(-sign * y, sign * x)
 
+        def helix(here, there, x1, y1, sweep):
+            """The arc from ``here`` to ``there`` (``(x1, y1)`` from the centre) turning
+            ``sweep``; a helix steeper than one step of the normal axis per step of the arc,
+            which the helix engine refuses, as chords: lines (the spatial core's) between
+            lattice points nearest the programmed circle, the normal axis even over the angle,
+            no chord more than :data:`CHORD_SAGITTA` steps from the circle."""
+            rise = there[2] - here[2] if axes == 3 else 0
+            run = r_start * max(sweep, 1e-9)
+            payload = {"x0": x0, "y0": y0, "x1": x1, "y1": y1, "cw": cw}
+            if axes == 3:
+                payload["z"] = rise
+            try:
+                emit("arc", payload, here, there,
+                     (tangent(x0, y0, rise, run), tangent(x1, y1, rise, run)), r_start)
+                return
+            except _Steep:
+                pass
+            # (the vertices on the programmed circle, the judge's: the lattice's circle may be
+            # a step off it, and a vertex rounded half a diagonal off its own)
+            spm = float(machine.steps_per_mm)
+            cx, cy = (float(c) * spm for c in move.centre)
+            radius = math.dist((float(move.start[0]) * spm, float(move.start[1]) * spm),
+                               (cx, cy))
+            a0 = math.atan2(float(move.start[1]) * spm - cy, float(move.start[0]) * spm - cx)
+            count = max(2, math.ceil(sweep / (2 * math.acos(1 - CHORD_SAGITTA / radius))))
+            points = [here]
+            for k in range(1, count):
+                angle = a0 + sign * sweep * k / count
+                points.append((round(cx + radius * math.cos(angle)),
+                               round(cy + radius * math.sin(angle)),
+                               here[2] + round(rise * k / count)))
+            for start, stop in zip(points, points[1:] + [there]):
+                emit("line", None, start, stop)
+
         # G2/G3 P: the whole turns first, each a full circle from the start, the normal axis
         # rising evenly over the whole angle (rs274's ARC_FEED with its turns).
         turns = getattr(move, "turns", 1)
@@ -410,25 +447,13 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
             position = position[:2] + tuple(
                 start + round((stop - start) * 2 * math.pi * k / move.total_sweep)
                 for start, stop in zip(first[2:3], end[2:3]))
-            payload = {"x0": x0, "y0": y0, "x1": x0, "y1": y0, "cw": cw}
-            if axes == 3:
-                payload["z"] = position[2] - here[2]
-            run = r_start * 2 * math.pi
-            rise = payload.get("z", 0)
-            emit("arc", payload, here, position,
-                 (tangent(x0, y0, rise, run), tangent(x0, y0, rise, run)), r_start)
+            helix(here, position, x0, y0, 2 * math.pi)
         if reach is None:                 # a sweep that rounds to nothing: a line to the end
             emit("line", None, position, end)
             position = machine_end
             continue
-        rise = end[2] - position[2] if axes == 3 else 0
-        run = r_start * max(_sweeps(move, (x0, y0), reach)[1], 1e-9)
         arrive = (centre[0] + reach[0], centre[1] + reach[1]) + tuple(end[2:])
-        payload = {"x0": x0, "y0": y0, "x1": reach[0], "y1": reach[1], "cw": cw}
-        if axes == 3:
-            payload["z"] = rise
-        emit("arc", payload, position, arrive,
-             (tangent(x0, y0, rise, run), tangent(*reach, rise, run)), r_start)
+        helix(position, arrive, *reach, _sweeps(move, (x0, y0), reach)[1])
         if arrive != end:                 # finish exactly on the programmed end
             emit("line", None, arrive, end)
         position = machine_end

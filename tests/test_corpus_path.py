@@ -15,20 +15,25 @@ arc's ``n`` steps made against the share of its angle, and each end of Z rounded
 each move ends exactly on rs274's X, Y and Z rounded to the grid.
 
 The same holds on the iCEBreaker's three-axis controller (``icebreaker-z``), whose arcs are
-the bit-serial node's separate steps at 16 bits.
+the bit-serial node's separate steps at 16 bits: within half a diagonal of the lattice's
+circle, not half a step, so its arcs' bound is :data:`SERIAL_ARC_BOUND` (LinuxCNC's
+tort.ngc, run whole since steep helices are made in chords, has a full circle of radius 720
+steps 1.751 steps off).
+
+A helix steeper than the helix engine takes is made in chords (lines between lattice points
+nearest the programmed circle): in the plane within the arc's bound, on its normal axis within
+:data:`CHORD_Z_BOUND` of rs274's at the point's angle (and the angle's uncertainty).
 
 A third of the programs also run on Verilator (the whole controller), whose steps must be the
 model's (:func:`kontur.machining.execute` compares them step for step and raises otherwise).
 """
 
 import math
-import re
 from fractions import Fraction
 
 import pytest
 
 from kontur.machining import execute, prepare
-from kontur.planner import ProgramError
 from kontur.gcode import PLANE_AXES
 
 from .test_gcode_rs274 import CORPUS, Z, canonical, rs274_text, tools_of, _text
@@ -39,7 +44,15 @@ BOARD = "ulx3s"
 SPM = 80
 LINE_BOUND = 1.5
 ARC_BOUND = 1.75
+#: The lattice's circle up to 1.22 steps off the programmed one (tests/test_run_geometry.py)
+#: and the bit-serial node's separate steps within √2/2 of it.
+SERIAL_ARC_BOUND = 1.22 + math.sqrt(2) / 2
 LINE_3D_BOUND = math.sqrt(3) / 2 + math.sqrt(2) / 2
+#: A steep helix's chords: each vertex's normal axis rounded to the grid (1/2), the spatial
+#: core within half a step of the chord between them (1/2), the chord's share of the angle
+#: against its share of the line (under 1/2 step for chords of a quarter step's sagitta); and
+#: the angle's uncertainty from the lattice's rounding (in the test).
+CHORD_Z_BOUND = 1.5
 
 #: The corpus's programs kontur runs, without cutter compensation (its paths are the
 #: equidistant engine's: tests/test_compensation_run.py).
@@ -54,15 +67,6 @@ ZRUNS = [path for path, refusal in sorted(CORPUS.items(), key=lambda item: item[
          if refusal is not None and Z in refusal
          and not any(word in _text(path).upper() for word in ("G41", "G42"))]
 RUNS += ZRUNS
-#: Programs run in part: LinuxCNC's torture test (helices in all three planes, G17, G18, G19,
-#: at random pitches) has helices steeper than one step of the normal axis per step of the
-#: arc, which the helix engine refuses (:data:`STEEP`); its first 32 lines (twelve helices,
-#: three of them in YZ) end before the first of them on either board.
-PARTS = {"tort.ngc": 32}
-#: Where the whole of each partly run program is refused, by board.
-STEEP = {"ulx3s": r"^line 33: the helix moves X -160 steps over an arc of 143 YZ steps: "
-                  r"steeper than one X step per YZ step",
-         "icebreaker-z": r"^line 49: the helix moves Y 280 steps over an arc of 190 XZ steps"}
 #: A third of them on Verilator (an arc in XZ among them): the quickest (3 to 6 million clocks each
 #: at the run's time compression; inch.ngc is 420 million).
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
@@ -147,13 +151,20 @@ def _check_path(path, job, theirs):
         turns = int(ref.get("turns", 1))
         turn = sum(1 for s in job.segments[:job.segments.index(segment)]
                    if s.source is segment.source and s.kind == "arc")
+        # A helix steeper than the helix engine takes is made in chords (lines): their normal
+        # axis within CHORD_Z_BOUND of rs274's at the point's angle, the share of the move's
+        # steps made the hint for a full turn's start and end.
+        siblings = [s for s in job.segments if s.source is segment.source]
+        made = sum(len(s.steps) for s in siblings[:siblings.index(segment)])
+        chord = (axes == 3 and segment.kind == "line" and ref["kind"] == "arc" and turns == 1
+                 and ref["z"] * SPM != a[2] and any(s.kind == "line" for s in siblings[:-1]))
         for k, step in enumerate(segment.steps, 1):
             position = [c + d for c, d in zip(position, step)]
             if ref["kind"] == "arc":
                 centre = native(tuple(c * SPM for c in ref["centre"]))[:2]
                 p, a_n, b_n = native(position), native(a), native(b)
                 off = _to_arc(p[:2], a_n[:2], b_n[:2], centre, ref["cw"], turns)
-                bound = ARC_BOUND
+                bound = SERIAL_ARC_BOUND if job.board == "icebreaker-z" else ARC_BOUND
                 if helix:
                     last = _sweep(a_n, b_n, centre, ref["cw"])
                     whole = turn < turns - 1 and segment.kind == "arc"
@@ -168,6 +179,18 @@ def _check_path(path, job, theirs):
                         + (0.5 if turns > 1 else 0)
                     assert abs(p[2] - z_ref) <= z_bound, \
                         (f"{path.name}: line {segment.line}: step point {position}: the "
+                         f"normal axis {abs(p[2] - z_ref):.3f} steps off rs274's helix")
+                if chord:
+                    _, share = _along(p, a_n, b_n, centre, ref["cw"],
+                                      (made + k) / sum(len(s.steps) for s in siblings))
+                    z_ref = a_n[2] + (b_n[2] - a_n[2]) * share
+                    # (the lattice's centre and start, each up to √2/2 from rs274's, turn a
+                    # point's angle about rs274's centre by up to √2/r: the steeper the helix,
+                    # the more of the normal axis that is)
+                    rate = abs(b_n[2] - a_n[2]) / _sweep(a_n, b_n, centre, ref["cw"])
+                    slack = rate * math.sqrt(2) / math.dist(a_n[:2], centre)
+                    assert abs(p[2] - z_ref) <= CHORD_Z_BOUND + slack, \
+                        (f"{path.name}: line {segment.line}: chord point {position}: the "
                          f"normal axis {abs(p[2] - z_ref):.3f} steps off rs274's helix")
             else:
                 off, bound = _to_line(position[:2], a[:2], b[:2]), LINE_BOUND
@@ -192,10 +215,8 @@ def _last_of(job, move):
     return [s for s in job.segments if s.source is move][-1]
 
 
-def _prepare(path, tmp_path, board=BOARD, *, whole=False):
+def _prepare(path, tmp_path, board=BOARD):
     text = _text(path)
-    if path.name in PARTS and not whole:
-        text = "\n".join(text.splitlines()[:PARTS[path.name]]) + "\nM2\n"
     theirs, _, run = canonical(rs274_text(path, text), tmp_path, path)
     assert run.returncode == 0, run.stderr[-300:]
     job = prepare(text, board=board, name=path.name, tools=tools_of(path))
@@ -226,13 +247,3 @@ def test_verilator_steps_are_the_models(path, tmp_path):
     result = execute(job, "verilator")
     assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
 
-
-@pytest.mark.parametrize("board", [BOARD, "icebreaker-z"])
-@pytest.mark.parametrize("name", list(PARTS))
-def test_steep_helix_refused(name, board, tmp_path):
-    """The whole of a partly run program is refused with its line: a helix steeper than the
-    engine's one step of the normal axis per step of the arc (rs274 runs it)."""
-    (path,) = [p for p in RUNS if p.name == name]
-    with pytest.raises(ProgramError) as caught:
-        _prepare(path, tmp_path, board, whole=True)
-    assert re.search(STEEP[board], str(caught.value)), str(caught.value)

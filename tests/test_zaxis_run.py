@@ -24,8 +24,8 @@ STRAIGHT_FEED, ARC_FEED with its end Z), not against kontur's own frames:
   centre): the steps are not evenly spread over the angle (an axial step is shorter than a
   diagonal one), and each end of Z is rounded to the grid by up to half a step.
 
-The iCEBreaker's 2-axis controller refuses the program with one line (status 2), and a helix
-steeper than one Z step per XY step is refused on the ULX3S with its line.
+The iCEBreaker's 2-axis controller refuses the program with one line (status 2); a helix
+steeper than one Z step per XY step is made in chords on the ULX3S.
 """
 
 import json
@@ -265,15 +265,31 @@ def test_arc_whose_centre_rounds_to_its_start(board):
         prepare("G21 G90\nG2 X0 Y0 I0.001 J0 F300\nM2\n", machine=machine, board=board)
 
 
-def test_steep_helix_refused(tmp_path):
-    # A turn of radius 0.5 mm (40 steps: 226 XY steps) down 5 mm (400 Z steps): steeper than
-    # one Z step per XY step.
+def test_steep_helix_in_chords(tmp_path):
+    """A turn of radius 0.5 mm (40 steps: 226 XY steps) down 5 mm (400 Z steps), steeper than
+    the helix engine's one Z step per XY step (it was refused), as LinuxCNC runs it: in chords,
+    LINE3 frames between lattice points of the programmed circle, every step point within
+    :data:`ARC_BOUND` of the circle, Z falling evenly to exactly -5 mm; the RTL's steps are the
+    model's."""
     machine = Machine(clock_hz=registry.board(BOARD).clock_hz, steps_per_mm=SPM)
-    with pytest.raises(ProgramError, match=r"^line 3: the helix moves Z -400 steps over an "
-                                           r"arc of \d+ XY steps: steeper than one Z step per "
-                                           r"XY step"):
-        prepare("G21 G90\nG0 X0.5 Y0 Z0\nG2 X0.5 Y0 I-0.5 J0 Z-5 F300\nM2\n",
-                machine=machine, board=BOARD)
+    job = prepare("G21 G90\nG0 X0.5 Y0 Z0\nG2 X0.5 Y0 I-0.5 J0 Z-5 F300\nM2\n",
+                  machine=machine, board=BOARD)
+    chords = [s for s in job.segments if s.line == 3]
+    assert {s.kind for s in chords} == {"line"} and len(chords) >= 8
+    x, y, z = chords[0].start
+    assert (x, y, z) == (40, 0, 0)
+    for segment in chords:
+        for dx, dy, dz in segment.steps:
+            x, y, z = x + dx, y + dy, z + dz
+            assert abs(math.hypot(x, y) - 40) <= ARC_BOUND
+            assert dz <= 0
+    assert (x, y, z) == (40, 0, -400)
+    # the normal axis even over the angle: each chord's fall within a step of its share
+    falls = [s.start[2] - s.end[2] for s in chords]
+    assert max(falls) - min(falls) <= 1
+    if "verilator" in selected_simulators():
+        result = execute(job, "verilator")
+        assert result.steps == job.steps and tuple(result.end) == tuple(job.end)
 
 
 def test_compensated_program_stays_planar():
