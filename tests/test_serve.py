@@ -1233,14 +1233,7 @@ def test_planes_served(board):
     their plane), MPos ends at the program's end, ``$G`` reports the plane in force (G19)."""
     from kontur.hdl.motion import protocol
 
-    now = [0.0]
-    grbl, said = session(board, speed=SPEED, clock=lambda: now[0])
-    for line in PLANES.encode().splitlines(keepends=True):
-        grbl.receive(line)
-        grbl.poll()
-    while grbl.motion.busy or grbl.rx:
-        grbl.poll()
-        now[0] += 0.02
+    grbl, said = serve_lines(PLANES, board=board)
     assert [s for s in said if s == "ok" or s.startswith("error")] == \
         ["ok"] * len(PLANES.splitlines())
     assert STATUS.match(grbl.status()).groups()[1:] == ("-6.000", "6.000", "-6.000")
@@ -1298,14 +1291,7 @@ def test_drilling_cycle_served(board, ok):
     """A served canned cycle makes ``kontur run``'s steps on a three-axis board (the cycle's
     words kept from line to line as the reader keeps them); on the two-axis iCEBreaker its Z
     moves are ``error:20``."""
-    now = [0.0]
-    grbl, said = session(board, speed=SPEED, clock=lambda: now[0])
-    for line in DRILL.encode().splitlines(keepends=True):
-        grbl.receive(line)
-        grbl.poll()
-    while grbl.motion.busy or grbl.rx:
-        grbl.poll()
-        now[0] += 0.02
+    grbl, said = serve_lines(DRILL, board=board)
     answers = [s for s in said if s == "ok" or s.startswith("error")]
     if not ok:                  # (the refused line changes nothing: X20 is then a G0)
         assert answers == ["ok", "error:20", "ok", "ok"], said
