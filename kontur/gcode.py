@@ -504,6 +504,7 @@ class _Interpreter:
         self.r_plane = True               # G99 (the retract to R), as rs274 starts
         self.cycle = None                 # the canned cycle last made, and its sticky words
         self.cycle_words = {}
+        self.cycle_level = None           # Z where the series of cycles began (G98's)
         self.side = None
         self.radius = None
         self.radius_source = None
@@ -925,7 +926,7 @@ class _Interpreter:
         if "motion" in gs:
             self.motion = None if gs["motion"] == 800 else gs["motion"]
             if self.motion not in _CYCLES:
-                self.cycle = None
+                self.cycle = self.cycle_level = None
         axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
         if nonmodal in (100, 280, 300, 920):
             if "motion" in gs and gs["motion"] != 800 and axes:
@@ -1152,7 +1153,9 @@ class _Interpreter:
         each of L repeats a rapid in XY at the current height (later ones: at the clearance
         height, R with G99, the height the cycles began at with G98) and down to R, the hole,
         and the retract. In G91 X and Y are increments repeated L times, R an increment from
-        the start's Z, Z one from R. R, Z, P, Q are kept for the same cycle's next blocks."""
+        the series' first Z, Z one from R. R, Z, P, Q are kept for the same cycle's next blocks;
+        the first Z of a series of the same cycle (until another motion mode or G80) is where
+        G98 retracts to."""
         name = f"G{motion / 10:g}"
         if self.plane != 170:
             self.fail(f"{name}: canned cycles are in the XY plane (G17) only")
@@ -1177,7 +1180,13 @@ class _Interpreter:
         if repeats < 1 or repeats.denominator != 1:
             self.fail(f"{name} {texts['L']}: the repeats are a whole number, 1 or more")
         scale = self.scale
-        x, y, start = self.pos
+        # The height the series of cycles began at (LinuxCNC's "initial level", kept until
+        # another cycle, another motion mode or G80): with G98 the cycle starts from it (and
+        # retracts to it, G91's R is from it); with G99 from where the machine is.
+        if self.cycle_level is None or not same:
+            self.cycle_level = self.pos[2]
+        x, y, _ = self.pos
+        start = self.pos[2] if self.r_plane else self.cycle_level
         if self.absolute:
             end = self.target(values)
             x, y = end[0], end[1]
