@@ -345,7 +345,7 @@ _M_GROUPS = {0: "stopping", 1: "stopping", 2: "stopping", 30: "stopping", 6: "to
              61: "tool change",
              3: "spindle", 4: "spindle", 5: "spindle", 7: "coolant", 8: "coolant",
              9: "coolant"}
-_LETTERS = set("DFGHIJKLMNPQRSTXYZ")
+_LETTERS = set("DFGHIJKLMNPQRSTXYZ@^")
 _AXES_NOT_HERE = set("ABCUVW")
 _LATTICE = "this program is read in lattice units (steps), without G20/G21"
 #: Millimetres per unit of each units code.
@@ -927,7 +927,7 @@ class _Interpreter:
             self.motion = None if gs["motion"] == 800 else gs["motion"]
             if self.motion not in _CYCLES:
                 self.cycle = self.cycle_level = None
-        axes = any(a in values for a in "XYZ") and gs.get("tool length") != 431
+        axes = any(a in values for a in "XYZ@^") and gs.get("tool length") != 431
         if nonmodal in (100, 280, 300, 920):
             if "motion" in gs and gs["motion"] != 800 and axes:
                 self.fail(f"{_code_text(gs, 'non-modal')} and "
@@ -993,11 +993,46 @@ class _Interpreter:
     def z(self):
         return self.pos[2] if self.z_given else None
 
-    def target(self, values, machine=False, absolute=None):
-        """Where the axis words go, in machine coordinates."""
+    def polar(self, values, texts, *, increments=None):
+        """X and Y of the block's polar words (``@`` the distance from the program's origin,
+        ``^`` the angle in degrees from +X), as LinuxCNC's find_ends: in G90 a word not given
+        keeps the current one; in G91 they are added to the current distance and angle (or,
+        with ``increments``, to those of that point: a canned cycle's repeats). Program
+        coordinates; ``None`` without polar words."""
+        if "@" not in values and "^" not in values:
+            return None
+        if "X" in values or "Y" in values:
+            letter = "X" if "X" in values else "Y"
+            self.fail(f"{texts[letter]}: polar coordinates (@, ^) or X and Y, not both")
+        if self.plane != 170:
+            self.fail("polar coordinates (@, ^) are in the XY plane (G17) only")
+        x, y = increments if increments is not None else \
+            (self.pos[0] - self.offset_of(0), self.pos[1] - self.offset_of(1))
+        x, y = float(x), float(y)
+        radius, theta = math.hypot(x, y), math.atan2(y, x)
+        r_word = float(values.get("@", 0) * self.scale)
+        t_word = math.radians(float(values.get("^", 0)))
+        if self.absolute and increments is None:
+            radius = r_word if "@" in values else radius
+            theta = t_word if "^" in values else theta
+        else:
+            if x == 0 and y == 0:
+                self.fail("incremental polar coordinates (G91 @, ^) at the program's origin "
+                          "have no angle to add to")
+            radius, theta = radius + r_word, theta + t_word
+        return Fraction(radius * math.cos(theta)), Fraction(radius * math.sin(theta))
+
+    def target(self, values, machine=False, absolute=None, texts=None):
+        """Where the axis words go, in machine coordinates (polar words: :meth:`polar`)."""
         absolute = self.absolute if absolute is None else absolute
         out = list(self.pos)
         scale = self.scale
+        if "@" in values or "^" in values:
+            if machine:
+                self.fail("G53 (machine coordinates) with polar coordinates (@, ^)")
+            x, y = self.polar(values, texts or {})
+            out[0], out[1] = x + self.offset_of(0), y + self.offset_of(1)
+            values = {k: v for k, v in values.items() if k not in "XY"}
         for axis, letter in enumerate("XYZ"):
             if letter in values:
                 v = values[letter]
@@ -1086,7 +1121,8 @@ class _Interpreter:
                 self.fail("G53 (machine coordinates) takes G0 or G1, not an arc")
             if self.side is not None:
                 self.fail("G53 (machine coordinates) with cutter-radius compensation on")
-        end = self.target(values, machine=machine, absolute=True if machine else None)
+        end = self.target(values, machine=machine, absolute=True if machine else None,
+                          texts=texts)
         if kind != "rapid" and self.feed is None and self.units is not None:
             self.fail(f"G{motion // 10} with no feed rate: give an F before the first feed "
                       f"move (G1, G2, G3)")
@@ -1181,14 +1217,14 @@ class _Interpreter:
             self.fail(f"{name} {texts['L']}: the repeats are a whole number, 1 or more")
         scale = self.scale
         # The height the series of cycles began at (LinuxCNC's "initial level", kept until
-        # another cycle, another motion mode or G80): with G98 the cycle starts from it (and
-        # retracts to it, G91's R is from it); with G99 from where the machine is.
+        # another cycle, another motion mode or G80): G91's R is from it, the machine goes up
+        # to R first when it is below R, G98 retracts to it and starts the block from it.
         if self.cycle_level is None or not same:
             self.cycle_level = self.pos[2]
         x, y, _ = self.pos
-        start = self.pos[2] if self.r_plane else self.cycle_level
+        start = self.cycle_level
         if self.absolute:
-            end = self.target(values)
+            end = self.target(values, texts=texts)
             x, y = end[0], end[1]
             step = (0, 0)
             offset = self.offset_of(2)
@@ -1203,9 +1239,14 @@ class _Interpreter:
             self._cycle_rapid(self.pos[0], self.pos[1], r)
             start = r
         clear = r if self.r_plane else start
-        level = start
+        level = self.pos[2] if self.r_plane else start
+        polar = not self.absolute and ("@" in values or "^" in values)
         for _ in range(int(repeats)):
             x, y = x + step[0], y + step[1]
+            if polar:                     # G91 @ ^: turned and stretched about the origin
+                x, y = self.polar(values, texts, increments=(x - self.offset_of(0),
+                                                              y - self.offset_of(1)))
+                x, y = x + self.offset_of(0), y + self.offset_of(1)
             self._cycle_rapid(x, y, level)
             if level != r:
                 self._cycle_rapid(x, y, r)

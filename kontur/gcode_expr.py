@@ -316,12 +316,10 @@ def read_code(code):
             reader.i += 1
             settings.append((reference, reader.value()))
             continue
-        if ch in "@^":
-            reader.fail(f"{s[start:]!r}: polar coordinates (@ and ^) are not supported")
         if ch == "$":
             reader.fail(f"{s[start:]!r}: spindle selection ($) is not supported: this "
                         f"controller has one tool")
-        if not ch.isalpha():
+        if not ch.isalpha() and ch not in "@^":     # (@ ^: polar coordinates' words)
             reader.fail(f"cannot read {s[start:]!r}: a word is a letter and a number")
         reader.i += 1
         if reader.i >= len(s):

@@ -25,7 +25,6 @@ class ParseTestCase(unittest.TestCase):
             ("G1 (a (b) c)\n", r"^line 1: comments do not nest$"),
             ("G1 X1 )\n", r"^line 1: '\)' closes no comment$"),
             ("\nG1 X1 %5\n", r"^line 2: cannot read '%5': a word is a letter and a number$"),
-            ("\nG1 X1 @5\n", r"^line 2: '@5': polar coordinates \(@ and \^\) are not supported$"),
             ("G1 X\n", r"^line 1: cannot read 'X': a word is a letter and a number$"),
         ]
         for text, message in cases:
@@ -112,6 +111,10 @@ class InterpretTestCase(unittest.TestCase):
             ("F100 G84 X1 Z-1 R1\n", r"^line 1: G84: spindle-synchronised and oriented "
                                      r"cycles \(G74, G84 tapping"),
             ("F100 G81 X1 Z-1 R1 Q2\n", r"^line 1: Q2: no code in this block takes Q"),
+            ("G1 X1 @5\n", r"^line 1: X1: polar coordinates \(@, \^\) or X and Y, not both$"),
+            ("G91 G1 ^30\n", r"^line 1: incremental polar coordinates \(G91 @, \^\) at the "
+                              r"program's origin"),
+            ("G18 G1 @2\n", r"^line 1: polar coordinates \(@, \^\) are in the XY plane"),
             ("G2 X2 I1 P0\n", r"^line 1: P0: an arc's turns are a whole number, 1 or more$"),
             ("G2 X2 I1 P1.5\n", r"^line 1: P1.5: an arc's turns are a whole number"),
             ("G41.1 D1 G1 X5\nG2 X7 I1 P2\n", r"^line 2: P2: an arc of more than one turn "
@@ -208,6 +211,15 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
         plain = self.read("G21 F100\nG2 X2 Y0 I1 J0\nG18 G2 X4 Z0 I1\n").moves
         zero = self.read("G21 F100\nG2 X2 Y0 I1 J0 K0.000\nG18 G2 X4 Z0 I1 J-0\n").moves
         self.assertEqual(plain, zero)
+
+    def test_polar_coordinates(self):
+        """@ and ^ by hand from LinuxCNC's documentation: G90 @ the distance from the origin,
+        ^ the angle from +X (a word not given keeps the current one); G91 adds to them."""
+        ends = self.ends("G21 F100\nG1 @10 ^90\nG1 ^180\nG91 G1 @5\nG1 ^-90\n")
+        expected = [(0, 10), (-10, 0), (-15, 0), (0, 15)]
+        for (x, y), (ex, ey) in zip(ends, expected):
+            self.assertAlmostEqual(x, ex, places=9)
+            self.assertAlmostEqual(y, ey, places=9)
 
     def test_peck_drilling(self):
         """G83 by hand from LinuxCNC's documentation: down to R, pecks of Q each back out to

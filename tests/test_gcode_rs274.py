@@ -83,7 +83,9 @@ CORPUS = {
                            r"\(G17\) only, not G18$",
     LINUXCNC / "mmount.ngc": r"^line 200: G43 H5: tool 5 is not in the tool table$",
     LINUXCNC / "systems.ngc": r"^line 15: G5.1: splines \(G5.1\) are not supported$",
-    LINUXCNC / "polar.ngc": r"^line 10: .*polar coordinates \(@ and \^\) are not supported$",
+    LINUXCNC / "polar.ngc": rf"^line 9: {Z} \(Z from 0 to 2.54 mm\)$",
+    LINUXCNC / "hole-circle.ngc": rf"^line 10: {Z} \(Z from 0 to 2.54 mm\)$",
+    LINUXCNC / "spiral.ngc": rf"^line 6: {Z} \(Z from 25.4 to -2.54 mm\)$",
     LINUXCNC / "tort.ngc": rf"^line 6: {Z} \(Z from 20 to 16 mm\)$",
     LINUXCNC / "gridprobe.ngc": r"^line 35: G38.2: probing \(G38.x\) is not supported$",
 }
