@@ -1003,7 +1003,8 @@ class _Interpreter:
             return None
         if "X" in values or "Y" in values:
             letter = "X" if "X" in values else "Y"
-            self.fail(f"{texts[letter]}: polar coordinates (@, ^) or X and Y, not both")
+            self.fail(f"{texts.get(letter, letter)}: polar coordinates (@, ^) or X and Y, "
+                      f"not both")
         if self.plane != 170:
             self.fail("polar coordinates (@, ^) are in the XY plane (G17) only")
         x, y = increments if increments is not None else \
@@ -1062,7 +1063,7 @@ class _Interpreter:
             home = self.home[code // 10]
             given = [letter in values for letter in "XYZ"]
             if any(given):
-                self.go("rapid", self.target(values), z_word="Z" in values)
+                self.go("rapid", self.target(values, texts=texts), z_word="Z" in values)
                 end = [home[a] if given[a] else self.pos[a] for a in range(3)]
             else:
                 self.go("rapid", list(self.pos))
