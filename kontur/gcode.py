@@ -42,8 +42,7 @@ from kontur.gcode_expr import Evaluator, ExpressionError, read_code, split_line
 
 __all__ = ["GCodeError", "Word", "Block", "Move", "Event", "Program", "parse", "interpret",
            "read", "Stream", "sweep", "planar", "read_tool_table", "ToolTable", "ToolTableError",
-           "Z_REFUSAL",
-           "Z_COMPENSATED"]
+           "Z_REFUSAL", "Z_COMPENSATED", "plane_arc"]
 
 
 class GCodeError(ValueError):
@@ -874,9 +873,7 @@ class _Interpreter:
             seconds = values["P"]
             if seconds < 0:
                 self.fail(f"a dwell must not be negative, not {texts['P']}")
-            here = (self.pos[0], self.pos[1])
-            self.moves.append(Move(self.line, "dwell", here, here, side=self.side,
-                                   feed=self.feed, z=self.z(), seconds=seconds))
+            self.dwell(seconds)
         if "units" in gs:
             self.scale = scale = _SCALE[gs["units"]]
         if "D" in values:
@@ -998,9 +995,7 @@ class _Interpreter:
         ``^`` the angle in degrees from +X), as LinuxCNC's find_ends: in G90 a word not given
         keeps the current one; in G91 they are added to the current distance and angle (or,
         with ``increments``, to those of that point: a canned cycle's repeats). Program
-        coordinates; ``None`` without polar words."""
-        if "@" not in values and "^" not in values:
-            return None
+        coordinates; the block has ``@`` or ``^``."""
         if "X" in values or "Y" in values:
             letter = "X" if "X" in values else "Y"
             self.fail(f"{texts.get(letter, letter)}: polar coordinates (@, ^) or X and Y, "
@@ -1031,9 +1026,8 @@ class _Interpreter:
         if "@" in values or "^" in values:
             if machine:
                 self.fail("G53 (machine coordinates) with polar coordinates (@, ^)")
-            x, y = self.polar(values, texts or {})
+            x, y = self.polar(values, texts or {})       # (refuses X and Y beside)
             out[0], out[1] = x + self.offset_of(0), y + self.offset_of(1)
-            values = {k: v for k, v in values.items() if k not in "XY"}
         for axis, letter in enumerate("XYZ"):
             if letter in values:
                 v = values[letter]
@@ -1048,14 +1042,22 @@ class _Interpreter:
                     out[axis] = self.pos[axis] + v
         return out
 
-    def go(self, kind, end, feed=None, centre=None, cw=False, z_word=False):
+    def go(self, kind, end, feed=None, centre=None, cw=False, z_word=False, **arc):
+        """A move to ``end`` (machine coordinates); ``arc``: an arc's ``plane``, ``start_z``
+        and ``turns`` (:class:`Move`)."""
         start = (self.pos[0], self.pos[1])
         if z_word:
             self.z_given = True
         self.pos = list(end)
         self.moves.append(Move(self.line, kind, start, (end[0], end[1]), centre=centre, cw=cw,
                                side=self.side, feed=feed, z=self.z(), radius=self.radius,
-                               radius_source=self.radius_source))
+                               radius_source=self.radius_source, **arc))
+
+    def dwell(self, seconds):
+        """A dwell (G4, a cycle's P) where the machine is."""
+        here = (self.pos[0], self.pos[1])
+        self.moves.append(Move(self.line, "dwell", here, here, side=self.side, feed=self.feed,
+                               z=self.z(), seconds=seconds))
 
     def nonmodal(self, code, values, texts):
         scale = self.scale
@@ -1134,7 +1136,7 @@ class _Interpreter:
             self.go(kind, end, feed=None if kind == "rapid" else self.feed,
                     z_word="Z" in values)
             if kind == "rapid":
-                self.moves[-1] = _with_feed(self.moves[-1], self.feed)
+                self._rapid_feed()
             return
         turns = values.get("P", 1)
         if turns < 1 or turns.denominator != 1:
@@ -1173,16 +1175,14 @@ class _Interpreter:
         else:
             centre = (x0 + (i or 0) * scale, y0 + (j or 0) * scale)
         if plane == 17:
-            self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values)
-            if turns != 1:
-                self.moves[-1] = replace(self.moves[-1], turns=int(turns))
+            self.go("arc", end, feed=self.feed, centre=centre, cw=cw, z_word="Z" in values,
+                    turns=int(turns))
             return
         # In XZ and YZ the arc moves Z (its centre is where the start is on the normal axis).
         point = list(self.pos)
         point[first], point[second] = centre
-        start_z = self.pos[2]
-        self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True)
-        self.moves[-1] = replace(self.moves[-1], plane=plane, start_z=start_z, turns=int(turns))
+        self.go("arc", end, feed=self.feed, centre=tuple(point), cw=cw, z_word=True,
+                plane=plane, start_z=self.pos[2], turns=int(turns))
 
     def canned_cycle(self, motion, values, texts):
         """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's X Y, as
@@ -1267,11 +1267,6 @@ class _Interpreter:
         def feed(z):
             self.go("line", [x, y, z], feed=self.feed, z_word=True)
 
-        def dwell():
-            here = (x, y)
-            self.moves.append(Move(self.line, "dwell", here, here, side=self.side,
-                                   feed=self.feed, z=self.z(), seconds=words["P"]))
-
         if motion in (730, 830):          # pecks: back to R (G83) or a hair (G73) between
             peck = words["Q"] * self.scale
             below = r - peck
@@ -1283,7 +1278,7 @@ class _Interpreter:
                 below -= peck
         feed(depth)
         if motion in (820, 890):
-            dwell()
+            self.dwell(words["P"])
         if motion == 850:                 # bore: out at the feed to R, then up
             feed(r)
         if motion == 890:                 # bore with a dwell: out at the feed to clearance
@@ -1416,6 +1411,11 @@ class Stream:
                 "home": {n: tuple(v) for n, v in state.home.items()}}
 
 
+def plane_arc(move):
+    """How a refusal names an arc in the XZ or YZ plane: "an arc in the XZ plane, G18"."""
+    return f"an arc in the {_PLANE_NAMES[move.plane]} plane, G{move.plane}"
+
+
 def planar(moves, *, name=None, unit="mm", axes=2):
     """Raise :exc:`GCodeError` (naming its line, :data:`Z_REFUSAL`, the Z values in ``unit``)
     at the first move that changes Z from where the program first put it: a 2-axis controller
@@ -1427,8 +1427,7 @@ def planar(moves, *, name=None, unit="mm", axes=2):
     for move in moves:
         if move.plane != 17:              # it moves Z on its way, wherever it ends
             raise GCodeError(move.line, f"{Z_REFUSAL if axes == 2 else Z_COMPENSATED} "
-                                        f"(an arc in the {_PLANE_NAMES[move.plane]} plane, "
-                                        f"G{move.plane})", name=name)
+                                        f"({plane_arc(move)})", name=name)
         if move.z is None:
             continue
         if z is not None and move.z != z:

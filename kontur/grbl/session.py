@@ -20,7 +20,7 @@ from dataclasses import replace
 from fractions import Fraction
 
 from kontur import registry
-from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse
+from kontur.gcode import Z_REFUSAL, GCodeError, Stream, parse, plane_arc
 from kontur.grbl import protocol as p
 from kontur.grbl.motion import Block, Motion
 from kontur.grbl.settings import REFUSED, SettingError, Settings
@@ -360,9 +360,7 @@ class Session:
                                 "run compensates a whole program")
         for move in moves:
             if move.plane != 17 and self.axes == 2:     # it moves Z, wherever it ends
-                raise LineError(20, f"{Z_REFUSAL} (an arc in the "
-                                    f"{'XZ' if move.plane == 18 else 'YZ'} plane, "
-                                    f"G{move.plane})")
+                raise LineError(20, f"{Z_REFUSAL} ({plane_arc(move)})")
             if move.z is None or self.axes == 3:
                 continue
             if self.z is None:
