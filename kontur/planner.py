@@ -49,7 +49,7 @@ class ProgramError(ValueError):
         super().__init__(f"line {line}: {reason}" if line is not None else reason)
 
 
-class _Steep(ProgramError):
+class _Steep(Exception):
     """A helix steeper than the helix engine takes (:func:`lattice` makes it in chords)."""
 
 
@@ -315,8 +315,7 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
                 xy = registry.steps(kind, arc, variant, width=width)
                 payload["n"] = len(xy)
                 if abs(payload["z"]) > len(xy):     # (made in chords instead: below)
-                    raise _Steep(line, f"the helix moves {payload['z']} steps over an arc "
-                                       f"of {len(xy)}")
+                    raise _Steep
                 steps = ride(xy, payload["z"], width=width)
                 if payload.get("plane"):  # G18, G19: the native steps on the machine's axes
                     steps = [to_axes(step, payload["plane"]) for step in steps]
@@ -444,9 +443,9 @@ def lattice(moves, machine, *, variants=("exact", "fast"), widths=(16, 24), star
         first = position
         for k in range(1, turns):
             here = position
-            position = position[:2] + tuple(
-                start + round((stop - start) * 2 * math.pi * k / move.total_sweep)
-                for start, stop in zip(first[2:3], end[2:3]))
+            if axes == 3:
+                share = 2 * math.pi * k / move.total_sweep
+                position = position[:2] + (first[2] + round((end[2] - first[2]) * share),)
             helix(here, position, x0, y0, 2 * math.pi)
         if reach is None:                 # a sweep that rounds to nothing: a line to the end
             emit("line", None, position, end)
