@@ -263,6 +263,18 @@ def _write_controllers(path, rows, command):
                    + "\n".join(table[:2] + body))
 
 
+def _table_span(lines):
+    """Where the first markdown table of ``lines`` is: ``(first, end)`` line indexes, ``None``
+    without one."""
+    first = next((n for n, line in enumerate(lines) if line.startswith("|")), None)
+    if first is None:
+        return None
+    end = first
+    while end < len(lines) and lines[end].startswith("|"):
+        end += 1
+    return first, end
+
+
 def _section_table(path, heading):
     """The body rows (lines) of the first table in ``path``'s section ``heading`` (none when
     there is no such section)."""
@@ -270,15 +282,9 @@ def _section_table(path, heading):
     if heading not in text:
         return []
     rest = text.split(heading, 1)[1]
-    rest = rest[:rest.index("\n## ")] if "\n## " in rest else rest
-    lines = [line for line in rest.split("\n")]
-    rows = [n for n, line in enumerate(lines) if line.startswith("|")]
-    if not rows:
-        return []
-    end = rows[0]
-    while end < len(lines) and lines[end].startswith("|"):
-        end += 1
-    return lines[rows[0] + 2:end]
+    lines = (rest[:rest.index("\n## ")] if "\n## " in rest else rest).split("\n")
+    span = _table_span(lines)
+    return lines[span[0] + 2:span[1]] if span else []
 
 
 def _write_section(path, heading, body):
@@ -291,13 +297,8 @@ def _write_section(path, heading, body):
         head, rest = text.split(heading, 1)
         tail = rest[rest.index("\n## "):] if "\n## " in rest else ""
         old = rest[:len(rest) - len(tail)].split("\n")
-        table = [n for n, line in enumerate(old) if line.startswith("|")]
-        notes = ""
-        if table:
-            end = table[0]
-            while end < len(old) and old[end].startswith("|"):
-                end += 1
-            notes = "\n".join(old[end:]).strip("\n")
+        span = _table_span(old)
+        notes = "\n".join(old[span[1]:]).strip("\n") if span else ""
         text = head + section + (f"\n{notes}\n" if notes else "") + \
             ("\n" if tail else "") + tail.lstrip("\n")
     elif "\n## How" in text:
