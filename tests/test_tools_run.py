@@ -178,12 +178,13 @@ M2
 """
 
 
-def _tool_points(job, steps):
-    """Where the machine is (steps, from the steps made) when each TOOL frame takes effect."""
+def _points_before(job, steps, which=lambda segment: "tool" in segment.payload):
+    """Where the machine is (steps, from the steps made) when each segment ``which`` picks
+    (a TOOL frame's, by default) takes effect."""
     x, y = job.start[:2]
     index, out = 0, []
     for segment in job.segments:
-        if "tool" in segment.payload:
+        if which(segment):
             out.append((x, y))
         for dx, dy, *_ in steps[index:index + len(segment.steps)]:
             x, y = x + dx, y + dy
@@ -205,7 +206,7 @@ def test_a_change_inside_a_contour(name, text):
     tools = [n for n, s in enumerate(job.segments) if "tool" in s.payload]
     assert any(contour.first < n < contour.first + contour.count for n in tools)
     expected = rs274_changes(text)
-    made = _tool_points(job, job.steps)
+    made = _points_before(job, job.steps)
     assert [pins for _, pins in kontur_changes(job)] == [pins for _, pins in expected]
     for (x, y), (point, _) in zip(made, expected):
         assert math.hypot(x - point[0], y - point[1]) <= 1.5, (made, expected)
@@ -238,10 +239,7 @@ def test_a_dwell_inside_a_contour():
     theirs, _, run = canonical(text)
     assert run.returncode == 0, run.stderr
     (k,) = [k for k, move in enumerate(theirs) if move["kind"] == "dwell"]
-    x, y = job.start[:2]
-    for segment in job.segments[:n]:
-        for dx, dy, *_ in segment.steps:
-            x, y = x + dx, y + dy
+    (x, y), = _points_before(job, job.steps, lambda segment: segment is job.segments[n])
     ex, ey = (c * SPM for c in theirs[k - 1]["end"])
     assert math.hypot(x - ex, y - ey) <= 1.5
     if "verilator" not in selected_simulators():
