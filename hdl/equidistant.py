@@ -183,11 +183,13 @@ class EquidistantEngine(wiring.Component):
     while an element is traced, the next one's function (or its entry line) is compared with
     the threshold of the element's steps (block 11): the element ends at the first point where
     ``2·h·F + 2τ >= 0`` (``2τ`` the largest change of ``F`` over one step of the element's
-    kinds), with that step or, when the point is reached already, without one. The next
-    element starts from there at once: a line from the next clock with its deviation in
-    register III, an arc by a quadrant run handed to the core two clocks before its first
-    step. Lines follow lines with no idle clock; an element whose frame is still being
-    prepared when its predecessor ends waits for it (``2·(width + 2) + 4`` clocks at most).
+    kinds), without a step from it. The test is registered: formed in one clock and used in
+    the next, so an element steps only in a clock after one with no step and no change of
+    its slots (every other clock at most). The next element starts from there: a line with
+    its deviation in register III, an arc by a quadrant run handed to the core two clocks
+    before its first step; four clocks from the last step of one line to the first of the
+    next. An element whose frame is still being prepared when its predecessor ends waits for
+    it (``2·(width + 2) + 4`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -303,8 +305,10 @@ class EquidistantEngine(wiring.Component):
         start_y = Signal(signed(w + 1))
         contour = Signal()                   # a contour is open: elements are taken
         homing = Signal()
+        fresh = Signal()                     # block 11's registered test is of this state
+        at_point = Signal()                  # ... the element ends at the point (registered)
         n.radius, n.radius2, n.start_x, n.start_y = radius, radius2, start_x, start_y
-        n.contour, n.homing = contour, homing
+        n.contour, n.homing, n.fresh, n.at_point = contour, homing, fresh, at_point
         return n
 
     def _block3_line_steps(self, m, n):
@@ -316,7 +320,7 @@ class EquidistantEngine(wiring.Component):
         running = Signal()
         end_now = Signal()
         m.d.comb += running.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready
-                               & ~hold & ~self.abort)
+                               & n.fresh & ~hold & ~self.abort)
 
         # Block 3: the pulse distributor of lines. Register I holds |k|; register III the
         # element's deviation T (+ 1/2): every step moves the major axis, and the minor one
@@ -385,20 +389,7 @@ class EquidistantEngine(wiring.Component):
         with m.Elif(n.arc_go):
             m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(n.run_dir[0]),
                          step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
-        stepped = Signal()
-        m.d.comb += stepped.eq((step_x | step_y) & ~n.homing)
-        # The directions of the traced element's steps, known without the permission (the
-        # steps' own directions whenever a step is made outside the return).
-        may_neg_x = Signal()
-        may_neg_y = Signal()
-        m.d.comb += [
-            may_neg_x.eq(Mux(own.arc, n.run_dir[0], Mux(own.swap, n.line_minor_negative,
-                                                        own.back))),
-            may_neg_y.eq(Mux(own.arc, n.run_dir[1], Mux(own.swap, own.back,
-                                                        n.line_minor_negative))),
-        ]
-        n.step_x, n.step_y, n.neg_x, n.neg_y, n.stepped = step_x, step_y, neg_x, neg_y, stepped
-        n.may_neg_x, n.may_neg_y = may_neg_x, may_neg_y
+        n.step_x, n.step_y, n.neg_x, n.neg_y = step_x, step_y, neg_x, neg_y
 
     def _relative(self, n, s):
         """The position relative to slot ``s``'s centre."""
@@ -431,25 +422,11 @@ class EquidistantEngine(wiring.Component):
             stepped_v.append(sv)
             stepped_w.append(sw)
         n.stepped_v, n.stepped_w = stepped_v, stepped_w
-        # The next element's functions after each step the traced element can make (X, Y,
-        # both), in the directions its steps take (``may_neg_x``, ``may_neg_y``): formed
-        # without the feed's permission, so block 11's end after a step only selects among
-        # them (the permission reaches no adder of block 11).
-        may_v, may_w = [], []
-        for i, (px, py) in enumerate(((1, 0), (0, 1), (1, 1))):
-            sv = Signal(signed(f.value), name=f"may_v{i}")
-            sw = Signal(signed(f.value), name=f"may_w{i}")
-            v_expr, w_expr = stepped_values(n.cmp, C(px, 1), C(py, 1), n.may_neg_x,
-                                            n.may_neg_y)
-            m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
-            may_v.append(sv)
-            may_w.append(sw)
-        n.may_v, n.may_w = may_v, may_w
 
     def _block11_comparator(self, m, n):
-        """Block 11: the traced element's end, now (at the point) or after this clock's step,
-        where the next element's function (or its entry line) reaches the threshold ``2τ``;
-        the arc core's run from the position, stopped by it."""
+        """Block 11: the traced element's end at the point where the next element's function
+        (or its entry line) reaches the threshold ``2τ`` (the test registered); the arc core's
+        run from the position, aborted by it."""
         f, one, own, cmp = n.f, n.one, n.own, n.cmp
         # The kinds of the traced element's steps (signs qx, qy; which axis steps occur).
         own_u, own_v = self._relative(n, own)
@@ -498,23 +475,11 @@ class EquidistantEngine(wiring.Component):
         target = Mux(cmp.entry, cmp.w, cmp.v)
 
         at_centre = own.arc & (own_u == 0) & (own_v == 0)
-        end_after = Signal()
-        # After this clock's step: the test of each step the element can make, the step made
-        # selects (the feed's permission reaches no adder here).
-        may = [reached(Mux(cmp.entry, w, v)) for v, w in zip(n.may_v, n.may_w)]
-        after = Signal()
-        with m.Switch(Cat(n.step_x, n.step_y)):
-            with m.Case(0b01):
-                m.d.comb += after.eq(may[0])
-            with m.Case(0b10):
-                m.d.comb += after.eq(may[1])
-            with m.Case(0b11):
-                m.d.comb += after.eq(may[2])
-        m.d.comb += [
-            n.end_now.eq(n.running & (reached(target)
-                                      | (own.arc & (own.empty | at_centre)))),
-            end_after.eq(n.running & ~n.end_now & n.stepped & after),
-        ]
+        # The test is registered: it is of the state of the clock before (position, slots),
+        # and :py:`fresh` (block 2's) says nothing of that state changed since, so an element
+        # runs only in a clock after one with no step and no change of its slots.
+        m.d.sync += n.at_point.eq(reached(target) | (own.arc & (own.empty | at_centre)))
+        m.d.comb += n.end_now.eq(n.running & n.at_point)
 
         # The arc core: a run from the position, on the circle N (residue = -S), stopped by
         # this comparator.
@@ -526,11 +491,11 @@ class EquidistantEngine(wiring.Component):
             core.cmd.payload.x.eq(core_native_x),
             core.cmd.payload.y.eq(core_native_y),
             core.cmd.payload.residue.eq(-own.v),
-            core.stop.eq(own.arc & end_after),
+            core.stop.eq(0),
             core.abort.eq(self.abort | (own.arc & n.end_now)),
         ]
         n.own_u, n.own_v, n.quadrant = own_u, own_v, quadrant
-        n.x_negative, n.y_negative, n.end_after = x_negative, y_negative, end_after
+        n.x_negative, n.y_negative = x_negative, y_negative
 
     def _element_ends(self, m, n):
         """The contour's elements: ends and block 2's shifts."""
@@ -540,7 +505,7 @@ class EquidistantEngine(wiring.Component):
         shift_cmp = Signal()
         shift_prep = Signal()
         m.d.comb += [
-            element_end.eq(n.end_now | n.end_after),
+            element_end.eq(n.end_now),
             terminal_end.eq(n.own.valid & n.own.last & ~n.hold & ~self.abort),
             shift_own.eq(element_end | terminal_end | ~n.own.valid),
             shift_cmp.eq(shift_own | ~n.cmp.valid),
@@ -713,6 +678,10 @@ class EquidistantEngine(wiring.Component):
             return out
 
         moved = [advanced(i) for i in range(3)]
+        # Block 11's registered test holds for the next clock when this one changes neither
+        # the position nor the traced and compared slots.
+        m.d.sync += n.fresh.eq(~n.step_x & ~n.step_y & ~n.shift_cmp & ~n.combine1
+                               & ~n.combine2 & ~self.abort)
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
         with m.Else():

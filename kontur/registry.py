@@ -462,16 +462,17 @@ BOARD_TABLE = (
           _icebreaker_z_platform, None, clock_hz=12e6, arc=("serial", 16), overrides=False,
           tools=True, axes=3),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
-    # cutter compensation (G41/G42) at 16 bits. That engine's element end (block 11's test,
-    # the feed's permission, the memory's shift and the frame taken) closes at 22.71 MHz
-    # (seed 1, issue 27), below the board's 25 MHz: the controller runs at half the board's
-    # clock, 12.5 MHz.
+    # cutter compensation (G41/G42) at 16 bits. It runs at the board's 25 MHz, undivided,
+    # since that engine's block 11 test is registered (issue 27: 32.49 MHz routed, seed 1);
+    # before, its element end (block 11's test, the feed's permission, the memory's shift and
+    # the frame taken) in one clock closed at 22.71-23.17 MHz and the controller ran at half
+    # the board's clock, 12.5 MHz.
     # It has the homing engine too (issue 25) and the tool outputs (issue 28); the iCEBreaker
     # has no room for them. It has the third axis, Z (issue 28: lines in XYZ by the spatial
     # core, helices by the helix engine around the arc engine); the iCEBreaker stays on two
     # (no room).
-    Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=12.5e6,
-          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), divide=2, homing=True,
+    Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
+          line=("exact", 16), arc=("fast", 24), profile=("fast", 16), homing=True,
           tools=True, axes=3),
 )
 

@@ -342,7 +342,7 @@ class RegressionTestCase(unittest.TestCase):
         # to one step would be a full turn of the cutter. Refused, naming the line.
         text = ("G21 G90 F600\nG0 X0 Y0\nG41 G1 X20 Y0\nG1 X20 Y10\nG3 X20 Y10.004 I-5 J0\n"
                 "G1 X0 Y10\nG1 X0 Y0\nG40 G0 X-5 Y-5\n")
-        machine = Machine(clock_hz=12.5e6, cutter_radius=1)
+        machine = Machine(clock_hz=registry.board("ulx3s").clock_hz, cutter_radius=1)
         with self.assertRaisesRegex(ProgramError, r"^line 5: the arc sweeps 0\.0458 degrees as "
                                                   r"programmed but 360\.0000 on the step lattice"):
             prepare(text, machine=machine, board="ulx3s")

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from kontur import registry
 from kontur.machine import Machine
 from kontur.machining import execute, prepare, summary, summary_text
 from kontur.planner import ProgramError, planned_feed
@@ -18,7 +19,7 @@ from .conftest import selected_simulators
 
 PROGRAMS = Path(__file__).resolve().parent / "programs"
 SPM = 80
-ULX3S = Machine(clock_hz=12.5e6)
+ULX3S = Machine(clock_hz=registry.board("ulx3s").clock_hz)
 
 #: The rs274 calls that set the tool state (spindle, S, coolant), and how.
 _CALLS = {
@@ -126,7 +127,6 @@ def test_tool_outputs_on_the_icebreaker():
     """The iCEBreaker has the tool outputs too (issue 28): the TOOL frames go where rs274 makes
     the changes, as on the ULX3S; a board without them lists the tool words, not driven."""
     from dataclasses import replace
-    from kontur import registry
     job = prepare(PLASMA, board="icebreaker", name="plasma")
     assert kontur_changes(job) == rs274_changes(PLASMA)
     data = summary(job, execute(job, "model"))
@@ -277,13 +277,12 @@ def test_send_streams_the_tool_frames():
     # The iCEBreaker has the tool outputs too (issue 28): M3 and M7 are honoured there; a
     # board without them refuses M3.
     from dataclasses import replace
-    from kontur import registry
     assert unhonoured(prepare(PLASMA, board="icebreaker")) is None
     toolless = replace(registry.board("icebreaker"), tools=False)
     assert "no tool outputs" in unhonoured(prepare(PLASMA, board=toolless))[1]
 
 
-LASER = Machine(clock_hz=12.5e6, laser=True)
+LASER = Machine(clock_hz=ULX3S.clock_hz, laser=True)
 
 
 def rs274_laser_power(text):
@@ -411,7 +410,6 @@ def test_the_pins_on_verilator(board, spindle):
     mode too)."""
     if "verilator" not in selected_simulators():
         pytest.skip("SIM selects another simulator")
-    from kontur import registry
     from kontur.hdl.motion.tools import TOOL_PINS
     machine = Machine(clock_hz=registry.board(board).clock_hz, laser=True, pwm_hz=5000)
     job = prepare(CONSTANT, machine=machine, board=board, name="constant")

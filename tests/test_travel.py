@@ -64,7 +64,7 @@ class TravelTestCase(unittest.TestCase):
         # taken with 2.4.
         contour = ("G21 G90\nG0 X0 Y0\nG42 G1 X2 Y0 F3000\nG1 X2 Y2\nG1 X0 Y2\nG1 X0 Y0\n"
                    "G40 G0 X0 Y-1\n")
-        keys = dict(clock_hz=12.5e6, steps_per_mm=10, cutter_radius=0.3, travel_y=[-2, 3])
+        keys = dict(clock_hz=registry.board("ulx3s").clock_hz, steps_per_mm=10, cutter_radius=0.3, travel_y=[-2, 3])
         with self.assertRaisesRegex(ProgramError, r"^line [3-6]: the move reaches X 2\.[23] "
                                     r"mm, beyond the machine's travel \(X from -1 to 2\.1 mm, "
                                     r"travel_x in the machine file\): a soft limit$"):
@@ -75,7 +75,7 @@ class TravelTestCase(unittest.TestCase):
         # A plunge to Z -6 with Z's travel -5..0: refused at the plunge on the ULX3S (three
         # axes), with -6..0 taken; a helix down to Z -4 then -6 (the second turn) refused at
         # its line. (Z starts at 0, the machine's, until the first Z word.)
-        keys = dict(clock_hz=12.5e6, steps_per_mm=10, **TRAVEL)
+        keys = dict(clock_hz=registry.board("ulx3s").clock_hz, steps_per_mm=10, **TRAVEL)
         plunge = "G21 G90\nG0 X5 Y5\nG1 Z-6 F300\nG1 X6\n"
         with self.assertRaisesRegex(ProgramError, r"^line 3: the move reaches Z -6 mm, beyond "
                                     r"the machine's travel \(Z from -5 to 0 mm, travel_z in "

@@ -46,6 +46,8 @@ class EquidistantEngineModel:
         self.run_swap = 0
         self.run_dir = 0
         self.product = 0                  # block 6's last product (r² is taken from it)
+        self.fresh = 0                    # block 11's registered test is of this state
+        self.at_point = 0                 # ... the element ends at the point
 
     def state(self):
         return {"x": self.x, "y": self.y, "unit": self.unit, "arc_state": self.arc_state}
@@ -97,7 +99,8 @@ class EquidistantEngineModel:
                             hold=self.status.hold)
         own, cmp = c.own, c.cmp
         c.running = int(own is not None and not own["last"] and own["ready"]
-                        and cmp is not None and cmp["ready"] and not c.hold and not abort)
+                        and cmp is not None and cmp["ready"] and bool(self.fresh)
+                        and not c.hold and not abort)
         self._block3(c)
         self._block11_threshold(c)
         self._block9_steps(c)
@@ -109,6 +112,9 @@ class EquidistantEngineModel:
         self._edge_block2_memory(c)
         self._edge_blocks5_8(c)
         self._edge_control(c)
+        self.at_point = c.at_point
+        self.fresh = int(not c.step_x and not c.step_y and not c.shift_cmp and not c.combine1
+                         and not c.combine2 and not abort)
         return outputs, state
 
     def _block3(self, c):
@@ -127,7 +133,8 @@ class EquidistantEngineModel:
 
     def _block11_threshold(self, c):
         """Block 11: the kinds of the traced element's steps, the target's threshold ``2τ``,
-        and whether the element ends at the point (``end_now``)."""
+        whether the element ends at the point (registered: ``at_point``), and its end now
+        (``end_now``: by the test of the clock before, of this state while ``fresh``)."""
         own, cmp, x, y = c.own, c.cmp, c.x, c.y
         c.tau2 = 0
         c.quadrant_own = 0
@@ -156,12 +163,13 @@ class EquidistantEngineModel:
                     tc, td = self._coefficients(cmp["swap"], cmp["minor"], cmp["k"])
                 ka, kb = tc * qx, td * qy
             c.tau2 = max(abs(ka) if x_kind else 0, abs(kb) if y_kind else 0, abs(ka + kb))
-        c.end_now = 0
-        if c.running:
+        c.at_point = 0
+        if own is not None and cmp is not None:
             target = cmp["w"] if cmp["entry"] else cmp["v"]
             at_centre = own["arc"] and (x, y) == (own["cx"], own["cy"])
-            c.end_now = int(self._reached(c, target)
-                            or (own["arc"] and (own["empty"] or at_centre)))
+            c.at_point = int(self._reached(c, target)
+                             or bool(own["arc"] and (own["empty"] or at_centre)))
+        c.end_now = int(bool(c.running) and bool(self.at_point))
 
     def _reached(self, c, value):
         """Block 11's comparison: the target function ``value`` has reached the element's end."""
@@ -200,23 +208,17 @@ class EquidistantEngineModel:
         c.step_x, c.step_y, c.neg_x, c.neg_y = step_x, step_y, neg_x, neg_y
         c.dx = (-1 if neg_x else 1) if step_x else 0
         c.dy = (-1 if neg_y else 1) if step_y else 0
-        c.stepped = int(bool(step_x or step_y) and not self.homing)
 
     def _element_ends(self, c):
-        """Blocks 4 and 10 over this clock's step; the element's end after it; block 2's
-        shifts."""
+        """Blocks 4 and 10 over this clock's step; block 2's shifts."""
         own, cmp = c.own, c.cmp
         c.slots = [own, cmp, c.prep]
         c.stepped_vw = [self._stepped(s, c.dx, c.dy) if s is not None else (0, 0)
                         for s in c.slots]
-        end_after = 0
-        if c.running and not c.end_now and c.stepped:
-            target_after = c.stepped_vw[1][1] if cmp["entry"] else c.stepped_vw[1][0]
-            end_after = int(self._reached(c, target_after))
-        c.core_stop = int(own is not None and bool(own["arc"]) and bool(end_after))
+        c.core_stop = 0
         c.core_out = self.core.evaluate(tick=c.core_tick, stop=c.core_stop, abort=c.core_abort)
 
-        c.element_end = int(bool(c.end_now) or bool(end_after))
+        c.element_end = c.end_now
         c.terminal_end = int(own is not None and bool(own["last"]) and not c.hold
                              and not c.abort)
         c.shift_own = int(bool(c.element_end) or bool(c.terminal_end) or own is None)

@@ -71,8 +71,6 @@ def _trace_contour(traced, point, r):
                 if _ends(target, h, point, tau2, r):
                     break
                 move(line_step(own, own.value(point, r)))
-                if _ends(target, h, point, tau2, r):
-                    break
         else:
             n = own.n(r)
             ended = False
@@ -87,9 +85,6 @@ def _trace_contour(traced, point, r):
                         ended = True
                         break
                     move(real_step(int(kind in "DX"), int(kind in "DY"), q, element.cw))
-                    if _ends(target, h, point, tau2, r):
-                        ended = True
-                        break
         out.append(steps)
     out.append([])                               # the terminal: aimed at, not traced
     return out, point
