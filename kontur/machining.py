@@ -1048,12 +1048,14 @@ def summary_text(data, out_dir=None):
     if data.get("axes") == 3:
         planes = ", ".join(f"{count} in {'XZ (G18)' if plane == 'G18' else 'YZ (G19)'}"
                            for plane, count in data.get("plane_arcs", {}).items() if count)
-        lines.append(f"z          {data['z_steps']} steps move Z, {data['helices']} helices "
+        helices = f"{data['helices']} helix" if data["helices"] == 1 else \
+            f"{data['helices']} helices"
+        lines.append(f"z          {data['z_steps']} steps move Z, {helices} "
                      f"(HELIX frames: the normal axis spread over the arc's steps)"
                      + (f"; arcs {planes}" if planes else ""))
     if data.get("dwells"):
-        lines.append(f"dwells     {data['dwells']} (G4), {data['dwell_seconds']:g} s, as DWELL "
-                     f"frames")
+        lines.append(f"dwells     {data['dwells']} (G4, and the P of G82, G89), "
+                     f"{data['dwell_seconds']:g} s, as DWELL frames")
     if data.get("tool_events"):
         driven = data.get("tool_frames")
         lines.append(f"tools      {len(data['tool_events'])} tool events ("

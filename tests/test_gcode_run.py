@@ -46,8 +46,20 @@ def test_tools_dwells_pauses_in_the_summary(tmp_path, capsys):
     assert (23, "tool_change", "M6 T2") in events and (22, "spindle", "M5") in events
     assert [m["text"] for m in data["messages"]] == [" tool 0.000000 selected 0.000000",
                                                      " load the 6 mm cutter"]
-    assert "dwells     3 (G4), 1.5 s, as DWELL frames" in out
+    assert "dwells     3 (G4, and the P of G82, G89), 1.5 s, as DWELL frames" in out
     assert "pause      line 19: M0, resumed at once (a simulated operator)" in out
+
+
+@pytest.mark.parametrize("turns, said", [(1, "1 helix (HELIX"), (2, "2 helices (HELIX")])
+def test_helices_counted_in_the_summary(tmp_path, capsys, turns, said):
+    # Each G2 with Z is one HELIX frame: a quarter turn down 1 mm, twice or once.
+    quarters = "".join(f"G2 X{x} Y{y} Z-{n + 1} I{i} J{j}\n" for n, (x, y, i, j) in
+                       enumerate([(10, 0, 0, -10), (0, -10, -10, 0)][:turns]))
+    program = tmp_path / "helix.ngc"
+    program.write_text(f"G21 G90 G17 F600\nG0 X0 Y10 Z0\n{quarters}M2\n")
+    status, out, err = _run(tmp_path, capsys, program, "--board", "ulx3s")
+    assert status == 0, err
+    assert f"steps move Z, {said}" in out
 
 
 def test_dwell_in_the_plan_and_the_frames():
