@@ -157,20 +157,17 @@ def fpga(out):
     out.write("\nSpeed on the iCEBreaker (iCE40UP5K-SG48): the engine in ShiftInTop, width 8, "
               "placed and routed\n(nextpnr fails the build below the board's 12 MHz; the "
               "routed figure is read from its log)\n\n")
-    from kontur.constraints.flow import (DoesNotFit, ToolchainError, measure_speed, parse_fmax,
-                                         parse_utilisation)
+    from kontur.constraints.flow import SEED, DoesNotFit, measure_speed
     for name in registry.variants("profile"):
         build_dir = bench.BUILD_ROOT / "speed" / f"profile_engine_w8_{name}"
         try:
             result = measure_speed(registry.make_engine("profile", name, width=8), build_dir)
-            fmax, lc = result["fmax"], result["lc"]
         except DoesNotFit as error:
             # Refused before placement: the packed design is larger than the device.
             out.write(f"  {name:9} does not fit: LC {error.used} of {error.available}\n")
             continue
-        except ToolchainError:
-            log = (build_dir / "top.tim").read_text()
-            fmax, lc = parse_fmax(log), parse_utilisation(log).get("ICESTORM_LC")
+        run = result["runs"][SEED]
+        fmax, lc = run["fmax"], run["logic"]
         (mhz, verdict, target), = fmax.values()
         out.write(f"  {name:9} {mhz:6.2f} MHz ({verdict or '-'} at {target:g} MHz), "
                   f"LC {lc[0]} of {lc[1]}\n")
