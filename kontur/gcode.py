@@ -504,6 +504,7 @@ class _Interpreter:
         self.cycle = None                 # the canned cycle last made, and its sticky words
         self.cycle_words = {}
         self.cycle_level = None           # Z where the series of cycles began (G98's)
+        self.cycle_plane = None           # ... and its plane (G17, G18, G19)
         self.side = None
         self.radius = None
         self.radius_source = None
@@ -1185,28 +1186,30 @@ class _Interpreter:
                 plane=plane, start_z=self.pos[2], turns=int(turns))
 
     def canned_cycle(self, motion, values, texts):
-        """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's X Y, as
-        LinuxCNC's interpreter makes it (interp_cycles.cc): up to R first if below it, then for
-        each of L repeats a rapid in XY at the current height (later ones: at the clearance
-        height, R with G99, the height the cycles began at with G98) and down to R, the hole,
-        and the retract. In G91 X and Y are increments repeated L times, R an increment from
-        the series' first Z, Z one from R. R, Z, P, Q are kept for the same cycle's next blocks;
-        the first Z of a series of the same cycle (until another motion mode or G80) is where
-        G98 retracts to."""
+        """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's hole position,
+        as LinuxCNC's interpreter makes it (interp_cycles.cc), along the plane's normal axis
+        (G17: Z, the hole at X Y; G18: Y, the hole at Z X; G19: X, the hole at Y Z; R and the
+        depth are that axis's): up to R first if below it, then for each of L repeats a rapid
+        in the plane at the current height (later ones: at the clearance height, R with G99,
+        the height the cycles began at with G98) and down to R, the hole, and the retract. In
+        G91 the plane's words are increments repeated L times, R an increment from the
+        series' first height, the depth one from R. R, the depth, P, Q are kept for the same
+        cycle's next blocks; the first height of a series of cycles in one plane (until
+        another motion mode or G80) is where G98 retracts to."""
         name = f"G{motion / 10:g}"
-        if self.plane != 170:
-            self.fail(f"{name}: canned cycles are in the XY plane (G17) only")
+        first, second, normal = PLANE_AXES[self.plane // 10]
+        depth_letter = "XYZ"[normal]
         if self.side is not None:
             self.fail(f"{name} with cutter-radius compensation on: turn it off (G40) first")
         if self.feed is None and self.units is not None:
             self.fail(f"{name} with no feed rate: give an F before the cycle")
-        same = self.cycle == motion
+        same = self.cycle == motion and self.cycle_plane == self.plane
         words = dict(self.cycle_words) if same else {}
-        for letter in "RZ" + _CYCLES[motion]:
+        for letter in "R" + depth_letter + _CYCLES[motion]:
             if letter in values:
                 words[letter] = values[letter]
             elif letter not in words:
-                what = {"R": "the retract plane", "Z": "the depth",
+                what = {"R": "the retract plane", depth_letter: "the depth",
                         "P": "the dwell, seconds", "Q": "the peck, the depth of each"}[letter]
                 self.fail(f"{name} needs {letter}: {what}")
         if "Q" in words and words["Q"] <= 0:
@@ -1217,55 +1220,68 @@ class _Interpreter:
         if repeats < 1 or repeats.denominator != 1:
             self.fail(f"{name} {texts['L']}: the repeats are a whole number, 1 or more")
         scale = self.scale
-        # The height the series of cycles began at (LinuxCNC's "initial level", kept until
-        # another cycle, another motion mode or G80): G91's R is from it, the machine goes up
-        # to R first when it is below R, G98 retracts to it and starts the block from it.
-        if self.cycle_level is None or not same:
-            self.cycle_level = self.pos[2]
-        x, y, _ = self.pos
+        # The height the series of cycles began at (LinuxCNC's "initial level", kept through
+        # cycles of any kind until another motion mode or G80; here also until another
+        # plane): G91's R is from it, the machine goes up to R first when it is below R, G98
+        # retracts to it and starts the block from it.
+        if self.cycle_level is None or self.cycle_plane != self.plane:
+            self.cycle_level = self.pos[normal]
+        a, b = self.pos[first], self.pos[second]
         start = self.cycle_level
         if self.absolute:
             end = self.target(values, texts=texts)
-            x, y = end[0], end[1]
+            a, b = end[first], end[second]
             step = (0, 0)
-            offset = self.offset_of(2)
-            r, depth = words["R"] * scale + offset, words["Z"] * scale + offset
+            offset = self.offset_of(normal)
+            r, depth = words["R"] * scale + offset, words[depth_letter] * scale + offset
         else:
-            step = (values.get("X", 0) * scale, values.get("Y", 0) * scale)
+            step = (values.get("XYZ"[first], 0) * scale, values.get("XYZ"[second], 0) * scale)
             r = start + words["R"] * scale
-            depth = r + words["Z"] * scale
+            depth = r + words[depth_letter] * scale
         if r < depth:
-            self.fail(f"{name}: R ({float(r):g} mm) is below Z ({float(depth):g} mm)")
+            self.fail(f"{name}: R ({float(r):g} mm) is below {depth_letter} "
+                      f"({float(depth):g} mm)")
+
+        def at(a, b, height):
+            """The machine point of hole position ``(a, b)`` at ``height`` on the normal."""
+            point = [0, 0, 0]
+            point[first], point[second], point[normal] = a, b, height
+            return point
+
         if start < r:                     # up to R first, where the machine is
-            self._cycle_rapid(self.pos[0], self.pos[1], r)
+            self._cycle_rapid(at(self.pos[first], self.pos[second], r))
             start = r
         clear = r if self.r_plane else start
-        level = self.pos[2] if self.r_plane else start
+        # The first hole's rapid is at the initial level (G98), or (G99) where the machine is
+        # but not below R (rs274: a G91 R above a G99 series' retract goes straight to R).
+        level = max(self.pos[normal], r) if self.r_plane else start
         polar = not self.absolute and ("@" in values or "^" in values)
         for _ in range(int(repeats)):
-            x, y = x + step[0], y + step[1]
+            a, b = a + step[0], b + step[1]
             if polar:                     # G91 @ ^: turned and stretched about the origin
-                x, y = self.polar(values, texts, increments=(x - self.offset_of(0),
-                                                              y - self.offset_of(1)))
-                x, y = x + self.offset_of(0), y + self.offset_of(1)
-            self._cycle_rapid(x, y, level)
+                a, b = self.polar(values, texts, increments=(a - self.offset_of(0),
+                                                              b - self.offset_of(1)))
+                a, b = a + self.offset_of(0), b + self.offset_of(1)
+            self._cycle_rapid(at(a, b, level))
             if level != r:
-                self._cycle_rapid(x, y, r)
-            self._hole(motion, x, y, r, clear, depth, words)
+                self._cycle_rapid(at(a, b, r))
+            self._hole(motion, lambda height, a=a, b=b: at(a, b, height), r, clear, depth,
+                       words)
             level = clear
-        self.cycle, self.cycle_words = motion, words
+        self.cycle, self.cycle_words, self.cycle_plane = motion, words, self.plane
 
     def _rapid_feed(self):
         self.moves[-1] = _with_feed(self.moves[-1], self.feed)
 
-    def _cycle_rapid(self, x, y, z):
-        self.go("rapid", [x, y, z], z_word=True)
+    def _cycle_rapid(self, point):
+        self.go("rapid", point, z_word=True)
         self._rapid_feed()
 
-    def _hole(self, motion, x, y, r, clear, depth, words):
-        """The moves of one hole from the R plane (interp_cycles.cc's convert_cycle_g*)."""
-        def feed(z):
-            self.go("line", [x, y, z], feed=self.feed, z_word=True)
+    def _hole(self, motion, at, r, clear, depth, words):
+        """The moves of one hole from the R plane (interp_cycles.cc's convert_cycle_g*);
+        ``at(height)`` is the hole's point at a height on the plane's normal axis."""
+        def feed(height):
+            self.go("line", at(height), feed=self.feed, z_word=True)
 
         if motion in (730, 830):          # pecks: back to R (G83) or a hair (G73) between
             peck = words["Q"] * self.scale
@@ -1273,8 +1289,8 @@ class _Interpreter:
             while below > depth:
                 feed(below)
                 if motion == 830:
-                    self._cycle_rapid(x, y, r)
-                self._cycle_rapid(x, y, below + PECK_CLEARANCE)
+                    self._cycle_rapid(at(r))
+                self._cycle_rapid(at(below + PECK_CLEARANCE))
                 below -= peck
         feed(depth)
         if motion in (820, 890):
@@ -1284,7 +1300,7 @@ class _Interpreter:
         if motion == 890:                 # bore with a dwell: out at the feed to clearance
             feed(clear)
         else:
-            self._cycle_rapid(x, y, clear)
+            self._cycle_rapid(at(clear))
 
 
 def _with_feed(move, feed):

@@ -105,7 +105,7 @@ class InterpretTestCase(unittest.TestCase):
             ("F100 G81 X1 Z-1 R1\nG82 X2\n", r"^line 2: G82 needs R: the retract plane$"),
             ("F100 G81 X1 Z2 R1\n", r"^line 1: G81: R \(1 mm\) is below Z \(2 mm\)$"),
             ("F100 G81 X1 Z-1 R1 L0\n", r"^line 1: G81 L0: the repeats are a whole number"),
-            ("F100 G18 G81 X1 Z-1 R1\n", r"^line 1: G81: canned cycles are in the XY plane"),
+            ("F100 G18 G81 X1 Z-1 R1\n", r"^line 1: G81 needs Y: the depth$"),
             ("F100 G41.1 D2 G81 X1 Z-1 R1\n", r"^line 1: G81 with cutter-radius compensation "
                                               r"on"),
             ("F100 G84 X1 Z-1 R1\n", r"^line 1: G84: spindle-synchronised and oriented "

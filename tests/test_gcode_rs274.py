@@ -60,6 +60,7 @@ CORPUS = {
     WRITTEN / "inverse.ngc": r"^line 2: G93: inverse-time feed \(G93\) is not supported",
     WRITTEN / "drill.ngc": rf"^line 4: {Z} \(Z from 5 to 2 mm\)$",
     WRITTEN / "cycles.ngc": rf"^line 9: {Z} \(Z from 15 to 2 mm\)$",
+    WRITTEN / "cycleplanes.ngc": rf"^line 5: {Z} \(Z from 0 to 5 mm\)$",
     WRITTEN / "toollength.ngc": rf"^line 9: {Z} \(Z from 17.5 to 11.5 mm\)$",
     CAM / "freecad_grbl.ngc": rf"^line 15: {Z} \(Z from 5 to 3 mm\)$",
     WRITTEN / "plane.ngc": rf"^line 3: {Z} \(an arc in the XZ plane, G18\)$",
