@@ -1248,26 +1248,26 @@ class _Interpreter:
             point[first], point[second], point[normal] = a, b, height
             return point
 
+        height = self.pos[normal]
         if start < r:                     # up to R first, where the machine is
             self._cycle_rapid(at(self.pos[first], self.pos[second], r))
-            start = r
+            start = height = r
         clear = r if self.r_plane else start
-        # The first hole's rapid is at the initial level (G98), or (G99) where the machine is
-        # but not below R (rs274: a G91 R above a G99 series' retract goes straight to R).
-        level = max(self.pos[normal], r) if self.r_plane else start
         polar = not self.absolute and ("@" in values or "^" in values)
-        for _ in range(int(repeats)):
+        for repeat in range(int(repeats)):
             a, b = a + step[0], b + step[1]
             if polar:                     # G91 @ ^: turned and stretched about the origin
                 a, b = self.polar(values, texts, increments=(a - self.offset_of(0),
                                                               b - self.offset_of(1)))
                 a, b = a + self.offset_of(0), b + self.offset_of(1)
+            # The first hole from where the machine is when that is above R, the others (and
+            # the first from R or below) from the clearance height (CYCLE_MACRO's rule).
+            level = height if repeat == 0 and height > r else clear
             self._cycle_rapid(at(a, b, level))
-            if level != r:
+            if level > r:
                 self._cycle_rapid(at(a, b, r))
             self._hole(motion, lambda height, a=a, b=b: at(a, b, height), r, clear, depth,
                        words)
-            level = clear
         self.cycle, self.cycle_words, self.cycle_plane = motion, words, self.plane
 
     def _rapid_feed(self):
