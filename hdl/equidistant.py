@@ -516,7 +516,7 @@ class EquidistantEngine(wiring.Component):
 
     def _arc_runs(self, m, n):
         """The arc runs' state: a run handed to the core in WAIT, taken in TAKE, run to its
-        axis or stopped by block 11."""
+        axis or aborted by block 11."""
         own, core, quadrant = n.own, n.core, n.quadrant
         x_negative, y_negative, arc_state = n.x_negative, n.y_negative, n.arc_state
         with m.If(self.abort):
