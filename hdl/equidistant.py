@@ -333,9 +333,18 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += ahead.eq(own.v + register1)
         forward = ~minor_only & (ahead >= half)
         backward = ~minor_only & (ahead < -half)
-        line_major = ~minor_only
-        line_minor = minor_only | forward | backward
-        line_minor_negative = own.minor ^ backward
+        # The step's kinds are registered, formed from the slot of the clock before: a line
+        # steps only while block 11's test is fresh, i.e. when that clock changed nothing of
+        # its slot, so they are this clock's (and block 3's carry chains leave the step's
+        # path).
+        line_major = Signal()
+        line_minor = Signal()
+        line_minor_negative = Signal()
+        m.d.sync += [
+            line_major.eq(~minor_only),
+            line_minor.eq(minor_only | forward | backward),
+            line_minor_negative.eq(own.minor ^ backward),
+        ]
 
         line_due = Signal()
         m.d.comb += line_due.eq(running & ~end_now & ~own.arc)
