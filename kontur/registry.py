@@ -463,7 +463,8 @@ BOARD_TABLE = (
           tools=True, axes=3),
     # The ULX3S-85F holds both engines at their default widths and the equidistant engine of
     # cutter compensation (G41/G42) at 16 bits. It runs at the board's 25 MHz, undivided,
-    # since that engine's block 11 test is registered (issue 27: 32.49 MHz routed, seed 1);
+    # since that engine's block 11 test is registered (issue 27: 34.68-36.52 MHz routed,
+    # seeds 1-3);
     # before, its element end (block 11's test, the feed's permission, the memory's shift and
     # the frame taken) in one clock closed at 22.71-23.17 MHz and the controller ran at half
     # the board's clock, 12.5 MHz.
