@@ -1299,3 +1299,19 @@ def test_drilling_cycle_served(board, ok):
     assert answers == ["ok"] * 4
     assert STATUS.match(grbl.status()).groups()[1:] == ("20.000", "10.000", "2.000")
     assert grbl.motion.made == run_steps(DRILL, board)
+
+
+#: The same cycle in the XZ plane (G18): drilled along Y, the holes at Z X. By hand: it ends
+#: at X20 Y2 Z10 (G99: back to R along Y).
+DRILL_XZ = """G21 G90 G0 X0 Y10 Z10
+G18 G99 G81 X10 Z10 Y-2 R2 F300
+X20
+G80
+"""
+
+
+def test_drilling_cycle_in_the_xz_plane_served():
+    grbl, said = serve_lines(DRILL_XZ, board="ulx3s")
+    assert [s for s in said if s == "ok" or s.startswith("error")] == ["ok"] * 4, said
+    assert STATUS.match(grbl.status()).groups()[1:] == ("20.000", "2.000", "10.000")
+    assert grbl.motion.made == run_steps(DRILL_XZ, "ulx3s")
