@@ -503,7 +503,7 @@ class _Interpreter:
         self.r_plane = True               # G99 (the retract to R), as rs274 starts
         self.cycle = None                 # the canned cycle last made, and its sticky words
         self.cycle_words = {}
-        self.cycle_level = None           # Z where the series of cycles began (G98's)
+        self.cycle_level = None           # the height the series of cycles began at (G98's)
         self.cycle_plane = None           # ... and its plane (G17, G18, G19)
         self.side = None
         self.radius = None
@@ -1189,9 +1189,10 @@ class _Interpreter:
         """A drilling or boring cycle (G73, G81-G83, G85, G89) at the block's hole position,
         as LinuxCNC's interpreter makes it (interp_cycles.cc), along the plane's normal axis
         (G17: Z, the hole at X Y; G18: Y, the hole at Z X; G19: X, the hole at Y Z; R and the
-        depth are that axis's): up to R first if below it, then for each of L repeats a rapid
-        in the plane at the current height (later ones: at the clearance height, R with G99,
-        the height the cycles began at with G98) and down to R, the hole, and the retract. In
+        depth are that axis's): up to R first if the series began below it, then for each of
+        L repeats a rapid in the plane (the first from the current height when that is above
+        R, the others at the clearance height: R with G99, the height the cycles began at with
+        G98) and down to R, the hole, and the retract. In
         G91 the plane's words are increments repeated L times, R an increment from the
         series' first height, the depth one from R. R, the depth, P, Q are kept for the same
         cycle's next blocks; the first height of a series of cycles in one plane (until
@@ -1266,8 +1267,7 @@ class _Interpreter:
             self._cycle_rapid(at(a, b, level))
             if level > r:
                 self._cycle_rapid(at(a, b, r))
-            self._hole(motion, lambda height, a=a, b=b: at(a, b, height), r, clear, depth,
-                       words)
+            self._hole(motion, lambda h, a=a, b=b: at(a, b, h), r, clear, depth, words)
         self.cycle, self.cycle_words, self.cycle_plane = motion, words, self.plane
 
     def _rapid_feed(self):
