@@ -25,7 +25,11 @@ from .elements._checks import check_width
 from .engine import EngineSignature, Outcome, StatusUnit
 from .spec import Formats, Kind
 
-__all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine"]
+__all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine", "SETTLE"]
+
+#: The clocks block 11 takes after every step or change of the traced and compared slots
+#: (its test, registered): an element steps every ``SETTLE + 1`` clocks at most.
+SETTLE = 1
 
 
 class SerialMultiplier(wiring.Component):

@@ -236,14 +236,17 @@ class ProfileRun:
 
 def _profile_clocks(prepared, clocks_per_step):
     """An upper bound on the clocks of a contour on the engine: forming every frame
-    (``2·(width + 2) + 6`` clocks each, a few frames at once before the first step), every step
-    (``clocks_per_step``, and two idle clocks for each quadrant run of an arc), plus slack."""
+    (``2·(width + 2) + 6`` clocks each, a few frames at once before the first step, and
+    block 11's settling at each), every step (``clocks_per_step``, at least block 11's
+    settling and the step's own clock, and two idle clocks for each quadrant run of an arc),
+    plus slack."""
+    from kontur.hdl.equidistant import SETTLE
     width = prepared.formats.width
     frames = len(prepared.frames)
     steps = sum(1 for _, steps in _parts(prepared) for _ in steps)
     arcs = sum(1 for e in prepared.elements if e.kind == "arc")
-    return (frames * (2 * (width + 2) + 8) + clocks_per_step * (steps + 16)
-            + 10 * (arcs + 1) + 64), steps
+    return (frames * (2 * (width + 2) + 8 + 2 * SETTLE)
+            + max(clocks_per_step, SETTLE + 1) * (steps + 16) + 10 * (arcs + 1) + 64), steps
 
 
 def _parts(prepared):

@@ -141,3 +141,21 @@ def test_every_engine_traces_the_same(simulator):
     assert model.returncode == 0 and rtl.returncode == 0, rtl.stderr
     assert rtl.stdout == model.stdout
     assert len(model.stdout.splitlines()) > 100
+
+
+def test_clock_bound_holds_on_a_long_contour():
+    # `kontur trace profile` stops an RTL run at _profile_clocks' bound: on a square of 2000
+    # steps a side (block 11's settling clock after every step doubles the clocks of the
+    # steps) the cycle model ends well inside it, on both cores.
+    from kontur.sim.stimulus import Job, run_model
+    from kontur.trace import _clocks_per_step, _profile_clocks
+    text = "G90\nG0 X0 Y0\nG41 G1 X2000 Y0\nG1 X2000 Y2000\nG1 X0 Y2000\nG1 X0 Y0\nG40\nM30\n"
+    shape = profile_from_moves(read(text).moves)
+    prepared = prepare(shape, 2, formats=Formats(16))
+    for variant in registry.variants("profile"):
+        item = registry.variant("profile", variant)
+        bound, steps = _profile_clocks(prepared, _clocks_per_step(item, {}))
+        record = run_model(registry.make_model("profile", variant, width=16),
+                           Job(frames=list(prepared.frames), max_cycles=bound))
+        assert steps > 7000
+        assert max(e["cycle"] for e in record) < bound
