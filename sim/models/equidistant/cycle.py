@@ -215,8 +215,8 @@ class EquidistantEngineModel:
         c.slots = [own, cmp, c.prep]
         c.stepped_vw = [self._stepped(s, c.dx, c.dy) if s is not None else (0, 0)
                         for s in c.slots]
-        c.core_stop = 0
-        c.core_out = self.core.evaluate(tick=c.core_tick, stop=c.core_stop, abort=c.core_abort)
+        # The core's stop is unused: block 11 ends an arc's run at the point (abort).
+        c.core_out = self.core.evaluate(tick=c.core_tick, stop=0, abort=c.core_abort)
 
         c.element_end = c.end_now
         c.terminal_end = int(own is not None and bool(own["last"]) and not c.hold
@@ -293,7 +293,7 @@ class EquidistantEngineModel:
             u, v = c.x - own["cx"], c.y - own["cy"]
             run = {"x": abs(u) if type_a(q, own["cw"]) else abs(v),
                    "y": abs(v) if type_a(q, own["cw"]) else abs(u), "residue": -own["v"]}
-        self.core.cycle(tick=c.core_tick, stop=c.core_stop, abort=c.core_abort,
+        self.core.cycle(tick=c.core_tick, stop=0, abort=c.core_abort,
                         valid=c.core_valid, payload=run)
         if c.abort or c.element_end:
             self.arc_state = 0
