@@ -1224,7 +1224,7 @@ class _Interpreter:
         # The height the series of cycles began at (LinuxCNC's "initial level", kept through
         # cycles of any kind until another motion mode or G80; here also until another
         # plane): G91's R is from it, the machine goes up to R first when it is below R, G98
-        # retracts to it and starts the block from it.
+        # retracts to it.
         if self.cycle_level is None or self.cycle_plane != self.plane:
             self.cycle_level = self.pos[normal]
         a, b = self.pos[first], self.pos[second]
