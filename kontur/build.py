@@ -17,8 +17,8 @@ from pathlib import Path
 from kontur.constraints.flow import (ROOT, SEED, ToolchainError, parse_critical_path,
                                      place_and_route)
 
-__all__ = ["TOPS", "build", "machine_file", "summary", "report", "parse_ports",
-           "parse_flip_flops", "main"]
+__all__ = ["TOPS", "TARGETS", "build", "machine_file", "summary", "report", "targets",
+           "parse_ports", "parse_flip_flops", "main"]
 
 #: What ``kontur build --top`` builds.
 TOPS = ("controller", "player")
@@ -118,6 +118,91 @@ def _clock_path(log, clock):
     return parse_critical_path("Critical path report for clock" + section)
 
 
+#: What each device's controller is to reach (issue 27, docs/controller.md "The boards"): the
+#: step rate per axis with a class of drives' step/dir timing (set-up, pulse, µs), and what the
+#: full controller holds. For a target a build does not reach, ``limit`` says what stands in
+#: the way and ``tried`` what was done about it, with the figures and the commands that measured
+#: them.
+TARGETS = {
+    "iCE40UP5K": {
+        "rate": (200_000, (1.0, 2.0), "A4988-class drives"),
+        "axes": 3,
+        "profile_width": 16,
+        "limits": {
+            "axes": "this is the two-axis build (lasers, plasma, plotters); the three-axis one "
+                    "is icebreaker-z",
+            "profile": "the equidistant engine alone is 7520 LC at 16 bits and 4627 at 8 "
+                       "(python -m kontur.equidistant_figures fpga; the UP5K has 5280), next "
+                       "to a controller that takes the rest of the device",
+        },
+        "tried": {
+            "profile": "block 11's test and block 3's step kinds registered, the tests for "
+                       "every step the element could make dropped: 9169 -> 7520 LC at 16 "
+                       "bits; what would fit is a serial equidistant engine (the slots in "
+                       "block RAM, one adder shared by the six integrators, the step's "
+                       "settling clocks spent on it), a redesign with its model",
+        },
+    },
+    "LFE5U-85F": {
+        "rate": (1_000_000, (0.2, 0.2), "servo drives with fast pulse inputs"),
+        "axes": 3,
+        "profile_width": 16,
+        "limits": {}, "tried": {},
+    },
+}
+
+
+def targets(rec):
+    """The targets (:data:`TARGETS`) of a build's record (:func:`report`), each
+    ``{"target", "met", "measured"}`` and, where not met, ``"limit"`` (the critical path for the
+    clock) and ``"tried"``. The rate is the controller clock over the step/dir stage's clocks
+    at the drives' timing (the stage is built for the machine file's timing: ``kontur build
+    --machine`` with those ``dir_setup_us`` and ``step_width_us``)."""
+    from kontur import registry
+    from kontur.machine import Machine
+    goal = TARGETS.get(rec["device"])
+    if goal is None:
+        return []
+    item = registry.board(rec["board"])
+    rows = []
+
+    def row(target, met, measured, key=None):
+        entry = {"target": target, "met": bool(met), "measured": measured}
+        if not met and key in goal["limits"]:
+            entry["limit"] = goal["limits"][key]
+        if not met and key in goal["tried"]:
+            entry["tried"] = goal["tried"][key]
+        rows.append(entry)
+
+    clock = rec["clock_mhz"]
+    board_mhz = clock * item.divide
+    met = item.divide == 1 and rec["fmax_mhz"] >= clock
+    row(f"the board's {board_mhz:g} MHz, undivided", met,
+        f"{clock:g} MHz, routed at {rec['fmax_mhz']:.2f} MHz")
+    if not met and rec["critical_path"]:
+        path = rec["critical_path"]
+        rows[-1]["limit"] = f"{path['from']} -> {path['to']}"
+    least, (setup, pulse), drives = goal["rate"]
+    machine = Machine(clock_hz=item.clock_hz, dir_setup_us=setup, step_width_us=pulse)
+    clocks = machine.dir_setup + machine.step_width + 1
+    rate = machine.max_step_rate
+    row(f"at least {least:,} steps/s per axis with {drives} ({setup:g} µs set-up, "
+        f"{pulse:g} µs pulse)", rate >= least, f"{rate:,.0f} ({clocks} clocks a step)")
+    axes = goal["axes"]
+    row(f"{axes} axes", rec["axes"] >= axes, f"{rec['axes']}", "axes")
+    row("tool outputs", item.tools, "yes" if item.tools else "no", "tools")
+    row("safety inputs (e-stop, limits, probe, cycle start, feed hold)",
+        any(p.startswith("switches") for p in rec["ports"]),
+        "yes" if any(p.startswith("switches") for p in rec["ports"]) else "no", "safety")
+    width = goal["profile_width"]
+    profile = [e for e in rec["engines"] if e["kind"] == "profile"]
+    row(f"cutter compensation (G41/G42) at {width} bits",
+        bool(profile) and profile[0]["width"] >= width,
+        f"the equidistant engine at {profile[0]['width']} bits" if profile else "none",
+        "profile")
+    return rows
+
+
 def report(result):
     """Return the JSON-ready record of a controller's build (``result`` as :func:`build` returns
     it): board, device, controller clock, routed Fmax of that clock, critical path, cells,
@@ -143,7 +228,7 @@ def report(result):
     engines = [{"kind": kind, "variant": spec[0], "width": spec[1]}
                for kind, spec in (("line", line), ("arc", item.arc), ("profile", item.profile))
                if spec is not None]
-    return {
+    rec = {
         "board": result["board"],
         "device": str(getattr(item.platform(), "device", "")),
         "top": result["top"],
@@ -165,6 +250,8 @@ def report(result):
         "seed": result["seed"],
         "seconds": result["seconds"],
     }
+    rec["targets"] = targets(rec)
+    return rec
 
 
 def report_table(rec):
@@ -174,7 +261,12 @@ def report_table(rec):
             f"BRAM {rec['block_ram'][0]}, DSP {rec['dsp'][0]}\n"
             f"           clock {rec['clock_mhz']:g} MHz, Fmax {rec['fmax_mhz']:.2f} MHz, "
             f"{rec['steps_per_s']:.0f} steps/s ({rec['clocks_per_step']} clocks a step), "
-            f"seed {rec['seed']}\n")
+            f"seed {rec['seed']}\n"
+            + "".join(f"target     {'met    ' if t['met'] else 'NOT MET'} {t['target']}: "
+                      f"{t['measured']}\n"
+                      + (f"           limit: {t['limit']}\n" if "limit" in t else "")
+                      + (f"           tried: {t['tried']}\n" if "tried" in t else "")
+                      for t in rec.get("targets", ())))
 
 
 def machine_file(board, path):

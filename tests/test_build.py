@@ -140,6 +140,44 @@ def test_report_names_the_cores_each_board_is_built_with(board, engines, tmp_pat
     assert [(e["kind"], e["variant"], e["width"]) for e in rec["engines"]] == engines
 
 
+def _targets(rec):
+    return {t["target"].split(" (")[0].split(":")[0]: t for t in rec["targets"]}
+
+
+def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
+    rec = kontur.build.report(_real_result(tmp_path))
+    targets = _targets(rec)
+    clock = targets["the board's 12 MHz, undivided"]
+    assert clock["met"] and "16.33 MHz" in clock["measured"]      # the log's routed Fmax
+    # A4988-class drives: 1 µs set-up (12 clocks), 2 µs pulse (24), one clock more.
+    rate = targets["at least 200,000 steps/s per axis with A4988-class drives"]
+    assert rate["met"] and rate["measured"] == f"{12e6 / 37:,.0f} (37 clocks a step)"
+    assert targets["tool outputs"]["met"] and targets["safety inputs"]["met"]
+    axes = targets["3 axes"]                                  # the two-axis build
+    assert not axes["met"] and "icebreaker-z" in axes["limit"]
+    profile = targets["cutter compensation"]
+    assert not profile["met"] and profile["measured"] == "none"
+    assert "LC" in profile["limit"] and "serial equidistant engine" in profile["tried"]
+    table = kontur.build.report_table(rec)
+    assert "target     NOT MET cutter compensation (G41/G42) at 16 bits: none" in table
+    assert "           limit: the equidistant engine alone" in table
+
+
+def test_report_targets_of_the_ulx3s(tmp_path):
+    # (the iCEBreaker's logs stand in: routed at 16.33 MHz, below the ULX3S's 25 MHz)
+    rec = kontur.build.report(_real_result(tmp_path) | {"board": "ulx3s"})
+    targets = _targets(rec)
+    clock = targets["the board's 25 MHz, undivided"]
+    assert not clock["met"]
+    path = rec["critical_path"]
+    assert clock["limit"] == f"{path['from']} -> {path['to']}"   # the path that limits it
+    # 0.2 µs at 25 MHz is 5 clocks each, and one more: 11 clocks, 2.27 M steps/s.
+    rate = targets["at least 1,000,000 steps/s per axis with servo drives with fast pulse inputs"]
+    assert rate["met"] and rate["measured"] == f"{25e6 / 11:,.0f} (11 clocks a step)"
+    profile = targets["cutter compensation"]
+    assert profile["met"] and "16 bits" in profile["measured"] and "limit" not in profile
+
+
 def test_seed_reaches_nextpnr(monkeypatch, tmp_path):
     seeds = []
 
