@@ -1195,8 +1195,11 @@ class _Interpreter:
         G98) and down to R, the hole, and the retract. In
         G91 the plane's words are increments repeated L times, R an increment from the
         series' first height, the depth one from R. R, the depth, P, Q are kept for the same
-        cycle's next blocks; the first height of a series of cycles in one plane (until
-        another motion mode or G80) is where G98 retracts to."""
+        cycle's next blocks; the first height of a series of cycles (until another motion mode
+        or G80) is where G98 retracts to. A series is in one plane: a cycle block after a
+        change of plane (G17, G18, G19 with no G80 or other motion mode since the series'
+        last block) is refused, where LinuxCNC keeps the first height, measured on the old
+        plane's normal axis, and retracts the new one to it."""
         name = f"G{motion / 10:g}"
         first, second, normal = PLANE_AXES[self.plane // 10]
         depth_letter = "XYZ"[normal]
@@ -1204,7 +1207,10 @@ class _Interpreter:
             self.fail(f"{name} with cutter-radius compensation on: turn it off (G40) first")
         if self.feed is None and self.units is not None:
             self.fail(f"{name} with no feed rate: give an F before the cycle")
-        same = self.cycle == motion and self.cycle_plane == self.plane
+        if self.cycle is not None and self.cycle_plane != self.plane:
+            self.fail(f"{name} in G{self.plane // 10} continues a series of canned cycles "
+                      f"begun in G{self.cycle_plane // 10}: end it with G80 first")
+        same = self.cycle == motion
         words = dict(self.cycle_words) if same else {}
         for letter in "R" + depth_letter + _CYCLES[motion]:
             if letter in values:
@@ -1222,10 +1228,10 @@ class _Interpreter:
             self.fail(f"{name} {texts['L']}: the repeats are a whole number, 1 or more")
         scale = self.scale
         # The height the series of cycles began at (LinuxCNC's "initial level", kept through
-        # cycles of any kind until another motion mode or G80; here also until another
-        # plane): G91's R is from it, the machine goes up to R first when it is below R, G98
-        # retracts to it.
-        if self.cycle_level is None or self.cycle_plane != self.plane:
+        # cycles of any kind until another motion mode or G80; a series continued in another
+        # plane is refused above): G91's R is from it, the machine goes up to R first when it
+        # is below R, G98 retracts to it.
+        if self.cycle_level is None:
             self.cycle_level = self.pos[normal]
         a, b = self.pos[first], self.pos[second]
         start = self.cycle_level

@@ -106,6 +106,19 @@ class InterpretTestCase(unittest.TestCase):
             ("F100 G81 X1 Z2 R1\n", r"^line 1: G81: R \(1 mm\) is below Z \(2 mm\)$"),
             ("F100 G81 X1 Z-1 R1 L0\n", r"^line 1: G81 L0: the repeats are a whole number"),
             ("F100 G18 G81 X1 Z-1 R1\n", r"^line 1: G81 needs Y: the depth$"),
+            # a series of cycles continued in another plane (LinuxCNC would keep its first
+            # height, measured on the old plane's normal axis): G80 (or G0...) first
+            ("F100 G0 Z10\nG98 G81 X1 Y1 Z-1 R2\nG18\nG81 X2 Z3 Y-1 R2\n",
+             r"^line 4: G81 in G18 continues a series of canned cycles begun in G17: end it "
+             r"with G80 first$"),
+            ("F100 G0 Z10\nG98 G81 X1 Y1 Z-1 R2\nG18\nX2 Z3\n",
+             r"^line 4: G81 in G18 continues a series of canned cycles begun in G17"),
+            ("F100 G0 Z10\nG81 X1 Y1 Z-1 R2\nG19 G82 Y2 Z3 X-1 R2 P1\n",
+             r"^line 3: G82 in G19 continues a series of canned cycles begun in G17: end it "
+             r"with G80 first$"),
+            ("F100 G18 G0 Y10\nG81 X1 Z1 Y-1 R2\nX2\nG17 G81 X1 Y1 Z-1 R2\n",
+             r"^line 4: G81 in G17 continues a series of canned cycles begun in G18: end it "
+             r"with G80 first$"),
             ("F100 G41.1 D2 G81 X1 Z-1 R1\n", r"^line 1: G81 with cutter-radius compensation "
                                               r"on"),
             ("F100 G84 X1 Z-1 R1\n", r"^line 1: G84: spindle-synchronised and oriented "
@@ -220,6 +233,30 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
         for (x, y), (ex, ey) in zip(ends, expected):
             self.assertAlmostEqual(x, ex, places=9)
             self.assertAlmostEqual(y, ey, places=9)
+
+    def test_cycle_series_and_planes(self):
+        """A series of cycles ended (G80, or another motion mode) before the plane changes:
+        the next cycle begins a series of its own, its first height on the new plane's normal
+        axis (by hand: G18 from Y1, below R2, up to R first, G98 back to Y2, not to the G17
+        series' Z10). A plane changed and changed back between two cycle blocks is the same
+        series (G98 back to Z10). A series continued in another plane is refused (above)."""
+        def points(text):
+            return [(m.kind[0], *(float(c) for c in m.end), float(m.z))
+                    for m in self.read(text).moves]
+
+        g17 = [("r", 0, 0, 10), ("r", 1, 1, 10), ("r", 1, 1, 2), ("l", 1, 1, -1),
+               ("r", 1, 1, 10)]
+        g18 = [("r", 1, 2, 10), ("r", 2, 2, 3), ("l", 2, -1, 3), ("r", 2, 2, 3)]
+        # (G0 or G1 with no axis word is a move to where the machine is, as rs274's)
+        for end, moved in (("G80", []), ("G0", [("r", 1, 1, 10)]), ("G1", [("l", 1, 1, 10)]),
+                           ("G80 G18", [])):
+            with self.subTest(end=end):
+                self.assertEqual(points(f"G21 F100\nG0 X0 Y0 Z10\nG98 G81 X1 Y1 Z-1 R2\n"
+                                        f"{end}\nG18 G98 G81 X2 Z3 Y-1 R2\n"),
+                                 g17 + moved + g18)
+        self.assertEqual(points("G21 F100\nG0 X0 Y0 Z10\nG98 G81 X1 Y1 Z-1 R2\nG18\nG17\n"
+                                "X3 Y3\n")[5:],
+                         [("r", 3, 3, 10), ("r", 3, 3, 2), ("l", 3, 3, -1), ("r", 3, 3, 10)])
 
     def test_peck_drilling(self):
         """G83 by hand from LinuxCNC's documentation: down to R, pecks of Q each back out to

@@ -61,6 +61,8 @@ CORPUS = {
     WRITTEN / "drill.ngc": rf"^line 4: {Z} \(Z from 5 to 2 mm\)$",
     WRITTEN / "cycles.ngc": rf"^line 9: {Z} \(Z from 15 to 2 mm\)$",
     WRITTEN / "cycleplanes.ngc": rf"^line 5: {Z} \(Z from 0 to 5 mm\)$",
+    WRITTEN / "cycleseries.ngc": r"^line 13: G81 in G18 continues a series of canned cycles "
+                                 r"begun in G17: end it with G80 first$",
     WRITTEN / "toollength.ngc": rf"^line 9: {Z} \(Z from 17.5 to 11.5 mm\)$",
     CAM / "freecad_grbl.ngc": rf"^line 15: {Z} \(Z from 5 to 3 mm\)$",
     WRITTEN / "plane.ngc": rf"^line 3: {Z} \(an arc in the XZ plane, G18\)$",
@@ -210,6 +212,26 @@ def test_reader_is_rs274(path, tmp_path):
         planar(program.moves)
     assert re.search(refusal, f"line {caught.value.line}: {caught.value.reason}"), \
         str(caught.value)
+
+
+def test_cycle_series_across_planes(tmp_path):
+    """cycleseries.ngc, which kontur refuses at line 13 (:data:`CORPUS`): a G81 in G18
+    continuing the series of cycles begun in G17 at line 11. rs274 reads it whole, keeping the
+    series' first height, Z10, and drilling along Y with it: a rapid to Y10 and G98's retract
+    to Y10, a height measured on Z. Up to that line (series ended by G80 and by G0 before
+    the plane changes) kontur's moves are rs274's."""
+    path = WRITTEN / "cycleseries.ngc"
+    text = _text(path)
+    theirs, _, run = canonical(text, tmp_path, path)
+    assert run.returncode == 0, run.stderr[-300:]
+    lines = text.splitlines()
+    assert lines[11:13] == ["G18", "G81 X6 Z3 Y-1 R2"]
+    before = _read(path, "\n".join(lines[:12]) + "\nG80\nM2\n").moves
+    assert len(before) == 22
+    compare(before, theirs[:len(before)])
+    assert [(m["kind"], m["end"], m["z"]) for m in theirs[len(before):]] == [
+        ("rapid", (6, 10), 3), ("rapid", (6, 2), 3), ("line", (6, -1), 3),
+        ("rapid", (6, 10), 3)]
 
 
 def test_corpus_is_large_enough():
