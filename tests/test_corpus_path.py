@@ -68,11 +68,13 @@ ZRUNS = [path for path, refusal in sorted(CORPUS.items(), key=lambda item: item[
          and not any(word in _text(path).upper() for word in ("G41", "G42"))]
 RUNS += ZRUNS
 #: A third of them on Verilator (an arc in XZ among them): the quickest (3 to 6 million clocks each
-#: at the run's time compression; inch.ngc is 420 million).
+#: at the run's time compression; inch.ngc is 420 million), and the two shortest real CAM
+#: outputs (Estlcam's and jscut's engravings: ten moves each).
 VERILATOR = [path for path in RUNS if path.name in ("zconst.ngc", "owords.ngc", "modes.ngc",
                                                      "tools.ngc", "zplunge.ngc", "helix.ngc",
                                                      "planes.ngc", "drill.ngc",
-                                                     "freecad_grbl.ngc", "turns.ngc")]
+                                                     "freecad_grbl.ngc", "turns.ngc",
+                                                     "estlcam_engrave.nc", "jscut_engrave.nc")]
 
 
 def _grid(value):

@@ -392,6 +392,25 @@ class LinuxCNCWordsTestCase(unittest.TestCase):
         self.assertEqual(self.ends(text), [(1, 0), (2, 0)])
         self.assertEqual(self.ends(text, block_delete=True), [(1, 0)])
 
+    def test_program_without_end(self):
+        # A program that stops at its last line, with no M2, M30 or closing %, as Grbl's
+        # senders stream it (T2Laser's raster output, tests/programs/cam/t2laser_raster.nc):
+        # read to that line, its events with it; LinuxCNC refuses the file's end
+        # (test_gcode_rs274.test_program_without_end). With M2 the same moves, and the lines
+        # after the M2 unread.
+        text = ("M6 T1\nF750\nG92X1Y2\nG00 X0 Y0\nG01\nM03 S0\nX5.2 Y0.2 M03 S0\n"
+                "X5.3 Y0.1 M03 S1000")
+        program = self.read(text)
+        self.assertEqual([(m.kind, tuple(m.end), m.line) for m in program.moves],
+                         [("rapid", (-1, -2), 4), ("line", (-1, -2), 5),
+                          ("line", (Fraction(42, 10), Fraction(-18, 10)), 7),
+                          ("line", (Fraction(43, 10), Fraction(-19, 10)), 8)])
+        self.assertEqual([e.text[:2] for e in program.events if e.kind == "spindle"],
+                         ["M3"] * 3)
+        ended = self.read(text + "\nM2\nG0 X9\n")
+        self.assertEqual([tuple(m.end) for m in ended.moves],
+                         [tuple(m.end) for m in program.moves])
+
     def test_messages_and_pauses(self):
         program = self.read("(MSG, hello)\n#1 = 2\n(DEBUG, one #1 two #<_value>)\nM0\nM1\n")
         self.assertEqual([(e.kind, e.text) for e in program.events],

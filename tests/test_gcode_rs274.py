@@ -1,15 +1,15 @@
 """kontur's G-code reader against LinuxCNC's own interpreter, ``rs274 -g`` (linuxcnc-uspace).
 
 For every program of the corpus (``tests/programs/SOURCES.md``: kontur's contour programs, the
-programs written for the reader in ``tests/programs/rs274/``, and LinuxCNC's examples as the
-package installs them), rs274 prints its canonical machine commands; the reader's moves must be
-rs274's, one for one: the kind (STRAIGHT_TRAVERSE a rapid, STRAIGHT_FEED a line, ARC_FEED an
-arc, DWELL a dwell), the end point, an arc's centre and direction, the feed, Z where the
-program gives it, a dwell's seconds, all in machine coordinates (rs274's program coordinates
-plus the offsets it reports), within rs274's printing (four decimals of the program's unit).
-The tool events (tool changes, spindle starts, coolant, pauses, messages) must be rs274's too.
-A program kontur refuses must be refused with the documented reason (docs/gcode.md) this test
-names, while rs274 accepts it.
+programs written for the reader in ``tests/programs/rs274/``, CAM programs' output in
+``tests/programs/cam/``, and LinuxCNC's examples as the package installs them), rs274 prints
+its canonical machine commands; the reader's moves must be rs274's, one for one: the kind
+(STRAIGHT_TRAVERSE a rapid, STRAIGHT_FEED a line, ARC_FEED an arc, DWELL a dwell), the end
+point, an arc's centre and direction, the feed, Z where the program gives it, a dwell's
+seconds, all in machine coordinates (rs274's program coordinates plus the offsets it reports),
+within rs274's printing (four decimals of the program's unit). The tool events (tool changes,
+spindle starts, coolant, pauses, messages) must be rs274's too. A program kontur refuses must
+be refused with the documented reason (docs/gcode.md) this test names, while rs274 accepts it.
 
 The test fails, never skips, when rs274 is missing: ``make setup`` installs it.
 
@@ -37,6 +37,11 @@ CAM = PROGRAMS / "cam"
 #: their arcs (FreeCAD's grbl_post: K0 on XY arcs), which Grbl ignores, kontur too, and
 #: LinuxCNC refuses: rs274 reads a copy without those words (:func:`rs274_text`).
 GRBL_POSTS = {"freecad_grbl.ngc"}
+#: Programs that stop at their last line, with no program end (M2, M30) or closing ``%``, as
+#: Grbl's senders stream them: kontur reads them to their last line, LinuxCNC makes every move
+#: and then refuses the file's end ("File ended with no percent sign or program end"): rs274
+#: reads a copy with M2 after it (:func:`rs274_text`; test_program_without_end).
+NO_END = {"t2laser_raster.nc"}
 LINUXCNC = Path("/usr/share/linuxcnc/ncfiles")
 TABLE = WRITTEN / "tools.tbl"
 #: Programs read with a table of their own (tool lengths: the corpus's tools have none, since
@@ -65,6 +70,10 @@ CORPUS = {
                                  r"begun in G17: end it with G80 first$",
     WRITTEN / "toollength.ngc": rf"^line 9: {Z} \(Z from 17.5 to 11.5 mm\)$",
     CAM / "freecad_grbl.ngc": rf"^line 15: {Z} \(Z from 5 to 3 mm\)$",
+    CAM / "estlcam_engrave.nc": rf"^line 16: {Z} \(Z from 5 to 0.5 mm\)$",
+    CAM / "jscut_engrave.nc": rf"^line 20: {Z} \(Z from 2.54 to 0 mm\)$",
+    CAM / "fusion360_contour.nc": rf"^line 14: {Z} \(Z from 0 to 20 mm\)$",
+    CAM / "t2laser_raster.nc": None,
     WRITTEN / "plane.ngc": rf"^line 3: {Z} \(an arc in the XZ plane, G18\)$",
     WRITTEN / "rotary.ngc": r"^line 3: A90: this controller has the axes X and Y \(and reads "
                             r"Z\), not A$",
@@ -116,10 +125,13 @@ def tools_of(path=None):
 
 def rs274_text(path, text):
     """What rs274 reads of the corpus program ``path`` (``text``): its compensation off
-    (:func:`_uncompensated`), and for :data:`GRBL_POSTS` its zero K words dropped."""
+    (:func:`_uncompensated`), for :data:`GRBL_POSTS` its zero K words dropped, and for
+    :data:`NO_END` an M2 after its last line."""
     text = _uncompensated(text)
     if getattr(path, "name", None) in GRBL_POSTS:
         text = re.sub(r"(?i)\s*K\s*[-+]?0*\.?0*(?![\d.])", "", text)
+    if getattr(path, "name", None) in NO_END:
+        text += "M2\n"
     return text
 
 
@@ -234,12 +246,35 @@ def test_cycle_series_across_planes(tmp_path):
         ("rapid", (6, 10), 3)]
 
 
+def test_program_without_end(tmp_path):
+    """t2laser_raster.nc (:data:`NO_END`) stops after its last raster line, with no M2, M30
+    or closing ``%``. kontur reads it to that line, as Grbl runs it; rs274 makes every move of
+    it and then refuses the end of the file. Its moves before that refusal are kontur's, and
+    those of the copy with M2 that the corpus test gives it."""
+    path = CAM / "t2laser_raster.nc"
+    text = _text(path)
+    assert not re.search(r"(?im)^\s*%|\bM0*(?:2|30)\b", text)
+    theirs, events, run = canonical(text, tmp_path, path)
+    assert run.returncode != 0
+    assert "File ended with no percent sign or program end" in run.stderr
+    program = _read(path, text)
+    assert len(program.moves) == 33
+    compare(program.moves, theirs)
+    assert _events(program) == events
+    ended, _, run = canonical(rs274_text(path, text), tmp_path, path)
+    assert run.returncode == 0, run.stderr[-300:]
+    assert ended == theirs
+
+
 def test_corpus_is_large_enough():
     written = [p for p in CORPUS if p.parent == WRITTEN]
     linuxcnc = [p for p in CORPUS if p.parent == LINUXCNC]
+    cam = [p for p in CORPUS if p.parent == CAM]
     assert all("K" not in line.upper().split("(")[0] for path in CORPUS
                if path.name in GRBL_POSTS for line in rs274_text(path, _text(path)).splitlines())
-    assert len(CORPUS) >= 30 and len(written) >= 15 and len(linuxcnc) >= 10
+    assert all(rs274_text(path, _text(path)).endswith("M2\n") for path in CORPUS
+               if path.name in NO_END)
+    assert len(CORPUS) >= 30 and len(written) >= 15 and len(linuxcnc) >= 10 and len(cam) >= 5
     assert all(path.exists() for path in CORPUS), [p for p in CORPUS if not p.exists()]
     sources = (PROGRAMS / "SOURCES.md").read_text()
     for path in CORPUS:
