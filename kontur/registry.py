@@ -447,8 +447,14 @@ BOARD_TABLE = (
     # bracket.ngc's contour (the exact core 0.499; tests/test_run.py holds it to 0.5). Since
     # OVERRIDE's values are not kept without the overrides: 5017 LC, seeds 1-3 placed at
     # 14.97-15.55 MHz (with the laser mode 5181, 98 %: not adopted; icebreaker-z has it).
+    # With the arc engine on the textbook's bit-serial node at 20 bits (radii up to 1 048 575
+    # steps, 13.1 m at 80 steps/mm; separate steps, within half a diagonal of the arc where
+    # the faithful core is within half a step; 22 clocks a step, under the step/dir timing's
+    # 37) there is room for the feed, rapid and spindle overrides and the laser mode: 5156
+    # LC, seeds 1-3 placed at 15.67-16.69 MHz (issue 27; the node at 24 bits was 5314 LC and
+    # did not place, at 16 bits 5039 LC).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
-          clock_hz=12e6, arc=("faithful", 24), overrides=False, tools=True, laser_mode=False),
+          clock_hz=12e6, arc=("serial", 20), tools=True),
     # The iCEBreaker on three axes (issues 27/28: Z for routers and mills; the two-axis one
     # above for lasers, plasma and plotters): Z's step, dir and limit on PMOD2; lines in XYZ
     # by the spatial core, helices by the helix engine around the arc engine on the

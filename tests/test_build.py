@@ -130,7 +130,7 @@ def test_report_of_a_real_icebreaker_build(tmp_path):
 
 
 @pytest.mark.parametrize("board, engines", [
-    ("icebreaker", [("line", "exact", 16), ("arc", "faithful", 24)]),
+    ("icebreaker", [("line", "exact", 16), ("arc", "serial", 20)]),
     ("icebreaker-z", [("line", "spatial", 16), ("arc", "serial", 16)]),
     ("ulx3s", [("line", "spatial", 16), ("arc", "fast", 24), ("profile", "fast", 16)])])
 def test_report_names_the_cores_each_board_is_built_with(board, engines, tmp_path):

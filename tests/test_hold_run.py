@@ -404,15 +404,17 @@ class EventsTestCase(unittest.TestCase):
                 with self.subTest(bad=bad):
                     self.assertEqual(main(["run", str(program), "--out", str(out),
                                            "--event", bad]), 2)
-            # The iCEBreaker's controller is built without the overrides: refused, one line.
+            # The three-axis iCEBreaker's controller is built without the overrides:
+            # refused, one line.
             import contextlib
             import io
             for event in ("feed=120", "spindle=50"):
                 err = io.StringIO()
                 with contextlib.redirect_stderr(err):
                     self.assertEqual(main(["run", str(program), "--out", str(out), "--event",
-                                           f"{event}@0.05"]), 2)
+                                           f"{event}@0.05", "--board", "icebreaker-z"]), 2)
                 self.assertEqual(err.getvalue().splitlines(), [
-                    f"kontur: --event {event}: the icebreaker's controller is built without "
+                    f"kontur: --event {event}: the icebreaker-z's controller is built without "
                     "the feed, rapid and spindle overrides (no room for them on the iCEBreaker "
-                    "(iCE40UP5K-SG48)); boards with them: ulx3s"])
+                    "(iCE40UP5K-SG48), three axes (Z on PMOD2)); boards with them: icebreaker, "
+                    "ulx3s"])

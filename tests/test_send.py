@@ -450,9 +450,9 @@ class SendTestCase(unittest.TestCase):
             # before the port is opened.
             for extra, why in ((["--spindle", "5"], "the spindle override must be a whole "
                                                      "percentage from 10 to 200, not 5"),
-                               (["--spindle", "50"], "the icebreaker's controller is built "
-                                                     "without the feed, rapid and spindle "
-                                                     "overrides")):
+                               (["--spindle", "50", "--board", "icebreaker-z"],
+                                "the icebreaker-z's controller is built without the feed, "
+                                "rapid and spindle overrides")):
                 status, err = _capture_stderr(lambda: main(
                     ["send", str(good), "--port", "/dev/null-none", *extra]))
                 self.assertEqual(status, 2)

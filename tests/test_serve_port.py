@@ -191,15 +191,15 @@ def test_hold_resume_and_overrides_reach_the_board(tmp_path):
 
 
 def test_overrides_on_a_board_without_them(tmp_path):
-    """The iCEBreaker's controller has no overrides: a feed or spindle override byte is a
-    message, no OVERRIDE reaches the board."""
-    board = PtyBoard(Recording(WINDOW))
-    child, link, _ = _serve(tmp_path, board)
+    """The three-axis iCEBreaker's controller has no overrides: a feed or spindle override
+    byte is a message, no OVERRIDE reaches the board."""
+    board = PtyBoard(Recording(WINDOW, axes=3))
+    child, link, _ = _serve(tmp_path, board, "--board", "icebreaker-z")
     with board, child as process:
         port = _connect(process, link)
         for byte in (0x91, 0x9A):               # feed +10 %, spindle +10 %
             port.serial.write(bytes([byte]))
-            assert port.line() == "[MSG:the icebreaker's controller is built without the " \
+            assert port.line() == "[MSG:the icebreaker-z's controller is built without the " \
                                   "feed, rapid and spindle overrides]"
         assert board.machine.overrides == []
         port.close()

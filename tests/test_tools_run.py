@@ -134,15 +134,18 @@ def test_tool_outputs_on_the_icebreaker():
         [(3, "cw", 1000, False), (8, "off", 1000, False), (10, "cw", 400, True),
          (12, "off", 400, False)]
     assert "4 TOOL frames to the tool outputs" in summary_text(data)
-    # Its tool outputs have no laser mode (no room): a machine file's laser = true is refused
-    # there, taken on the ULX3S and the three-axis iCEBreaker.
+    # Its tool outputs have the laser mode (since its arcs run on the bit-serial node): a
+    # machine file's laser = true is taken, as on the ULX3S and the three-axis iCEBreaker;
+    # on a board built without it, refused.
     from kontur.trace import UsageError
-    with pytest.raises(UsageError, match="the icebreaker's tool outputs have no laser mode .*"
-                                         "board with it: icebreaker-z, ulx3s$"):
-        prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True), board="icebreaker")
+    for board in ("icebreaker", "icebreaker-z"):
+        assert prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True),
+                       board=board).machine.laser
     assert prepare(PLASMA, machine=LASER, board="ulx3s").machine.laser
-    assert prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True),
-                   board="icebreaker-z").machine.laser
+    small = replace(registry.board("icebreaker"), name="small", laser_mode=False)
+    with pytest.raises(UsageError, match="the small's tool outputs have no laser mode .*"
+                                         "board with it: icebreaker, icebreaker-z, ulx3s$"):
+        prepare(PLASMA, machine=Machine(clock_hz=12e6, laser=True), board=small)
     toolless = replace(registry.board("icebreaker"), tools=False)
     job = prepare(PLASMA, board=toolless, name="plasma")
     assert kontur_changes(job) == []
