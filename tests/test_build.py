@@ -148,7 +148,8 @@ def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
     rec = kontur.build.report(_real_result(tmp_path))
     targets = _targets(rec)
     clock = targets["the board's 12 MHz, undivided"]
-    assert clock["met"] and "16.33 MHz" in clock["measured"]      # the log's routed Fmax
+    assert clock["met"] and clock["measured"] == f"12 MHz, routed at {rec['fmax_mhz']:.2f} MHz"
+    assert rec["fmax_mhz"] > 12
     # A4988-class drives: 1 µs set-up (12 clocks), 2 µs pulse (24), one clock more.
     rate = targets["at least 200,000 steps/s per axis with A4988-class drives"]
     assert rate["met"] and rate["measured"] == f"{12e6 / 37:,.0f} (37 clocks a step)"
@@ -164,11 +165,11 @@ def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
 
 
 def test_report_targets_of_the_ulx3s(tmp_path):
-    # (the iCEBreaker's logs stand in: routed at 16.33 MHz, below the ULX3S's 25 MHz)
+    # (the iCEBreaker's logs stand in: routed below the ULX3S's 25 MHz)
     rec = kontur.build.report(_real_result(tmp_path) | {"board": "ulx3s"})
     targets = _targets(rec)
     clock = targets["the board's 25 MHz, undivided"]
-    assert not clock["met"]
+    assert rec["fmax_mhz"] < 25 and not clock["met"]
     path = rec["critical_path"]
     assert clock["limit"] == f"{path['from']} -> {path['to']}"   # the path that limits it
     # 0.2 µs at 25 MHz is 5 clocks each, and one more: 11 clocks, 2.27 M steps/s.

@@ -46,15 +46,21 @@ UNIT = MACHINE.clock_hz / (1 << 24) / SPM
 #: The longest contour a step path takes per unit of straight length: a line at
 #: atan(sqrt(2) - 1) = 22.5 degrees, whose steps are axial and diagonal in turn.
 STAIR = math.sqrt(4 - 2 * math.sqrt(2))
+#: The default board's arc core (registry.Variant): within ``accuracy`` steps of its circle
+#: (half a step, or half a diagonal for a core of separate steps: the bit-serial node).
+ARC = registry.variant("arc", registry.board("icebreaker").arc[0])
+#: ... and its steps' contour per unit of arc: STAIR, or for separate steps (axial only) up
+#: to sqrt(2), where the arc runs at 45 degrees.
+ARC_STAIR = math.sqrt(2) if ARC.accuracy > 0.5 else STAIR
 INCH = Fraction(254, 10)
 #: How far (steps) an arc's steps may lie from its programmed circle. The engine traces a
 #: circle about a lattice point through the lattice start: the planner picks the best of the
 #: four lattice points around the programmed centre, and the best is up to 1.22 steps off the
 #: programmed circle (|centre's shift| + |radius's change|; the worst of 200 000 random
 #: circles, e.g. G0 X0.4041 Y-4.5664 / G2 I-0.5829 J0.011 at 80 steps/mm), the steps up to
-#: half a step off that circle: 1.72. Not the 1.5 of a line's (half a step, and its ends
-#: rounded by sqrt(2)/2).
-ARC_BOUND = 1.75
+#: half a step off that circle (the core's accuracy): 1.72 (1.93 for separate steps, half a
+#: diagonal). Not the 1.5 of a line's (half a step, and its ends rounded by sqrt(2)/2).
+ARC_BOUND = 1.25 + ARC.accuracy
 
 
 # ---- an evaluator of the generated subset of G-code ----------------------------------------
@@ -296,12 +302,12 @@ class GeometryTestCase(unittest.TestCase):
                                  + margin + 1e-9, where)
             # 4. the steps of an arc: its length, within the rounding (the radius by two steps,
             # each end's angle by 4 / r: start, end and centre rounded, the end's path point a
-            # step along the circle), the contour of a step path up to STAIR times longer.
+            # step along the circle), the contour of a step path up to ARC_STAIR times longer.
             if move["kind"] == "arc":
                 r = move["radius"] * SPM
                 slack = 4 / r
                 least = max(r - 2, 0) * max(move["sweep"] - 2 * slack, 0) - 2
-                most = STAIR * ((r + 2) * (move["sweep"] + 2 * slack) + 4)
+                most = ARC_STAIR * ((r + 2) * (move["sweep"] + 2 * slack) + 4)
                 self.assertGreaterEqual(contour, least, where)
                 self.assertLessEqual(contour, most, where)
         self.assertEqual(index, len(result.steps))
