@@ -190,10 +190,11 @@ def targets(rec):
         f"{pulse:g} µs pulse)", rate >= least, f"{rate:,.0f} ({clocks} clocks a step)")
     axes = goal["axes"]
     row(f"{axes} axes", rec["axes"] >= axes, f"{rec['axes']}", "axes")
-    row("tool outputs", item.tools, "yes" if item.tools else "no", "tools")
-    row("safety inputs (e-stop, limits, probe, cycle start, feed hold)",
-        any(p.startswith("switches") for p in rec["ports"]),
-        "yes" if any(p.startswith("switches") for p in rec["ports"]) else "no", "safety")
+    for target, prefix in (("tool outputs", "tool_"),
+                           ("safety inputs (e-stop, limits, probe, cycle start, feed hold)",
+                            "switches_")):
+        pins = sum(1 for p in rec["ports"] if p.startswith(prefix))
+        row(target, pins > 0, f"{pins} pins", target)
     width = goal["profile_width"]
     profile = [e for e in rec["engines"] if e["kind"] == "profile"]
     row(f"cutter compensation (G41/G42) at {width} bits",

@@ -90,7 +90,8 @@ def test_make_bitstream_passes_the_machine_file():
 # tests/golden/build_icebreaker_seed1/ are those `kontur build --board icebreaker --seed 1` wrote
 # (nextpnr's top.tim and the pin file top.pcf, copied unchanged; top.stat is the tail of Yosys's
 # top.rpt from its last "Printing statistics." on), not written by hand: regenerated from
-# build/bench-controllers/icebreaker-s1 when the iCEBreaker went to 12 MHz (issue 27).
+# build/bench-controllers/icebreaker-s1 when the iCEBreaker went to 12 MHz (issue 27), and
+# again when its arcs moved to the bit-serial node beside the overrides and the laser mode.
 REAL = ROOT / "tests" / "golden" / "build_icebreaker_seed1"
 
 
@@ -153,7 +154,9 @@ def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
     # A4988-class drives: 1 µs set-up (12 clocks), 2 µs pulse (24), one clock more.
     rate = targets["at least 200,000 steps/s per axis with A4988-class drives"]
     assert rate["met"] and rate["measured"] == f"{12e6 / 37:,.0f} (37 clocks a step)"
-    assert targets["tool outputs"]["met"] and targets["safety inputs"]["met"]
+    assert targets["tool outputs"] == {"target": "tool outputs", "met": True,
+                                       "measured": "5 pins"}          # top.pcf's tool_0
+    assert targets["safety inputs"]["met"] and targets["safety inputs"]["measured"] == "6 pins"
     axes = targets["3 axes"]                                  # the two-axis build
     assert not axes["met"] and "icebreaker-z" in axes["limit"]
     profile = targets["cutter compensation"]
