@@ -316,17 +316,23 @@ class EventsTestCase(unittest.TestCase):
         # Checked inside execute against the model (every step, every frame DONE, the end and
         # the state); and here: the run is longer by about the hold, the state reported.
         from kontur.machining import execute, prepare
-        # (The iCEBreaker's controller has no overrides: the overrides on the RTL are the
-        # ULX3S's, test_compensated_contour_held_on_verilator.)
+        # (the iCEBreaker's controller, with the overrides since its arcs run on the bit-serial
+        # node: a feed override of 50 % before the hold)
         job = prepare(TINY, machine=machine(), name="tiny.ngc")
         half = job.seconds / 2
-        events = [(0.0, "estop-release"), (half, "hold"), (half + 0.2, "resume")]
+        events = [(0.0, "estop-release"), (half / 2, "feed=50"), (half, "hold"),
+                  (half + 0.2, "resume")]
         rtl = execute(job, "amaranth", events=events)
         self.assertEqual(rtl.steps, job.steps)
         self.assertEqual((rtl.final_state, rtl.end), ("IDLE", job.end))
-        self.assertEqual([e["hold"] for e in rtl.events], [False, True, False])
+        self.assertEqual([e["hold"] for e in rtl.events], [False, False, True, False])
         plain = execute(job, "model")
         self.assertGreater(rtl.times[-1], plain.times[-1] + 0.1)
+        # The half speed from a quarter of the plan on: longer than the same hold alone (the
+        # model's times, which take the hold and not the override) by more than a quarter of
+        # the plan (three quarters of it at half speed: about as much again, less the ramps).
+        held = execute(job, "model", events=[e for e in events if e[1] != "feed=50"])
+        self.assertGreater(rtl.times[-1], held.times[-1] + job.seconds / 4)
 
     def test_amaranth_hold_never_resumed(self):
         from kontur.machining import execute, prepare
