@@ -474,10 +474,10 @@ BOARD_TABLE = (
     # before, its element end (block 11's test, the feed's permission, the memory's shift and
     # the frame taken) in one clock closed at 22.71-23.17 MHz and the controller ran at half
     # the board's clock, 12.5 MHz.
-    # It has the homing engine too (issue 25) and the tool outputs (issue 28); the iCEBreaker
-    # has no room for them. It has the third axis, Z (issue 28: lines in XYZ by the spatial
-    # core, helices by the helix engine around the arc engine); the iCEBreaker stays on two
-    # (no room).
+    # It has the homing engine too (issue 25), which neither iCEBreaker has room for, the tool
+    # outputs (issue 28) and the third axis, Z (issue 28: lines in XYZ by the spatial core,
+    # helices by the helix engine around the arc engine), all three of its engines at their
+    # one-step-a-clock cores.
     Board("ulx3s", "ULX3S (ECP5 LFE5U-85F)", _ulx3s_platform, None, clock_hz=25e6,
           line=("exact", 16), arc=("fast", 24), profile=("fast", 16), homing=True,
           tools=True, axes=3),
