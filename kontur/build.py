@@ -154,10 +154,12 @@ TARGETS = {
 
 def targets(rec):
     """The targets (:data:`TARGETS`) of a build's record (:func:`report`), each
-    ``{"target", "met", "measured"}`` and, where not met, ``"limit"`` (the critical path for the
-    clock) and ``"tried"``. The rate is the controller clock over the step/dir stage's clocks
-    at the drives' timing (the stage is built for the machine file's timing: ``kontur build
-    --machine`` with those ``dir_setup_us`` and ``step_width_us``)."""
+    ``{"target", "met", "measured"}`` and, where not met, ``"limit"`` (what stands in the way:
+    for the clock, its critical path) and ``"tried"``. The rate is the controller clock over the
+    step/dir stage's clocks at the drives' timing (the stage is built for the machine file's
+    timing: ``kontur build --machine`` with those ``dir_setup_us`` and ``step_width_us``); the
+    engines' own step periods are not counted (the slowest, the bit-serial node's, is its word
+    length: 22 clocks at 20 bits)."""
     from kontur import registry
     from kontur.machine import Machine
     goal = TARGETS.get(rec["device"])
