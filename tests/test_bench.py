@@ -358,6 +358,28 @@ class SpeedOptionsTestCase(unittest.TestCase):
                     flow.place_and_route(Platform(), None, build_dir, timing_allow_fail=allow)
         self.assertEqual(calls, ["--seed 1", "--seed 1 --timing-allow-fail"])
 
+        # A board's build synthesises for its device as the benches do: on the iCE40 with
+        # "-device u" (the UltraPlus's timing model), on the ECP5 with no device option.
+        synth = []
+
+        class Board:
+            def __init__(self, device):
+                self.device = device
+
+            def build(self, top, **options):
+                synth.append((options["synth_opts"], options["script_after_synth"]))
+                raise subprocess.CalledProcessError(1, "build_top.sh")
+
+        with tempfile.TemporaryDirectory() as build_dir:
+            for device in ("iCE40UP5K", "LFE5U-85F"):
+                with self.assertRaises(flow.ToolchainError):
+                    flow.place_and_route(Board(device), None, build_dir)
+        (ice40, ice40_rest), (ecp5, ecp5_rest) = synth
+        self.assertTrue(ice40.startswith("-device u ") and "synth_ice40" in ice40_rest
+                        and "-device u" in ice40_rest)
+        self.assertNotIn("-device", ecp5 + ecp5_rest)
+        self.assertIn("synth_ecp5", ecp5_rest)
+
         # measure_speed runs Yosys once and nextpnr on its netlist, with --timing-allow-fail
         # (the tools' runs are recorded here, not made).
         from kontur.hdl.top import BareAccumulator
