@@ -450,9 +450,10 @@ BOARD_TABLE = (
     # With the arc engine on the textbook's bit-serial node at 20 bits (radii up to 1 048 575
     # steps, 13.1 m at 80 steps/mm; separate steps, within half a diagonal of the arc where
     # the faithful core is within half a step; 22 clocks a step, under the step/dir timing's
-    # 37) there is room for the feed, rapid and spindle overrides and the laser mode: 5156
-    # LC, seeds 1-3 placed at 15.67-16.69 MHz (issue 27; the node at 24 bits was 5314 LC and
-    # did not place, at 16 bits 5039 LC).
+    # 37) there is room for the feed, rapid and spindle overrides and the laser mode: 5177
+    # LC, seeds 1-3 placed at 17.07-17.96 MHz with Yosys's UltraPlus timing model (-device u;
+    # 5156 LC, 15.67-16.69 MHz without it; issue 27; the node at 24 bits was 5314 LC and did
+    # not place, at 16 bits 5039 LC).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("serial", 20), tools=True),
     # The iCEBreaker on three axes (issues 27/28: Z for routers and mills; the two-axis one
