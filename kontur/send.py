@@ -383,11 +383,22 @@ class _Sender:
             self.control()
             self.pump()
 
+    def _homing_waits(self):
+        """Whether the next frame is a homing cycle's (its line a pass's name) with one of the
+        cycle's before it unanswered: the cycle goes a frame at a time, so that a pass that
+        fails (``REFUSED``: its switch not found) has no pass queued behind it on the board
+        to run before the host's ``ABORT`` arrives."""
+        following = self.lines[self.sent] if self.sent < len(self.lines) else None
+        return (isinstance(following, str)
+                and any(isinstance(line, str) for line in self.lines[self.answered:self.sent]))
+
     def pump(self):
-        """One turn of the stream: frames sent while the window has room, the replies there
-        are read, the oldest unanswered frame's deadline checked."""
+        """One turn of the stream: frames sent while the window has room (a homing cycle's a
+        frame at a time), the replies there are read, the oldest unanswered frame's deadline
+        checked."""
         count = len(self.frames)
-        while self.sent < count and self.sent - self.answered < self.window:
+        while (self.sent < count and self.sent - self.answered < self.window
+               and not self._homing_waits()):
             self.write(self.frames[self.sent])
             self.sent_at.append(time.monotonic())
             self.sent += 1
@@ -400,7 +411,9 @@ class _Sender:
                 self.z = reply.z                # a 3-axis board's Z (None on two axes)
                 self.check_status(reply.fields)
                 self.statuses += 1
-        if self.answered < count and time.monotonic() > self.deadline():
+        # (the oldest frame not yet answered, once it is sent: every frame sent may be answered
+        # while the next waits to be sent)
+        if self.answered < min(count, self.sent) and time.monotonic() > self.deadline():
             index = self.answered
             waited = time.monotonic() - max(self.heard, self.sent_at[index])
             self.fail(f"no answer in {waited:.1f} s to {self.sent - index} frames, the "
