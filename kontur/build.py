@@ -157,9 +157,10 @@ def targets(rec):
     ``{"target", "met", "measured"}`` and, where not met, ``"limit"`` (what stands in the way:
     for the clock, its critical path) and ``"tried"``. The rate is the controller clock over the
     step/dir stage's clocks at the drives' timing (the stage is built for the machine file's
-    timing: ``kontur build --machine`` with those ``dir_setup_us`` and ``step_width_us``); the
-    engines' own step periods are not counted (the slowest, the bit-serial node's, is its word
-    length: 22 clocks at 20 bits)."""
+    timing: ``kontur build --machine`` with those ``dir_setup_us`` and ``step_width_us``), or
+    over the slowest engine's clocks a step where that is longer
+    (:meth:`kontur.registry.Board.slowest`: the bit-serial node's word, 22 clocks at 20
+    bits)."""
     from kontur import registry
     from kontur.machine import Machine
     goal = TARGETS.get(rec["device"])
@@ -186,10 +187,14 @@ def targets(rec):
         rows[-1]["limit"] = f"{path['from']} -> {path['to']}"
     least, (setup, pulse), drives = goal["rate"]
     machine = Machine(clock_hz=item.clock_hz, dir_setup_us=setup, step_width_us=pulse)
-    clocks = machine.dir_setup + machine.step_width + 1
-    rate = machine.max_step_rate
+    stage = machine.dir_setup + machine.step_width + 1
+    slowest, kind, name, width = item.slowest()
+    clocks = max(stage, slowest)
+    rate = machine.clock_hz / clocks
     row(f"at least {least:,} steps/s per axis with {drives} ({setup:g} µs set-up, "
-        f"{pulse:g} µs pulse)", rate >= least, f"{rate:,.0f} ({clocks} clocks a step)")
+        f"{pulse:g} µs pulse)", rate >= least,
+        f"{rate:,.0f} ({clocks} clocks a step: the step/dir stage's {stage}, the {kind} "
+        f"engine's {slowest} on the {name} core at {width} bits)")
     axes = goal["axes"]
     row(f"{axes} axes", rec["axes"] >= axes, f"{rec['axes']}", "axes")
     for target, prefix in (("tool outputs", "tool_"),
@@ -226,11 +231,11 @@ def report(result):
                                          key=lambda kv: kv[1][2] or float("inf"))
     machine = result.get("machine") or Machine(clock_hz=item.clock_hz)
     path = _clock_path(log, clock)
-    # On three axes the line engine is the spatial core (registry.make_controller).
-    line = ("spatial", item.line[1]) if item.axes == 3 else item.line
-    engines = [{"kind": kind, "variant": spec[0], "width": spec[1]}
-               for kind, spec in (("line", line), ("arc", item.arc), ("profile", item.profile))
-               if spec is not None]
+    engines = [{"kind": kind, "variant": name, "width": width,
+                "clocks_per_step": registry.step_clocks(kind, name, width)}
+               for kind, name, width in item.engines]
+    stage = machine.dir_setup + machine.step_width + 1
+    clocks = max(stage, item.slowest()[0])
     rec = {
         "board": result["board"],
         "device": str(getattr(item.platform(), "device", "")),
@@ -248,8 +253,9 @@ def report(result):
         "engines": engines,
         "axes": sum(1 for p in ports if re.match(r"stepper_0__step__io", p)),
         "ports": ports,
-        "clocks_per_step": machine.dir_setup + machine.step_width + 1,
-        "steps_per_s": machine.max_step_rate,
+        "step_dir_clocks": stage,
+        "clocks_per_step": clocks,
+        "steps_per_s": machine.clock_hz / clocks,
         "seed": result["seed"],
         "seconds": result["seconds"],
     }
@@ -275,8 +281,8 @@ def report_table(rec):
 def machine_file(board, path):
     """The :class:`~kontur.machine.Machine` of the machine file ``path`` for ``board``'s
     clock, its link and queue checked as the controller takes them (a queue of 2 to 255 frames,
-    STATUS's byte; a baud the clock makes within 2 %): the values the bitstream is built
-    with.
+    STATUS's byte; a baud the clock makes within 2 %; a ``max_feed`` the board's engines make,
+    :func:`kontur.registry.check_machine`): the values the bitstream is built with.
 
     Raises
     ------
@@ -289,7 +295,7 @@ def machine_file(board, path):
     item = registry.board(board)
     machine = Machine.from_toml(path, clock_hz=item.clock_hz)
     try:
-        return machine.check()
+        return registry.check_machine(item, machine.check())
     except MachineError as error:
         raise MachineError(f"{path}: {error}") from None
 

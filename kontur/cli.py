@@ -405,7 +405,7 @@ def _machine(args):
                                                        ("cutter_radius", args.radius))
                          if value is not None}
             machine = Machine(clock_hz=board.clock_hz, **overrides)
-        return machine.check()
+        return registry.check_machine(board, machine.check())
     except MachineError as error:
         raise UsageError(str(error)) from None
 

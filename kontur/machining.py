@@ -248,7 +248,7 @@ def prepare(text, *, machine=None, board="icebreaker", name=None, max_steps=None
                          f"{item.name}'s ({item.clock_hz:g} Hz)")
     from kontur.trace import UsageError
     try:
-        machine.check()
+        registry.check_machine(item, machine.check())
     except MachineError as error:
         raise UsageError(str(error)) from None
     if machine.laser and item.tools and not item.laser_mode:

@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 
 from kontur.hdl.arc import ArcEngine
 from kontur.hdl.circular import FaithfulArcCore, FastArcCore
-from kontur.hdl.equidistant import EquidistantEngine
+from kontur.hdl.circular_timing import FaithfulTiming
+from kontur.hdl.equidistant import SETTLE, EquidistantEngine
 from kontur.hdl.line import LineEngine
 from kontur.hdl.linear import LinearCore
 from kontur.hdl.motion.controller import MotionController
@@ -96,6 +97,11 @@ class Variant:
        the largest distance of a visited point from the segment, or the radial error of an
        arc), which the accuracy bench's test checks for every variant; ``None`` where the
        deviation has no bound independent of the command's length.
+    6. ``step_clocks``: the clocks a step of the core at full feed, an :class:`int` or a function of
+       the width (the shortest interval between two of its steps on a line or an arc: its
+       rate; a quadrant's change may take longer). :func:`step_clocks` gives it; a board's
+       slowest engine's bounds its step rate as the step/dir timing does
+       (:meth:`Board.slowest`, :func:`check_machine`).
     """
     kind: str
     name: str
@@ -110,6 +116,7 @@ class Variant:
     margin: int = 0
     widths: tuple = ()
     accuracy: float = None
+    step_clocks: object = 1
 
 
 @dataclass(frozen=True)
@@ -146,6 +153,22 @@ class Board:
     tools: bool = False
     laser_mode: bool = True
     axes: int = 2
+
+    @property
+    def engines(self):
+        """``(kind, variant, width)`` of each engine the controller has (on three axes the
+        line engine is the spatial core, :func:`make_controller`; the helix engine makes its
+        steps at its arc core's rate)."""
+        line = ("spatial", self.line[1]) if self.axes == 3 else self.line
+        return [(kind, *spec) for kind, spec in (("line", line), ("arc", self.arc),
+                                                 ("profile", self.profile))
+                if spec is not None]
+
+    def slowest(self):
+        """``(clocks, kind, variant, width)`` of the engine that takes the most clocks a step
+        (:func:`step_clocks`; the first of those with it)."""
+        return max(((step_clocks(*engine), *engine) for engine in self.engines),
+                   key=lambda row: row[0])
 
 
 KINDS = {}
@@ -191,6 +214,34 @@ def variant(kind_name, name=None):
         raise ValueError(f"{kind_name} variant must be one of "
                          f"{', '.join(map(repr, variants(kind_name)))}, not {name!r}")
     return VARIANTS[kind_name, name]
+
+
+def step_clocks(kind_name, name=None, width=None):
+    """The clocks a step of a variant's core at ``width`` (its default width without one) at
+    full feed: :attr:`Variant.step_clocks`."""
+    item = variant(kind_name, name)
+    width = KINDS[kind_name].default_width if width is None else width
+    clocks = item.step_clocks
+    return clocks(width) if callable(clocks) else clocks
+
+
+def check_machine(board_name, machine):
+    """Return ``machine`` if ``board_name``'s engines make its highest feed, else raise
+    :exc:`kontur.machine.MachineError` (naming ``max_feed``): ``max_feed`` in steps a second
+    at most the controller's clock over its slowest engine's clocks a step
+    (:meth:`Board.slowest`; the bit-serial node's is its word length). The step/dir timing's
+    bound is :class:`~kontur.machine.Machine`'s own."""
+    from kontur.machine import MachineError
+    item = board(board_name)
+    clocks, kind_name, name, width = item.slowest()
+    rate = item.clock_hz / clocks
+    need = machine.max_feed / 60 * machine.steps_per_mm
+    if need > rate:
+        raise MachineError(
+            f"max_feed {machine.max_feed:g} mm/min is {need:.0f} steps/s, more than the "
+            f"{rate:.0f} the {item.name}'s {kind_name} engine makes ({name} at {width} bits: "
+            f"a step every {clocks} clocks)")
+    return machine
 
 
 def _arguments(item, width, params):
@@ -401,16 +452,16 @@ VARIANT_TABLE = (
             accuracy=HALF),
     Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
             FaithfulArcCore, FaithfulArcCoreModel, arc_steps, params=("timing",),
-            widths=(24, 32), accuracy=HALF),
+            widths=(24, 32), accuracy=HALF, step_clocks=FaithfulTiming().period),
     Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
             FastArcCore, FastArcCoreModel, arc_steps, params=("period",),
             widths=(24, 32), accuracy=HALF),
     Variant("profile", "fast", "arcs on SU 1665343's one-step-per-clock core",
             FastArcCore, FastArcCoreModel, _profile_outcomes, params=("period",), min_width=4,
-            margin=2),
+            margin=2, step_clocks=SETTLE + 1),
     Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
             FaithfulArcCore, FaithfulArcCoreModel, _profile_outcomes, params=("timing",),
-            min_width=4, margin=2),
+            min_width=4, margin=2, step_clocks=max(FaithfulTiming().period, SETTLE + 1)),
     Variant("line", "separate", "textbook: estimating function, separate steps",
             SeparateLineCore, SeparateLineCoreModel, separate_line_steps,
             clocks=_separate_line_clocks, accuracy=HALF_DIAGONAL),
@@ -422,13 +473,13 @@ VARIANT_TABLE = (
             params=("capacity",), clocks=_dda_clocks, accuracy=ONE),
     Variant("line", "serial", "textbook: the bit-serial linear-circular node",
             SerialLineCore, SerialLineCoreModel, separate_line_steps,
-            clocks=_serial_line_clocks, accuracy=HALF_DIAGONAL),
+            clocks=_serial_line_clocks, accuracy=HALF_DIAGONAL, step_clocks=word_length),
     Variant("arc", "separate", "textbook: estimating function, separate steps",
             SeparateArcCore, SeparateArcCoreModel, separate_arc_steps,
             clocks=_separate_arc_clocks, accuracy=HALF_DIAGONAL),
     Variant("arc", "serial", "textbook: the bit-serial linear-circular node",
             SerialArcCore, SerialArcCoreModel, separate_arc_steps,
-            clocks=_serial_arc_clocks, accuracy=HALF_DIAGONAL),
+            clocks=_serial_arc_clocks, accuracy=HALF_DIAGONAL, step_clocks=word_length),
 )
 
 BOARD_TABLE = (

@@ -58,7 +58,10 @@ BAD = {"queue_frames = 1\n": "queue_frames must be an integer from 2 to 255",
        "baud = 100000000\n": f"baud 1e+08 cannot be made from the {ICEBREAKER_HZ / 1e6:g} MHz "
                               f"clock",
        "bauds = 9600\n": "unknown key 'bauds'",
-       "queue_frames = 2.5\n": "queue_frames must be an integer"}
+       "queue_frames = 2.5\n": "queue_frames must be an integer",
+       # (drives with 0.2 µs set-up and pulse: 1.7 M steps/s; the arcs' bit-serial node 545 455)
+       "dir_setup_us = 0.2\nstep_width_us = 0.2\nsteps_per_mm = 1000\nmax_feed = 40000\n":
+           "more than the 545455 the icebreaker's arc engine makes"}
 
 
 @pytest.mark.parametrize("text", BAD)
@@ -119,11 +122,13 @@ def test_report_of_a_real_icebreaker_build(tmp_path):
     # Defaults: 1 µs set-up and 2 µs width, one clock more between pulses (at 12 MHz, 12 + 24
     # + 1 clocks).
     clocks = round(1e-6 * ICEBREAKER_HZ) + round(2e-6 * ICEBREAKER_HZ) + 1
-    assert rec["clocks_per_step"] == clocks
+    assert rec["clocks_per_step"] == rec["step_dir_clocks"] == clocks
     assert round(rec["steps_per_s"]) == round(ICEBREAKER_HZ / clocks)
     assert rec["axes"] == 2                                # X and Y step pins
     assert "uart_0__rx__io" in rec["ports"] and "stepper_0__enable__io" in rec["ports"]
     assert [e["kind"] for e in rec["engines"]] == ["line", "arc"]
+    # (the arcs on the bit-serial node at 20 bits: a word of 22 clocks a step)
+    assert [e["clocks_per_step"] for e in rec["engines"]] == [1, 22]
     assert rec["critical_path"]["from"] and rec["critical_path"]["to"]
     assert 0 < rec["flip_flops"] < rec["cells_used"]
     assert rec["block_ram"][1] == 30 and rec["dsp"][1] == 8
@@ -145,6 +150,17 @@ def _targets(rec):
     return {t["target"].split(" (")[0].split(":")[0]: t for t in rec["targets"]}
 
 
+def test_report_rate_of_drives_faster_than_the_serial_node(tmp_path):
+    # Drives with 0.2 µs set-up and pulse: the step/dir stage takes 3 + 3 + 1 clocks at 12 MHz,
+    # the arcs' bit-serial node a word of 22: the record's rate is the node's.
+    from kontur.machine import Machine
+    fast = Machine(clock_hz=ICEBREAKER_HZ, dir_setup_us=0.2, step_width_us=0.2)
+    rec = kontur.build.report(_real_result(tmp_path) | {"machine": fast})
+    assert (rec["step_dir_clocks"], rec["clocks_per_step"]) == (7, 22)
+    assert round(rec["steps_per_s"]) == round(ICEBREAKER_HZ / 22)
+    assert "545455 steps/s (22 clocks a step)" in kontur.build.report_table(rec)
+
+
 def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
     rec = kontur.build.report(_real_result(tmp_path))
     targets = _targets(rec)
@@ -153,7 +169,9 @@ def test_report_says_which_targets_the_icebreaker_meets(tmp_path):
     assert rec["fmax_mhz"] > 12
     # A4988-class drives: 1 µs set-up (12 clocks), 2 µs pulse (24), one clock more.
     rate = targets["at least 200,000 steps/s per axis with A4988-class drives"]
-    assert rate["met"] and rate["measured"] == f"{12e6 / 37:,.0f} (37 clocks a step)"
+    assert rate["met"] and rate["measured"] == (
+        f"{12e6 / 37:,.0f} (37 clocks a step: the step/dir stage's 37, the arc engine's 22 on "
+        f"the serial core at 20 bits)")
     assert targets["tool outputs"] == {"target": "tool outputs", "met": True,
                                        "measured": "5 pins"}          # top.pcf's tool_0
     assert targets["safety inputs"]["met"] and targets["safety inputs"]["measured"] == "6 pins"
@@ -177,7 +195,9 @@ def test_report_targets_of_the_ulx3s(tmp_path):
     assert clock["limit"] == f"{path['from']} -> {path['to']}"   # the path that limits it
     # 0.2 µs at 25 MHz is 5 clocks each, and one more: 11 clocks, 2.27 M steps/s.
     rate = targets["at least 1,000,000 steps/s per axis with servo drives with fast pulse inputs"]
-    assert rate["met"] and rate["measured"] == f"{25e6 / 11:,.0f} (11 clocks a step)"
+    assert rate["met"] and rate["measured"] == (
+        f"{25e6 / 11:,.0f} (11 clocks a step: the step/dir stage's 11, the profile engine's "
+        f"2 on the fast core at 16 bits)")
     profile = targets["cutter compensation"]
     assert profile["met"] and "16 bits" in profile["measured"] and "limit" not in profile
 

@@ -163,5 +163,63 @@ def test_cocotb_line_suite_takes_a_new_variant():
     assert "test_line_engine[icarus-staircase-16]" in output
 
 
+# ---- clocks a step: the cycle models' (the RTL's, clock for clock) at full feed -------------
+
+LINE = {"x": 57, "y": -23}
+CIRCLE = {"x0": 60, "y0": 11, "x1": 60, "y1": 11, "cw": 0}     # every quadrant
+#: A full circle with cutter compensation (the equidistant engine's arcs alone).
+PROFILE = "G0 X30 Y0\nG41 G3 X30 Y0 I-30 J0\nG40\nM2\n"
+
+
+def _shortest_interval(moves):
+    cycles = [cycle for cycle, _, _ in moves]
+    return min(b - a for a, b in zip(cycles, cycles[1:]))
+
+
+@pytest.mark.parametrize("width", [16, 20])
+@pytest.mark.parametrize("kind, name", [(item.kind, item.name) for item in
+                                        registry.VARIANT_TABLE if item.kind != "profile"])
+def test_step_clocks_are_the_shortest_interval_between_steps(kind, name, width):
+    # The variant's model, clock for clock, given every permission: no two steps closer than
+    # its clocks a step, and some that close (the bit-serial node's word is 2 bits longer
+    # than the coordinates; SU 1665343's faithful core takes 4 clocks).
+    moves = trace(kind, LINE if kind == "line" else CIRCLE, variant=name, engine="model",
+                  width=width, cycles=True)
+    assert len(moves) > 40
+    assert _shortest_interval(moves) == registry.step_clocks(kind, name, width)
+
+
+@pytest.mark.parametrize("name", registry.variants("profile"))
+def test_step_clocks_of_the_equidistant_engine(name):
+    from kontur.trace import trace_profile
+    run = trace_profile(PROFILE, radius=3, variant=name, width=16, cycles=True)
+    assert len(run.moves) > 100
+    assert _shortest_interval(run.moves) == registry.step_clocks("profile", name, 16)
+
+
+def test_boards_slowest_engine():
+    # The two-axis iCEBreaker's arcs are on the bit-serial node at 20 bits: a word of 22
+    # clocks a step, its line core's one.
+    item = registry.board("icebreaker")
+    assert item.engines == [("line", item.line[0], 16), ("arc", "serial", 20)]
+    assert item.slowest() == (22, "arc", "serial", 20)
+    assert registry.board("icebreaker-z").engines[0] == ("line", "spatial", 16)
+
+
+def test_a_feed_the_boards_engines_cannot_make_is_refused():
+    from kontur.machine import Machine, MachineError
+    # Drives with 0.2 µs set-up and pulse: 3 + 3 + 1 clocks a step at 12 MHz (1.7 M steps/s),
+    # more than the serial node's 12e6 / 22 = 545 455.
+    fast = dict(clock_hz=12e6, dir_setup_us=0.2, step_width_us=0.2, steps_per_mm=1000)
+    slow = Machine(max_feed=30000, **fast)                    # 500 000 steps/s
+    assert registry.check_machine("icebreaker", slow) is slow
+    with pytest.raises(MachineError, match=r"^max_feed 40000 mm/min is 666667 steps/s, more "
+                       r"than the 545455 the icebreaker's arc engine makes "
+                       r"\(serial at 20 bits: a step every 22 clocks\)$"):
+        registry.check_machine("icebreaker", Machine(max_feed=40000, **fast))
+    # The three-axis board's node is 16 bits wide: 18 clocks, 666 667 steps/s.
+    registry.check_machine("icebreaker-z", Machine(max_feed=40000, **fast))
+
+
 if __name__ == "__main__":
     unittest.main()

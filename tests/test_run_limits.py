@@ -196,6 +196,20 @@ def test_machine_values_the_rtl_cannot_take(key, value, program, tmp_path, capsy
     assert key in line
 
 
+def test_a_feed_faster_than_the_boards_engines_is_refused(program, tmp_path, capsys):
+    # Drives with 0.2 µs set-up and pulse allow 1.7 M steps/s at 12 MHz; the iCEBreaker's
+    # arcs (the bit-serial node at 20 bits) make a step every 22 clocks, 545 455 a second.
+    machine = tmp_path / "m.toml"
+    machine.write_text("dir_setup_us = 0.2\nstep_width_us = 0.2\nsteps_per_mm = 1000\n"
+                       "max_feed = 40000\n")
+    line = refused(capsys, ["run", program(LINE), "--machine", machine, "--out",
+                            tmp_path / "o"])
+    assert line.endswith("max_feed 40000 mm/min is 666667 steps/s, more than the 545455 the "
+                         "icebreaker's arc engine makes (serial at 20 bits: a step every 22 "
+                         "clocks)"), line
+    assert not (tmp_path / "o").exists()
+
+
 # ---- 5. every run's outputs its own ------------------------------------------------------
 
 def test_outputs_replace_the_folder_whole(program, tmp_path, capsys):

@@ -930,6 +930,23 @@ def test_soft_limits_setting():
             ["ok", "error:10" if travel is None else "error:3", "ok"]
 
 
+def test_max_rate_setting_within_the_engines():
+    """``$110`` (the highest feed) above what the board's slowest engine makes is Grbl's
+    error:12 (step rate exceeded), as above what the step/dir timing allows: the
+    iCEBreaker's arcs on the bit-serial node at 20 bits make a step every 22 clocks, 545 455
+    steps a second at 12 MHz; drives with 0.2 µs set-up and pulse would allow 1.7 M."""
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    said = []
+    grbl = Session(Machine(clock_hz=12e6, dir_setup_us=0.2, step_width_us=0.2,
+                           steps_per_mm=1000), "icebreaker", said.append, clock=lambda: 0.0)
+    grbl.receive(b"$110=30000\n$110=40000\n$110=200000\n$$\n")
+    grbl.poll()
+    assert [s for s in said if s == "ok" or s.startswith("error")][:3] == \
+        ["ok", "error:12", "error:12"]
+    assert "$110=30000.000" in said
+
+
 def test_g28_1_kept_in_the_machine_file(tmp_path):
     """G28.1 and G30.1 (commands.md: stored in EEPROM) keep the position in the machine file
     as g28_position/g30_position (X, Y); the file read again gives kontur run the same G28;

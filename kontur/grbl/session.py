@@ -53,7 +53,8 @@ class Session:
         self.axes, self.tools = item.axes, item.tools
         options = {} if clock is None else {"clock": clock}
         self.motion = motion or Motion(machine, board, speed=speed, **options)
-        self.settings = Settings(machine, machine_file, homing=self.motion.can_home)
+        self.settings = Settings(machine, machine_file, homing=self.motion.can_home,
+                                 board=board)
         self._homing = False                   # $H: the cycle runs (Grbl's Home state)
         self.rx = bytearray()
         self.alarm = self.check = False

@@ -17,6 +17,7 @@ import re
 from dataclasses import replace
 from pathlib import Path
 
+from kontur import registry
 from kontur.grbl.protocol import number
 from kontur.machine import MachineError
 
@@ -53,10 +54,12 @@ class SettingError(Exception):
 
 class Settings:
     """The ``$`` settings of a session on ``machine`` (the machine file's); ``homing``: the
-    machine can home (``$22`` may be set)."""
+    machine can home (``$22`` may be set); ``board``: the board whose engines must make the
+    highest feed (:func:`kontur.registry.check_machine`; none: the step/dir timing alone)."""
 
-    def __init__(self, machine, path=None, *, homing=False):
+    def __init__(self, machine, path=None, *, homing=False, board=None):
         self.homing = homing
+        self.board = board
         self.original = machine
         self.machine = machine
         self.path = None if path is None else Path(path)
@@ -97,8 +100,10 @@ class Settings:
             return None
         try:
             machine = replace(self.machine, **{MACHINE_KEYS[key]: value}).check()
+            if self.board is not None:
+                machine = registry.check_machine(self.board, machine)
         except MachineError as error:
-            raise SettingError(12 if "step/dir timing" in str(error) else 3,
+            raise SettingError(12 if "steps/s, more than" in str(error) else 3,
                                str(error)) from None
         self.machine = machine
         self._keep(MACHINE_KEYS[key], value)
