@@ -214,7 +214,9 @@ def targets(rec):
 def report(result):
     """Return the JSON-ready record of a controller's build (``result`` as :func:`build` returns
     it): board, device, controller clock, routed Fmax of that clock, critical path, cells,
-    flip-flops, block RAM, DSPs, engines, axes, ports, the step-rate limit and the seed."""
+    flip-flops, block RAM, DSPs, engines (each with its clocks a step and its path's accuracy
+    in steps, :class:`kontur.registry.Variant`: what the board's choice of cores costs), axes,
+    ports, the step-rate limit and the seed."""
     from kontur import registry
     from kontur.machine import Machine
     item = registry.board(result["board"])
@@ -232,7 +234,8 @@ def report(result):
     machine = result.get("machine") or Machine(clock_hz=item.clock_hz)
     path = _clock_path(log, clock)
     engines = [{"kind": kind, "variant": name, "width": width,
-                "clocks_per_step": registry.step_clocks(kind, name, width)}
+                "clocks_per_step": registry.step_clocks(kind, name, width),
+                "accuracy_steps": registry.variant(kind, name).accuracy}
                for kind, name, width in item.engines]
     stage = machine.dir_setup + machine.step_width + 1
     clocks = max(stage, item.slowest()[0])
@@ -271,6 +274,12 @@ def report_table(rec):
             f"           clock {rec['clock_mhz']:g} MHz, Fmax {rec['fmax_mhz']:.2f} MHz, "
             f"{rec['steps_per_s']:.0f} steps/s ({rec['clocks_per_step']} clocks a step), "
             f"seed {rec['seed']}\n"
+            f"engines    " + ", ".join(
+                f"{e['kind']} {e['variant']} {e['width']} bits ({e['clocks_per_step']} "
+                f"clock{'s' if e['clocks_per_step'] > 1 else ''} a step"
+                + (f", within {e['accuracy_steps']:.3g} steps of the path"
+                   if e.get("accuracy_steps") is not None else "") + ")"
+                for e in rec["engines"]) + "\n"
             + "".join(f"target     {'met    ' if t['met'] else 'NOT MET'} {t['target']}: "
                       f"{t['measured']}\n"
                       + (f"           limit: {t['limit']}\n" if "limit" in t else "")

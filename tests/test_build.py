@@ -127,8 +127,13 @@ def test_report_of_a_real_icebreaker_build(tmp_path):
     assert rec["axes"] == 2                                # X and Y step pins
     assert "uart_0__rx__io" in rec["ports"] and "stepper_0__enable__io" in rec["ports"]
     assert [e["kind"] for e in rec["engines"]] == ["line", "arc"]
-    # (the arcs on the bit-serial node at 20 bits: a word of 22 clocks a step)
+    # (the arcs on the bit-serial node at 20 bits: a word of 22 clocks a step, separate steps
+    # within half a diagonal of the arc where the line core is within half a step)
     assert [e["clocks_per_step"] for e in rec["engines"]] == [1, 22]
+    assert [e["accuracy_steps"] for e in rec["engines"]] == [0.5, pytest.approx(0.5 ** 0.5)]
+    assert "engines    line exact 16 bits (1 clock a step, within 0.5 steps of the path), arc " \
+        "serial 20 bits (22 clocks a step, within 0.707 steps of the path)\n" \
+        in kontur.build.report_table(rec)
     assert rec["critical_path"]["from"] and rec["critical_path"]["to"]
     assert 0 < rec["flip_flops"] < rec["cells_used"]
     assert rec["block_ram"][1] == 30 and rec["dsp"][1] == 8
