@@ -61,14 +61,20 @@ def popen(args, **options):
 @contextlib.contextmanager
 def child(args, **options):
     """:func:`popen` for the ``with`` block; whatever ends the block (the child's end, an
-    error, an interrupt), the group is ended with it: nothing it started outlives it."""
+    error, an interrupt), the group is ended with it: nothing it started outlives it, and the
+    pipes to it are closed (as :class:`subprocess.Popen`'s own ``with`` closes them)."""
     process = popen(args, **options)
     try:
-        yield process
-    except BaseException:
-        _end(process)                 # a signal meanwhile changes nothing: already leaving
-        raise
-    stop(process)
+        try:
+            yield process
+        except BaseException:
+            _end(process)             # a signal meanwhile changes nothing: already leaving
+            raise
+        stop(process)
+    finally:
+        for stream in (process.stdin, process.stdout, process.stderr):
+            if stream is not None:
+                stream.close()
 
 
 def run(args, *, timeout=None, **options):

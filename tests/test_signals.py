@@ -6,6 +6,7 @@ watches its process tree in ``/proc`` until the tool to interrupt is there (a C+
 the Verilator build, Icarus's ``vvp``), notes every descendant, sends the signal to ``kontur``
 alone and then looks for the noted processes: none may still run."""
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -210,4 +211,17 @@ def test_a_signal_while_a_group_ends_is_held_then_raised():
     assert caught.value.signum == signal.SIGTERM
     assert seconds >= processes.GRACE
     assert [comm for comm, _ in noted.values()] == ["sleep"] and _running(noted) == {}
+    assert processes.live() == []
+
+
+@pytest.mark.parametrize("error", [False, True])
+def test_a_childs_pipes_are_closed_with_it(error):
+    # Whether the block ends or fails (a failed assertion in a test of `kontur serve`), the
+    # pipes to the child are closed with it: none is left for the garbage collector to find
+    # in a later test (a ResourceWarning, an error under PYTHONWARNINGS=error).
+    from kontur.sim import processes
+    with contextlib.suppress(AssertionError):
+        with processes.child(["cat"], stdin=subprocess.PIPE, stdout=subprocess.PIPE) as cat:
+            assert not error
+    assert cat.stdin.closed and cat.stdout.closed
     assert processes.live() == []
