@@ -43,7 +43,8 @@ from kontur.gcode import PLANE_AXES, GCodeError, planar, read, sweep
 from kontur.hdl.motion.tools import tool_engine
 from kontur.machine import Machine, MachineError
 from kontur.planner import (ProgramError, Segment, frames as program_frames, lattice, lift,
-                            plan, planned_feed, step_length, step_seconds)
+                            plan, planned_feed, step_length, step_seconds, link_feed,
+                            LINK_MARGIN)
 from kontur.sim.models.motion import safety_run
 
 __all__ = ["ENGINES", "Job", "Result", "prepare", "execute", "auto_compress", "max_compress",
@@ -964,6 +965,7 @@ def summary(job, result):
         "planned_feeds_mm_min": sorted({round(planned_feed(m.feed, job.machine), 3)
                                         for m in moves
                                         if m.feed is not None and m.kind != "rapid"}),
+        "link_limited": _link_limited(job),
         "compress": result.compress,
         "clocks": result.clocks,
         "simulated_seconds": result.simulated,
@@ -1009,6 +1011,18 @@ def summary(job, result):
     return data
 
 
+def _link_limited(job):
+    """The moves the link holds below their feed (:func:`kontur.planner.link_feed`): how many
+    of how many, the lowest such bound (mm/min), the baud; ``None`` if none."""
+    moves = [s for s in job.segments if s.kind != "dwell"]
+    bounds = [link_feed(s, job.machine) * 60 for s in moves
+              if link_feed(s, job.machine) * 60 < planned_feed(s.feed * 60, job.machine)]
+    if not bounds:
+        return None
+    return {"moves": len(bounds), "of": len(moves), "lowest_mm_min": min(bounds),
+            "baud": job.machine.baud}
+
+
 def _feeds(data):
     """The programmed feeds, and the planned ones where any differs by more than 0.1 % (the
     machine's maximum, a low feed's rounding to the feed generator's rates)."""
@@ -1032,6 +1046,12 @@ def summary_text(data, out_dir=None):
         f"time       {data['machining_seconds']:.2f} s machining at the programmed feeds "
         f"(the plan)",
     ]
+    if data.get("link_limited"):
+        held = data["link_limited"]
+        lines.append(f"link       {held['moves']} of {held['of']} moves slower than their feed, "
+                     f"down to {held['lowest_mm_min']:.0f} mm/min: a move takes at least "
+                     f"{LINK_MARGIN:g} times its frames' time at {held['baud']} baud (a higher "
+                     f"baud in the machine file lifts it)")
     if data["engine"] != "model":
         lines.append(f"traced     {data['machine_seconds_traced']:.2f} s of machining in "
                      f"{data['simulated_seconds']:.3f} s simulated (time compressed x"

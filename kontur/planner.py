@@ -470,6 +470,24 @@ class PlanItem:
     seconds: float
 
 
+#: How much longer a move takes at least than its frames (FEED and the move's) on the link at
+#: the machine's baud: the link at most two thirds busy, so that the board's queue never runs
+#: dry in the middle of the motion (:func:`plan`, 4).
+LINK_MARGIN = 1.5
+
+
+def link_seconds(segment, machine):
+    """The time (s) a move's frames, its FEED and its move frame, take on the link at the
+    machine's baud (10 bits a byte)."""
+    return (len(protocol.feed(0, 0, 0)) + len(_move_frame(segment))) * 10 / machine.baud
+
+
+def link_feed(segment, machine):
+    """The highest speed (mm/s) a move may cruise at for its frames to keep ahead of it: its
+    length over :data:`LINK_MARGIN` times :func:`link_seconds`."""
+    return segment.length / machine.steps_per_mm / (LINK_MARGIN * link_seconds(segment, machine))
+
+
 #: The step lengths before a move's end at which the feed generator is to be at the exit rate:
 #: its ramp-down begins that much early (the generator's look-ahead and the rounding of its
 #: rate), and the last of the move runs at the exit rate.
@@ -548,6 +566,12 @@ def plan(segments, machine):
        from which one step stops it within the acceleration, ``sqrt(2 accel / steps_per_mm)``,
        or its own cruise and the next move's if they are lower: the generator ramps toward
        the exit rate, and a rate of zero would never make the last step.
+    4. A move cruises no faster than its frames arrive: it takes at least :data:`LINK_MARGIN`
+       times its frames' time on the link (:func:`link_seconds`). The board's queue then
+       fills while the machine moves and never runs dry in the middle of the motion, where
+       the machine would stop at once, at speed, and go on at that speed when the next frame
+       came (the feed generator keeps the rate of the move before): many short moves at a
+       high feed (a finely divided curve) run slower than their feed instead.
 
     Raises
     ------
@@ -590,6 +614,7 @@ def _plan(segments, machine):
         v = s.feed
         if s.radius:
             v = min(v, math.sqrt(a * s.radius / spm))       # centripetal acceleration
+        v = min(v, link_feed(s, machine))
         nominal.append(max(_quantise(v, unit), unit))
     count = len(segments)
     limit = [0.0] * (count + 1)                # speed limits at the junctions

@@ -156,3 +156,61 @@ class MachineTestCase(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+# ---- the link: the board's queue never runs dry in the middle of the motion ----------------
+
+def _finely_divided_circle(count=2000, radius=30, feed=3000):
+    """A circle of ``radius`` mm in ``count`` straight moves (0.094 mm each at the defaults,
+    a CAM program's linearised curve) at F``feed``."""
+    points = [(radius * math.cos(2 * math.pi * i / count) - radius,
+               radius * math.sin(2 * math.pi * i / count)) for i in range(1, count + 1)]
+    return "G21 G90 G17\nG0 X0 Y0\n" + f"F{feed}\n" + \
+        "".join(f"G1 X{x:.3f} Y{y:.3f}\n" for x, y in points) + "M2\n"
+
+
+def _waits(job):
+    """The board's waits (s) for a move frame once the motion has begun: the frames sent back
+    to back at the machine's baud (10 bits a byte), never more than ``queue_frames`` of them
+    unanswered; the board takes each once it has arrived and the one before is done, a move
+    frame taking its planned time (the others none)."""
+    from kontur.send import _durations
+    frames, _ = job.frames()
+    durations = _durations(job, len(frames))
+    window, baud = job.machine.queue_frames, job.machine.baud
+    link = board = 0.0
+    done, waits = [], []
+    for index, frame in enumerate(frames):
+        link = max(link, done[index - window] if index >= window else 0.0) + \
+            len(frame) * 10 / baud
+        if link > board and durations[index] and any(durations[:index]):
+            waits.append(link - board)
+        board = max(board, link) + durations[index]
+        done.append(board)
+    return waits
+
+
+def test_short_moves_never_outrun_the_link(monkeypatch):
+    # 2000 moves of 0.094 mm at F3000 (50 mm/s: 1.9 ms each) on the iCEBreaker at 115200
+    # baud: a move's FEED and LINE frames (28 bytes) take 2.4 ms on the link. Planned at their
+    # feed the board's queue would run dry between moves, the machine stopping at speed; the
+    # plan holds each move to 1.5 times its frames' time instead.
+    from kontur import planner
+    from kontur.machining import prepare
+    text = _finely_divided_circle()
+    job = prepare(text, board="icebreaker")
+    assert _waits(job) == []
+    frames, _ = job.frames()
+    link = sum(len(frame) for frame in frames) * 10 / job.machine.baud
+    assert job.seconds >= planner.LINK_MARGIN * link * 0.99
+    cruise = max(item.cruise for item in job.items)
+    assert 20 < cruise < 30                     # mm/s: 0.094 mm in 3.65 ms, not 50
+    # kontur run says so (its summary's "link" line): every move held below F3000.
+    from kontur.machining import _link_limited
+    held = _link_limited(job)
+    assert (held["moves"], held["of"], held["baud"]) == (2000, 2000, 115200)
+    assert held["lowest_mm_min"] <= cruise * 60
+    assert _link_limited(prepare(_finely_divided_circle(count=100), board="icebreaker")) is None
+    # Without that bound the same program starves the board, move after move.
+    monkeypatch.setattr(planner, "LINK_MARGIN", 1e-9)
+    assert len(_waits(prepare(text, board="icebreaker"))) > 100
