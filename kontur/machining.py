@@ -1014,7 +1014,7 @@ def summary(job, result):
 def _link_limited(job):
     """The moves the link holds below their feed (:func:`kontur.planner.link_feed`): how many
     of how many, the lowest such bound (mm/min), the baud; ``None`` if none."""
-    moves = [s for s in job.segments if s.kind != "dwell"]
+    moves = [s for s in job.segments if s.kind != "dwell" and s.length]
     bounds = [link_feed(s, job.machine) * 60 for s in moves
               if link_feed(s, job.machine) * 60 < planned_feed(s.feed * 60, job.machine)]
     if not bounds:

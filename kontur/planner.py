@@ -567,7 +567,8 @@ def plan(segments, machine):
        or its own cruise and the next move's if they are lower: the generator ramps toward
        the exit rate, and a rate of zero would never make the last step.
     4. A move cruises no faster than its frames arrive: it takes at least :data:`LINK_MARGIN`
-       times its frames' time on the link (:func:`link_seconds`). The board's queue then
+       times its frames' time on the link (:func:`link_seconds`; a move of no length, the
+       equidistant engine's frame of a corner it passes without motion, is left as it is). The board's queue then
        fills while the machine moves and never runs dry in the middle of the motion, where
        the machine would stop at once, at speed, and go on at that speed when the next frame
        came (the feed generator keeps the rate of the move before): many short moves at a
@@ -614,7 +615,8 @@ def _plan(segments, machine):
         v = s.feed
         if s.radius:
             v = min(v, math.sqrt(a * s.radius / spm))       # centripetal acceleration
-        v = min(v, link_feed(s, machine))
+        if s.length:                    # (a profile frame of no motion: nothing to slow)
+            v = min(v, link_feed(s, machine))
         nominal.append(max(_quantise(v, unit), unit))
     count = len(segments)
     limit = [0.0] * (count + 1)                # speed limits at the junctions
