@@ -326,3 +326,47 @@ def test_z_and_tools_reach_a_3_axis_board(tmp_path):
         assert board.machine.received == reference.received
         assert tuple(board.machine.position) == tuple(job.end)
         process.stdout.close()
+
+
+def test_a_slow_sender_never_runs_the_board_dry_at_speed():
+    """A sender slower than the machine (a 2 mm line every 60 ms at F3000, which the machine
+    makes in 40 ms): the board is never left without frames while its last move was planned
+    to go on at speed. Before, kontur serve held the segments within stopping distance of the
+    last line back until a line made them final or none came for SETTLE (0.25 s): lines kept
+    coming, so the board ran dry at 50 mm/s every line, where the machine stops at once and
+    goes on at that speed. Now the run ends (the rest planned to stop at the last, then STOP)
+    once the board has less than LOW s of motion left. The board never ends a frame here, so
+    its motion is the frames' planned time from the first sent, back to back."""
+    import math
+    from kontur import registry
+    from kontur.grbl.board import PortMotion
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    now = [0.0]
+    board = Recording(WINDOW)
+    machine = Machine(clock_hz=registry.board("icebreaker").clock_hz)
+    motion = PortMotion(machine, "icebreaker", board, clock=lambda: now[0])
+    board.holding = True
+    grbl = Session(machine, "icebreaker", lambda line: None, clock=lambda: now[0],
+                   motion=motion)
+    # The exit of a move planned to stop: the speed one step stops (planner.plan, 3).
+    rest = machine.rate(math.sqrt(2 * machine.accel / machine.steps_per_mm))
+    started, turns = None, 0
+    for line in range(1, 13):
+        grbl.receive(f"G1 X{2 * line} F3000\n".encode())
+        for _ in range(12):                     # 60 ms, a turn every 5 ms
+            grbl.poll()
+            feeder = motion.feeder
+            if started is None and feeder.sent:
+                started = now[0]
+            exits = [int.from_bytes(payload[3:6], "little")
+                     for kind, payload in board.received if kind == protocol.FEED]
+            if started is not None and motion.pending:
+                turns += 1
+                ends = started + sum(feeder.durations)
+                assert now[0] < ends or exits[-1] <= rest, \
+                    f"the board ran dry at speed {now[0] - ends:.3f} s ago"
+            now[0] += 0.005
+    assert turns > 50                           # segments were held back meanwhile
+    stops = sum(1 for kind, _ in board.received if kind == protocol.STOP)
+    assert stops >= 2                           # the machine stopped and went on

@@ -10,7 +10,10 @@ between them, ``STOP``; LINE3 and HELIX on a 3-axis board), planned with the
 same look-ahead as ``kontur run``: a segment is sent once the known path after it is long
 enough to stop in (:func:`reach`: no later line can change its plan), planned together with
 the run's segments sent within that distance before it; the run ends (the rest and ``STOP``)
-once no line has come for :data:`SETTLE` s and the session has none waiting. A program that
+once no line has come for :data:`SETTLE` s and the session has none waiting, or sooner, once
+the board has less than :data:`LOW` s of motion left (:meth:`PortMotion.left`): a sender
+slower than the machine makes it slow down and stop at the last line taken (as Grbl's
+starved planner does), never run dry at speed. A program that
 streams without a pause is thus sent as ``kontur send`` sends it, frame for frame (unless the
 planner fills with segments shorter together than that distance: they are sent then, planned
 to stop at the last, as Grbl's full planner slows the machine). The board's backlog counts in
@@ -37,11 +40,15 @@ from kontur.hdl.motion.protocol import INPUT_NAMES
 from kontur.planner import frames as program_frames, plan, step_length
 from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
 
-__all__ = ["PortMotion", "reach", "SETTLE", "POLL"]
+__all__ = ["PortMotion", "reach", "SETTLE", "LOW", "POLL"]
 
 #: Seconds with no new line (and none waiting) before the run's last segments and its STOP
 #: are sent.
 SETTLE = 0.25
+#: Seconds of planned motion the board has left at which the run ends (the segments held back
+#: for their look-ahead sent, planned to stop at the last, and STOP): a sender slower than the
+#: machine makes it slow down and stop, never run dry at speed.
+LOW = 0.03
 #: Seconds between two QUERYs while the board has frames.
 POLL = 0.1
 
@@ -90,6 +97,7 @@ class PortMotion(Motion):
         self.alarmed = False
         self.unlocked = -1                  # the STATUS count when UNLOCK was sent
         self.settled = None                 # the STATUS count to pass once all is answered
+        self.mark = (0, clock())            # (frames answered, since when): the running frame's start
 
     def _board_position(self):
         """Where the board's last STATUS says it is (steps): ``(x, y)``, with Z on a 3-axis
@@ -187,6 +195,16 @@ class PortMotion(Motion):
         except SendError as error:
             self._fail(error)
 
+    def left(self):
+        """The planned motion (s) the board has still to make of the frames it was given: the
+        frames not yet answered, less the time since the last answer (the running one's, at
+        most), shortened by a feed override above 100 %."""
+        feeder = self.feeder
+        if feeder.answered != self.mark[0] or not feeder.in_flight:
+            self.mark = (feeder.answered, self.clock())
+        rest = sum(feeder.durations[feeder.answered:]) - (self.clock() - self.mark[1])
+        return rest * 100 / max(100, self.overrides[0])
+
     def _drive(self):
         now = self.clock()
         final, ahead = len(self.pending), 0.0        # the segments whose plan is final
@@ -198,7 +216,11 @@ class PortMotion(Motion):
             final = len(self.pending)       # the planner full: no more look-ahead will come
         if final:
             self._send(final, end=False)
-        if self.pending and now - self.added >= SETTLE and not self.more():
+        left = self.left()                  # (every turn: it marks the answers' times)
+        # The run ends (the rest, planned to stop at the last, and STOP) when no line has come
+        # for SETTLE s, or sooner when the board is about to run out of motion (LOW s left).
+        if self.pending and not self.more() and (
+                now - self.added >= SETTLE or self.running and left < LOW):
             self._send(len(self.pending), end=True)
         feeder = self.feeder
         feeder.pump()
