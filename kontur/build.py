@@ -152,6 +152,15 @@ TARGETS = {
 }
 
 
+def step_rate(item, machine):
+    """``(steps a second per axis at most, clocks a step)`` of board ``item``'s controller with
+    ``machine``'s step/dir timing: the longer of the step/dir stage's clocks
+    (:attr:`kontur.machine.Machine.step_dir_clocks`) and its slowest engine's
+    (:meth:`kontur.registry.Board.slowest`)."""
+    clocks = max(machine.step_dir_clocks, item.slowest()[0])
+    return machine.clock_hz / clocks, clocks
+
+
 def targets(rec):
     """The targets (:data:`TARGETS`) of a build's record (:func:`report`), each
     ``{"target", "met", "measured"}`` and, where not met, ``"limit"`` (what stands in the way:
@@ -187,10 +196,9 @@ def targets(rec):
         rows[-1]["limit"] = f"{path['from']} -> {path['to']}"
     least, (setup, pulse), drives = goal["rate"]
     machine = Machine(clock_hz=item.clock_hz, dir_setup_us=setup, step_width_us=pulse)
-    stage = machine.dir_setup + machine.step_width + 1
     slowest, kind, name, width = item.slowest()
-    clocks = max(stage, slowest)
-    rate = machine.clock_hz / clocks
+    rate, clocks = step_rate(item, machine)
+    stage = machine.step_dir_clocks
     row(f"at least {least:,} steps/s per axis with {drives} ({setup:g} µs set-up, "
         f"{pulse:g} µs pulse)", rate >= least,
         f"{rate:,.0f} ({clocks} clocks a step: the step/dir stage's {stage}, the {kind} "
@@ -237,8 +245,7 @@ def report(result):
                 "clocks_per_step": registry.step_clocks(kind, name, width),
                 "accuracy_steps": registry.variant(kind, name).accuracy}
                for kind, name, width in item.engines]
-    stage = machine.dir_setup + machine.step_width + 1
-    clocks = max(stage, item.slowest()[0])
+    rate, clocks = step_rate(item, machine)
     rec = {
         "board": result["board"],
         "device": str(getattr(item.platform(), "device", "")),
@@ -256,9 +263,9 @@ def report(result):
         "engines": engines,
         "axes": sum(1 for p in ports if re.match(r"stepper_0__step__io", p)),
         "ports": ports,
-        "step_dir_clocks": stage,
+        "step_dir_clocks": machine.step_dir_clocks,
         "clocks_per_step": clocks,
-        "steps_per_s": machine.clock_hz / clocks,
+        "steps_per_s": rate,
         "seed": result["seed"],
         "seconds": result["seconds"],
     }

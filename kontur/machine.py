@@ -276,9 +276,15 @@ class Machine:
         return {name: getattr(self, name) for name in SWITCHES}
 
     @property
+    def step_dir_clocks(self):
+        """The step/dir stage's clocks a step per axis at least: ``dir_setup + step_width + 1``
+        (the low time between two pulses is at least ``dir_setup + 1``)."""
+        return self.dir_setup + self.step_width + 1
+
+    @property
     def max_step_rate(self):
-        """Steps a second per axis at most: one every ``dir_setup + step_width + 1`` clocks."""
-        return self.clock_hz / (self.dir_setup + self.step_width + 1)
+        """Steps a second per axis at most: one every :attr:`step_dir_clocks`."""
+        return self.clock_hz / self.step_dir_clocks
 
     def check(self):
         """Raise :exc:`MachineError` (naming the key and its range) for a value the gateware
@@ -322,7 +328,7 @@ class Machine:
     def max_rate(self):
         """The feed generator's highest rate (Q0.24): one step every ``dir_setup +
         step_width + 1`` clocks (:func:`kontur.hdl.motion.feed.rate_limit`)."""
-        return ((1 << 24) - 1) // (self.dir_setup + self.step_width + 1)
+        return ((1 << 24) - 1) // self.step_dir_clocks
 
     def rate(self, mm_per_s):
         """A contour speed as the feed generator's rate: step lengths a clock, Q0.24.

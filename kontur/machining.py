@@ -1015,8 +1015,9 @@ def _link_limited(job):
     """The moves the link holds below their feed (:func:`kontur.planner.link_feed`): how many
     of how many, the lowest such bound (mm/min), the baud; ``None`` if none."""
     moves = [s for s in job.segments if s.kind != "dwell" and s.length]
-    bounds = [link_feed(s, job.machine) * 60 for s in moves
-              if link_feed(s, job.machine) * 60 < planned_feed(s.feed * 60, job.machine)]
+    bounds = [(link_feed(s, job.machine) * 60, planned_feed(s.feed * 60, job.machine))
+              for s in moves]
+    bounds = [bound for bound, feed in bounds if bound < feed]
     if not bounds:
         return None
     return {"moves": len(bounds), "of": len(moves), "lowest_mm_min": min(bounds),
