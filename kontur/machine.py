@@ -76,7 +76,7 @@ machine is made; the baud and acceleration, which depend on the clock, by :meth:
 import math
 from dataclasses import dataclass, fields
 
-__all__ = ["Machine", "MachineError", "SWITCHES"]
+__all__ = ["Machine", "MachineError", "RateError", "SWITCHES"]
 
 #: The switch inputs' keys, and their default kinds (as :data:`kontur.hdl.motion.inputs.
 #: DEFAULT_POLARITY`).
@@ -89,6 +89,12 @@ MAX_INPUT_FILTER_US = 10_000
 
 class MachineError(ValueError):
     """A configuration the machine cannot run with: the message names the key."""
+
+
+class RateError(MachineError):
+    """A ``max_feed`` above the step rate the machine makes: the step/dir timing's
+    (:attr:`Machine.max_step_rate`) or a board's slowest engine's
+    (:func:`kontur.registry.check_machine`). Grbl's ``$110`` answers it with error:12."""
 
 
 @dataclass(frozen=True)
@@ -190,7 +196,7 @@ class Machine:
             raise MachineError(f"queue_frames must be an integer from 2 to 255 (STATUS reports "
                                f"the free slots in a byte), not {self.queue_frames!r}")
         if self.max_step_rate < self.max_feed / 60 * self.steps_per_mm:
-            raise MachineError(
+            raise RateError(
                 f"max_feed {self.max_feed:g} mm/min is {self.max_feed / 60 * self.steps_per_mm:.0f}"
                 f" steps/s, more than the {self.max_step_rate:.0f} the step/dir timing allows")
 

@@ -97,9 +97,10 @@ class Variant:
        the largest distance of a visited point from the segment, or the radial error of an
        arc), which the accuracy bench's test checks for every variant; ``None`` where the
        deviation has no bound independent of the command's length.
-    6. ``step_clocks``: the clocks a step of the core at full feed, an :class:`int` or a function of
-       the width (the shortest interval between two of its steps on a line or an arc: its
-       rate; a quadrant's change may take longer). :func:`step_clocks` gives it; a board's
+    6. ``step_clocks``: the clocks a step of the core at full feed apart from its generator's
+       period, an :class:`int` or a function of the width (the shortest interval between two
+       of its steps on a line or an arc: its rate; a quadrant's change may take longer).
+       :func:`step_clocks` gives the longer of it and the generator's period; a board's
        slowest engine's bounds its step rate as the step/dir timing does
        (:meth:`Board.slowest`, :func:`check_machine`).
     """
@@ -216,28 +217,35 @@ def variant(kind_name, name=None):
     return VARIANTS[kind_name, name]
 
 
-def step_clocks(kind_name, name=None, width=None):
+def step_clocks(kind_name, name=None, width=None, **params):
     """The clocks a step of a variant's core at ``width`` (its default width without one) at
-    full feed: :attr:`Variant.step_clocks`."""
+    full feed, built with ``params`` (its defaults without them): the longer of its
+    generator's period (a ``period`` parameter, or a faithful ``timing``'s period) and
+    :attr:`Variant.step_clocks`."""
     item = variant(kind_name, name)
     width = KINDS[kind_name].default_width if width is None else width
     clocks = item.step_clocks
-    return clocks(width) if callable(clocks) else clocks
+    floor = clocks(width) if callable(clocks) else clocks
+    if "timing" in item.params:
+        period = (params.get("timing") or FaithfulTiming()).period
+    else:
+        period = params.get("period") or 1
+    return max(floor, period)
 
 
 def check_machine(board_name, machine):
     """Return ``machine`` if ``board_name``'s engines make its highest feed, else raise
-    :exc:`kontur.machine.MachineError` (naming ``max_feed``): ``max_feed`` in steps a second
+    :exc:`kontur.machine.RateError` (naming ``max_feed``): ``max_feed`` in steps a second
     at most the controller's clock over its slowest engine's clocks a step
     (:meth:`Board.slowest`; the bit-serial node's is its word length). The step/dir timing's
     bound is :class:`~kontur.machine.Machine`'s own."""
-    from kontur.machine import MachineError
+    from kontur.machine import RateError
     item = board(board_name)
     clocks, kind_name, name, width = item.slowest()
     rate = item.clock_hz / clocks
     need = machine.max_feed / 60 * machine.steps_per_mm
     if need > rate:
-        raise MachineError(
+        raise RateError(
             f"max_feed {machine.max_feed:g} mm/min is {need:.0f} steps/s, more than the "
             f"{rate:.0f} the {item.name}'s {kind_name} engine makes ({name} at {width} bits: "
             f"a step every {clocks} clocks)")
@@ -452,7 +460,7 @@ VARIANT_TABLE = (
             accuracy=HALF),
     Variant("arc", "faithful", "SU 1665343's structure and timing, 4 clocks a step",
             FaithfulArcCore, FaithfulArcCoreModel, arc_steps, params=("timing",),
-            widths=(24, 32), accuracy=HALF, step_clocks=FaithfulTiming().period),
+            widths=(24, 32), accuracy=HALF),
     Variant("arc", "fast", "SU 1665343's trajectory, one step per clock",
             FastArcCore, FastArcCoreModel, arc_steps, params=("period",),
             widths=(24, 32), accuracy=HALF),
@@ -461,7 +469,7 @@ VARIANT_TABLE = (
             margin=2, step_clocks=SETTLE + 1),
     Variant("profile", "faithful", "arcs on SU 1665343's faithful core, 4 clocks a step",
             FaithfulArcCore, FaithfulArcCoreModel, _profile_outcomes, params=("timing",),
-            min_width=4, margin=2, step_clocks=max(FaithfulTiming().period, SETTLE + 1)),
+            min_width=4, margin=2, step_clocks=SETTLE + 1),
     Variant("line", "separate", "textbook: estimating function, separate steps",
             SeparateLineCore, SeparateLineCoreModel, separate_line_steps,
             clocks=_separate_line_clocks, accuracy=HALF_DIAGONAL),

@@ -54,6 +54,7 @@ class Plan:
     steps: int              # an upper bound on the steps of the command
     clocks: int             # an upper bound on the clocks of the run
     max_clocks: int
+    params: dict = None     # the core's parameters (a generator period, a faithful timing)
 
 
 def _check_vcd(vcd, engine):
@@ -81,13 +82,6 @@ def _step_bound(kind, payload, width):
     from kontur.sim.models.arc import round_sqrt
     radius = round_sqrt(payload["x0"] ** 2 + payload["y0"] ** 2)
     return 8 * radius + 8                  # at most 2R steps in each of 5 quadrant runs
-
-
-def _clocks_per_step(variant, params):
-    if "timing" in variant.params:
-        from kontur.hdl.circular_timing import FaithfulTiming
-        return (params.get("timing") or FaithfulTiming()).period
-    return params.get("period", 1)
 
 
 def _latency(kind, width):
@@ -138,7 +132,7 @@ def plan(kind, payload, *, variant=None, engine="model", width=None, vcd=None, c
     if item.clocks is not None and not refused:
         core_clocks = item.clocks(payload, width, **params)    # a core with its own timing
     else:
-        core_clocks = _clocks_per_step(item, params) * (steps + 16)
+        core_clocks = registry.step_clocks(kind, item.name, width, **params) * (steps + 16)
     clocks = _latency(kind, width) + core_clocks + 64
     step_model = engine == "model" and not cycles
     if not step_model and clocks > limit:
@@ -154,7 +148,7 @@ def plan(kind, payload, *, variant=None, engine="model", width=None, vcd=None, c
                          f"{_duration(steps / STEP_MODEL_SPEED)}); raise --max-clocks to run "
                          f"it anyway")
     return Plan(kind, item.name, engine, width, dict(payload), vcd, cycles, steps, clocks,
-                limit)
+                limit, params)
 
 
 def _duration(seconds):
@@ -193,11 +187,11 @@ def trace(kind, payload, **options):
                                                             width=run.width)]
     job = Job(frames=[payload], max_cycles=run.clocks)
     if run.engine == "model":
-        record = run_model(registry.make_model(kind, run.variant, width=run.width), job,
-                           sparse=True)
+        record = run_model(registry.make_model(kind, run.variant, width=run.width,
+                                               **run.params), job, sparse=True)
         return record_moves(record)
 
-    engine = registry.make_engine(kind, run.variant, width=run.width)
+    engine = registry.make_engine(kind, run.variant, width=run.width, **run.params)
     limit = 1 << (engine.coord_width - 1)
     for name, value in payload.items():
         if name != "cw" and not -limit <= value < limit:
@@ -237,16 +231,16 @@ class ProfileRun:
 def _profile_clocks(prepared, clocks_per_step):
     """An upper bound on the clocks of a contour on the engine: forming every frame
     (``2·(width + 2) + 6`` clocks each, a few frames at once before the first step, and
-    block 11's settling at each), every step (``clocks_per_step``, at least block 11's
-    settling and the step's own clock, and two idle clocks for each quadrant run of an arc),
-    plus slack."""
+    block 11's settling at each), every step (``clocks_per_step``, the variant's
+    :func:`kontur.registry.step_clocks`: block 11's settling and the step's own clock at
+    least, and two idle clocks for each quadrant run of an arc), plus slack."""
     from kontur.hdl.equidistant import SETTLE
     width = prepared.formats.width
     frames = len(prepared.frames)
     steps = sum(1 for _, steps in _parts(prepared) for _ in steps)
     arcs = sum(1 for e in prepared.elements if e.kind == "arc")
     return (frames * (2 * (width + 2) + 8 + 2 * SETTLE)
-            + max(clocks_per_step, SETTLE + 1) * (steps + 16) + 10 * (arcs + 1) + 64), steps
+            + clocks_per_step * (steps + 16) + 10 * (arcs + 1) + 64), steps
 
 
 def _parts(prepared):
@@ -308,7 +302,8 @@ def trace_profile(text, *, radius, name=None, variant=None, engine="model", widt
     profile = profile_from_moves([move for move in program.moves if move.kind != "dwell"])
     prepared = prepare(profile, radius, treatment=treatment, detection=detection,
                        formats=Formats(width))
-    clocks, steps = _profile_clocks(prepared, _clocks_per_step(item, params))
+    clocks, steps = _profile_clocks(prepared,
+                                    registry.step_clocks("profile", item.name, width, **params))
     step_model = engine == "model" and not cycles
     if not step_model and clocks > limit:
         seconds = clocks / SPEED[engine]

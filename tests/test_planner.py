@@ -5,7 +5,7 @@ import unittest
 from collections import namedtuple
 from fractions import Fraction
 
-from kontur.machine import Machine, MachineError
+from kontur.machine import Machine, MachineError, RateError
 from kontur.planner import ProgramError, _on_sweep, frames, lattice, plan
 
 Move = namedtuple("Move", "line kind start end centre cw feed", defaults=(None, False, 600))
@@ -148,10 +148,14 @@ class MachineTestCase(unittest.TestCase):
             Machine(accel=0)
         with self.assertRaisesRegex(MachineError, r"^baud must be an integer, not 9600\.5$"):
             Machine(baud=9600.5)
-        with self.assertRaisesRegex(MachineError,
+        with self.assertRaisesRegex(RateError,
                 r"^max_feed 1e\+06 mm/min is 1333333 steps/s, more than the 324324 the "
                 r"step/dir timing allows$"):
             Machine(max_feed=1e6)
+        # Only a rate refusal is a RateError (Grbl's $110 answers it with error:12).
+        with self.assertRaises(MachineError) as caught:
+            Machine(accel=0)
+        self.assertNotIsInstance(caught.exception, RateError)
 
 
 if __name__ == "__main__":

@@ -197,6 +197,19 @@ def test_step_clocks_of_the_equidistant_engine(name):
     assert _shortest_interval(run.moves) == registry.step_clocks("profile", name, 16)
 
 
+@pytest.mark.parametrize("kind, name, params", [
+    ("line", "exact", {"period": 3}), ("arc", "fast", {"period": 5}),
+    ("arc", "faithful", {"timing": FaithfulTiming(period=6, extender=5)})])
+def test_step_clocks_with_a_slower_generator(kind, name, params):
+    # A core built with a slower generator than its default: its period, in the model's
+    # clocks too (kontur trace bounds its runs by it).
+    moves = trace(kind, LINE if kind == "line" else CIRCLE, variant=name, engine="model",
+                  width=16 if kind == "line" else 24, cycles=True, params=params)
+    clocks = registry.step_clocks(kind, name, **params)
+    assert clocks == (params["period"] if "period" in params else params["timing"].period)
+    assert _shortest_interval(moves) == clocks
+
+
 def test_boards_slowest_engine():
     # The two-axis iCEBreaker's arcs are on the bit-serial node at 20 bits: a word of 22
     # clocks a step, its line core's one.
@@ -207,13 +220,13 @@ def test_boards_slowest_engine():
 
 
 def test_a_feed_the_boards_engines_cannot_make_is_refused():
-    from kontur.machine import Machine, MachineError
+    from kontur.machine import Machine, RateError
     # Drives with 0.2 µs set-up and pulse: 3 + 3 + 1 clocks a step at 12 MHz (1.7 M steps/s),
     # more than the serial node's 12e6 / 22 = 545 455.
     fast = dict(clock_hz=12e6, dir_setup_us=0.2, step_width_us=0.2, steps_per_mm=1000)
     slow = Machine(max_feed=30000, **fast)                    # 500 000 steps/s
     assert registry.check_machine("icebreaker", slow) is slow
-    with pytest.raises(MachineError, match=r"^max_feed 40000 mm/min is 666667 steps/s, more "
+    with pytest.raises(RateError, match=r"^max_feed 40000 mm/min is 666667 steps/s, more "
                        r"than the 545455 the icebreaker's arc engine makes "
                        r"\(serial at 20 bits: a step every 22 clocks\)$"):
         registry.check_machine("icebreaker", Machine(max_feed=40000, **fast))

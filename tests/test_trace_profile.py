@@ -148,13 +148,12 @@ def test_clock_bound_holds_on_a_long_contour():
     # steps a side (block 11's settling clock after every step doubles the clocks of the
     # steps) the cycle model ends well inside it, on both cores.
     from kontur.sim.stimulus import Job, run_model
-    from kontur.trace import _clocks_per_step, _profile_clocks
+    from kontur.trace import _profile_clocks
     text = "G90\nG0 X0 Y0\nG41 G1 X2000 Y0\nG1 X2000 Y2000\nG1 X0 Y2000\nG1 X0 Y0\nG40\nM30\n"
     shape = profile_from_moves(read(text).moves)
     prepared = prepare(shape, 2, formats=Formats(16))
     for variant in registry.variants("profile"):
-        item = registry.variant("profile", variant)
-        bound, steps = _profile_clocks(prepared, _clocks_per_step(item, {}))
+        bound, steps = _profile_clocks(prepared, registry.step_clocks("profile", variant, 16))
         record = run_model(registry.make_model("profile", variant, width=16),
                            Job(frames=list(prepared.frames), max_cycles=bound))
         assert steps > 7000

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from kontur import registry
 from kontur.grbl.protocol import number
-from kontur.machine import MachineError
+from kontur.machine import MachineError, RateError
 
 __all__ = ["Settings", "MACHINE_KEYS", "DEFAULTS", "SettingError"]
 
@@ -103,8 +103,7 @@ class Settings:
             if self.board is not None:
                 machine = registry.check_machine(self.board, machine)
         except MachineError as error:
-            raise SettingError(12 if "steps/s, more than" in str(error) else 3,
-                               str(error)) from None
+            raise SettingError(12 if isinstance(error, RateError) else 3, str(error)) from None
         self.machine = machine
         self._keep(MACHINE_KEYS[key], value)
         return machine
