@@ -46,8 +46,11 @@ _TOOLS = {
 
 #: The devices of the benchmarks: Yosys's synthesis command, nextpnr's utilisation cells.
 DEVICES = {
-    # "-device u": Yosys's timing model of the UltraPlus parts (the default is the HX's).
-    "ice40": {"name": "iCE40UP5K-SG48", "synth": "synth_ice40", "synth_opts": "-device u",
+    # "-device u": Yosys's timing model of the UltraPlus parts (the default is the HX's);
+    # "-dsp": a multiplier on the UltraPlus's multiplier blocks (SB_MAC16), not in logic
+    # cells (the tool outputs' spindle override, S times its factor: 227 LC fewer on the
+    # iCEBreaker's controller, one of its 8 blocks).
+    "ice40": {"name": "iCE40UP5K-SG48", "synth": "synth_ice40", "synth_opts": "-device u -dsp",
               "nextpnr": "nextpnr-ice40", "logic": "ICESTORM_LC"},
     "ecp5":  {"name": "ECP5-85F (LFE5U-85F-6BG381C)", "synth": "synth_ecp5", "synth_opts": "",
               "nextpnr": "nextpnr-ecp5", "logic": "TRELLIS_COMB"},
@@ -399,7 +402,7 @@ def place_and_route(platform, top, build_dir, *, seed=SEED, name="top",
                                + (" --timing-allow-fail" if timing_allow_fail else "")}
     # The device's synthesis options, as the benches use them (on the iCE40 "-device u", the
     # UltraPlus's timing model: the iCEBreaker's controllers place at every seed and route
-    # 1-2 MHz faster with it, for a few dozen cells more).
+    # 1-2 MHz faster with it, for a few dozen cells more; "-dsp", its multiplier blocks).
     options.update(_synth_options(name, ecp5=ecp5,
                                   opts=DEVICES["ecp5" if ecp5 else "ice40"]["synth_opts"]))
     with toolchain_env():

@@ -967,7 +967,8 @@ def _report_text(rows, devices, seeds, versions, throughput, seconds, parts=()):
   `synth_ice40` then `nextpnr-ice40 --up5k --package sg48 --pack-only` (logic cells, LC), and
   `synth_ecp5` (LUT4, CCU2C: two carry bits each, flip-flops), from Yosys's `stat -json`.
 * Speed: `PinnedTop(ShiftInTop(design), "shift_in")` through the board's Amaranth flow, the
-  iCEBreaker (12 MHz clock constraint, `synth_ice40 -device u`: Yosys's UltraPlus timing model)
+  iCEBreaker (12 MHz clock constraint, `synth_ice40 -device u -dsp`: Yosys's UltraPlus timing
+  model, its multiplier blocks)
   and the ULX3S-85F (25 MHz, `--85k --package CABGA381 --speed 6`); Yosys once, then nextpnr
   once per seed on the same netlist with `--timing-allow-fail`
   (`kontur.constraints.flow.measure_speed`). Fmax is nextpnr's routed "Max frequency for clock".

@@ -525,6 +525,13 @@ def _junction(previous, following, machine):
     return math.sqrt(machine.accel * machine.junction_deviation * sin_half / (1 - sin_half))
 
 
+def rest_speed(machine):
+    """The speed (mm/s) a move that ends at rest in the plan ends at: one step stops it within
+    the acceleration, ``sqrt(2 accel / steps_per_mm)`` (:func:`plan`, 3); a move's exit above
+    it goes on at speed into the next move."""
+    return math.sqrt(2 * machine.accel / machine.steps_per_mm)
+
+
 def min_feed(machine):
     """The lowest contour speed (mm/s) the feed generator makes: a rate of 1 in Q0.24, one
     step length every 2**24 clocks (:class:`kontur.hdl.motion.feed.FeedGenerator` adds the rate's
@@ -603,7 +610,7 @@ def _plan(segments, machine):
     spm = machine.steps_per_mm
     a = machine.accel
     unit = min_feed(machine)
-    floor = math.sqrt(2 * a / spm)
+    floor = rest_speed(machine)
     lengths = [s.length / spm for s in segments]
     nominal = []
     for s in segments:

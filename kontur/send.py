@@ -144,25 +144,35 @@ def unhonoured(job):
     return None
 
 
-def _durations(job, count):
-    """The planned time (s) of each of the job's ``count`` frames: the move frames' their
-    plan's, a dwell's its share of the dwell, the others' none (CONFIG, FEED and a move each,
-    DWELL and TOOL frames, STOP; for any other layout every frame gets the whole program's time)."""
+def _frame_plan(job, count):
+    """The planned time (s) of each of the job's ``count`` frames, and the speed (mm/s) the
+    plan leaves each move frame at (its exit; ``None`` for the other frames): the move frames'
+    their plan's, a dwell's its share of the dwell, the others' none (CONFIG, FEED and a move
+    each, DWELL and TOOL frames, STOP; for any other layout every frame gets the whole
+    program's time, and no exit)."""
     from kontur.planner import dwell_frames
     given = getattr(job, "durations", None)   # the frames' own (a homing cycle's)
     if given is not None and len(given) == count:
-        return list(given)
-    out = [0.0]
+        return list(given), [None] * count
+    seconds, exits = [0.0], [None]
     for segment, item in zip(job.segments, job.items):
         if segment.kind == "dwell":
             parts = len(dwell_frames(segment, job.machine))
-            out += [item.seconds / parts] * parts
+            seconds += [item.seconds / parts] * parts
+            exits += [None] * parts
         else:
-            out += [0.0, item.seconds]
-    out.append(0.0)
-    if count != len(out):
-        return [job.seconds] * count
-    return out
+            seconds += [0.0, item.seconds]
+            exits += [None, item.exit]
+    seconds.append(0.0)
+    exits.append(None)
+    if count != len(seconds):
+        return [job.seconds] * count, [None] * count
+    return seconds, exits
+
+
+def _durations(job, count):
+    """The planned time (s) of each of the job's ``count`` frames (:func:`_frame_plan`)."""
+    return _frame_plan(job, count)[0]
 
 
 def _mm(point, spm):
@@ -180,7 +190,8 @@ class _Sender:
         self.out = out
         self.stop = stop if stop is not None else (lambda: None)
         self.frames, self.lines = job.frames()
-        self.durations = _durations(job, len(self.frames))
+        self.durations, self.exits = _frame_plan(job, len(self.frames))
+        self.starved = []                      # the move frames the queue ran dry after
         self.controls = lambda: ()                # the operator's (send's ``controls``)
         self.held, self.feed, self.rapid, self.spindle = False, 100, 100, 100
         self.parser = protocol.ReplyParser()
@@ -392,6 +403,32 @@ class _Sender:
         return (isinstance(following, str)
                 and any(isinstance(line, str) for line in self.lines[self.answered:self.sent]))
 
+    def ran_dry(self):
+        """Every frame sent is answered and the next is not written yet: the board's queue ran
+        dry. Where the last move sent was planned to go on at speed (its exit above the speed
+        of a planned stop, :func:`kontur.planner.rest_speed`), the machine stopped at its end
+        at once, at that speed, and goes on at it when the next move comes (the feed generator
+        keeps the rate of the move before): said on ``out`` with the move's line, and kept in
+        :attr:`starved`. A move's ``OUTCOME`` comes at its end, so a queue said to have run
+        dry did; one may run dry unseen here (an answer read only after the next frame is
+        written). Not under a feed hold, which ramps the machine down to rest."""
+        from kontur.planner import rest_speed
+        if self.held:
+            return
+        move = next((index for index in range(min(self.sent, len(self.exits)) - 1, -1, -1)
+                     if self.exits[index] is not None), None)
+        if move is None or (self.starved and self.starved[-1] == move):
+            return
+        speed = self.exits[move]
+        if speed <= rest_speed(self.job.machine) * (1 + 1e-9):
+            return
+        self.starved.append(move)
+        if self.out is not None:
+            self.out.write(f"kontur send: {_where(self.lines, move)}: the board's queue ran dry "
+                           f"at the end of this move: the machine stopped there at once from "
+                           f"{speed * 60:.0f} mm/min and goes on at that speed (this computer or "
+                           f"the link fell behind the motion)\n")
+
     def pump(self):
         """One turn of the stream: frames sent while the window has room (a homing cycle's a
         frame at a time), the replies there are read, the oldest unanswered frame's deadline
@@ -399,6 +436,8 @@ class _Sender:
         count = len(self.frames)
         while (self.sent < count and self.sent - self.answered < self.window
                and not self._homing_waits()):
+            if self.sent and self.answered == self.sent:
+                self.ran_dry()
             self.write(self.frames[self.sent])
             self.sent_at.append(time.monotonic())
             self.sent += 1

@@ -410,7 +410,8 @@ class SpeedOptionsTestCase(unittest.TestCase):
         self.assertEqual(calls, ["--seed 1", "--seed 1 --timing-allow-fail"])
 
         # A board's build synthesises for its device as the benches do: on the iCE40 with
-        # "-device u" (the UltraPlus's timing model), on the ECP5 with no device option.
+        # "-device u" (the UltraPlus's timing model) and "-dsp" (its multiplier blocks), on
+        # the ECP5 with no device option.
         synth = []
 
         class Board:
@@ -426,8 +427,8 @@ class SpeedOptionsTestCase(unittest.TestCase):
                 with self.assertRaises(flow.ToolchainError):
                     flow.place_and_route(Board(device), None, build_dir)
         (ice40, ice40_rest), (ecp5, ecp5_rest) = synth
-        self.assertTrue(ice40.startswith("-device u ") and "synth_ice40" in ice40_rest
-                        and "-device u" in ice40_rest)
+        self.assertTrue(ice40.startswith("-device u -dsp ") and "synth_ice40" in ice40_rest
+                        and "-device u -dsp" in ice40_rest)
         self.assertNotIn("-device", ecp5 + ecp5_rest)
         self.assertIn("synth_ecp5", ecp5_rest)
 

@@ -6,6 +6,7 @@ CRCs, STATUS only, a port that closes or fails, codes no controller sends), each
 line, status 1 and an ABORT where the link still works, never a hang; signals, which stop the
 machine (ABORT) before kontur ends."""
 
+import io
 import os
 import re
 import select
@@ -854,3 +855,38 @@ def test_send_keys_on_a_terminal(monkeypatch):
             assert poll() == []
         assert termios.tcgetattr(stdin) == before
     os.close(master)
+
+
+class EagerMachine(FakeMachine):
+    """A board that makes every queued frame at once: a read answers them all."""
+
+    def read(self, size):
+        while self.later:
+            self._release()
+        data = bytes(self.pending[:size])
+        del self.pending[:size]
+        return data
+
+
+def test_a_queue_run_dry_at_speed_is_said():
+    # Thirty moves of 1 mm along X at F600: every junction straight, so a move in the middle
+    # goes on into the next at its feed, 600 mm/min. The board answers every frame the host
+    # has sent before the host sends the next (its queue of 4 runs dry): the move behind the
+    # last frame sent is named with that speed wherever it was planned to go on at speed,
+    # and the moves planned to stop (the last) are not.
+    text = "G21 G90 F600\n" + "".join(f"G1 X{k}\n" for k in range(1, 31)) + "M2\n"
+    job = prepare(text, machine=Machine(clock_hz=CLOCK, queue_frames=4), name="row.ngc")
+    out = io.StringIO()
+    assert send(job, EagerMachine(4), out=out) == tuple(job.end)
+    said = out.getvalue().splitlines()
+    assert said and all(line.endswith(": the board's queue ran dry at the end of this move: "
+                                      "the machine stopped there at once from 600 mm/min and "
+                                      "goes on at that speed (this computer or the link fell "
+                                      "behind the motion)") for line in said)
+    lines = [int(re.match(r"^kontur send: line (\d+): ", line).group(1)) for line in said]
+    assert lines == sorted(set(lines)) and 31 not in lines and set(lines) <= set(range(2, 31))
+    assert len(lines) > 10
+    # A board that keeps up (the window full all along): nothing said.
+    out = io.StringIO()
+    assert send(job, FakeMachine(4), out=out) == tuple(job.end)
+    assert out.getvalue() == ""
