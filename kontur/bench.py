@@ -747,13 +747,26 @@ def report(path, *, widths=WIDTHS, seeds=(1, 2, 3), devices=("ice40", "ecp5"),
     seconds = time.monotonic() - started
     text = _report_text(rows, devices, seeds, versions, throughput, seconds, parts)
     old = Path(path).read_text() if Path(path).exists() else ""
-    if CONTROLLERS_HEADING in old and "\n## How" in text:
-        # The controllers' section (python -m kontur.bench controllers) is kept as it was.
-        kept = CONTROLLERS_HEADING + old.split(CONTROLLERS_HEADING, 1)[1].split("\n## ", 1)[0]
-        head, tail = text.split("\n## How", 1)
-        text = head + "\n" + kept.rstrip("\n") + "\n\n## How" + tail
-    Path(path).write_text(text)
+    Path(path).write_text(_keep_sections(old, text))
     return {"designs": rows, "throughput": throughput, "seconds": seconds}
+
+
+#: The sections of BENCHMARKS.md that other commands write (``controllers``, ``runs``,
+#: ``cells``): :func:`report` keeps them as they were.
+KEPT_HEADINGS = (CONTROLLERS_HEADING, RUNS_HEADING, CELLS_HEADING)
+
+
+def _keep_sections(old, text):
+    """``text`` (the report) with the sections of :data:`KEPT_HEADINGS` that ``old`` has put
+    back before its ``## How``, as they were, in that order."""
+    if "\n## How" not in text:
+        return text
+    kept = [heading + old.split(heading, 1)[1].split("\n## ", 1)[0].rstrip("\n")
+            for heading in KEPT_HEADINGS if heading in old]
+    if not kept:
+        return text
+    head, tail = text.split("\n## How", 1)
+    return head + "\n" + "\n\n".join(kept) + "\n\n## How" + tail
 
 
 # The parts of the engines measured alone (:func:`_parts`), and the designs they are parts of:

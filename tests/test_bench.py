@@ -351,6 +351,21 @@ class ControllersSectionTestCase(unittest.TestCase):
         self.assertNotIn("\n\n\n", text)
 
 
+class KeptSectionsTestCase(unittest.TestCase):
+    def test_the_report_keeps_what_other_commands_wrote(self):
+        # `make bench` rewrites BENCHMARKS.md: the sections of `controllers`, `runs` and `cells`
+        # come back as they were (notes by hand included), before "## How", in that order.
+        old = (f"# Benchmarks\n\nold\n\n{bench.CELLS_HEADING}\n\n| c |\n\nnote c\n\n"
+               f"{bench.CONTROLLERS_HEADING}\n\n| a |\n\n{bench.RUNS_HEADING}\n\n| b |\n\n"
+               f"## How\n\nold how\n")
+        new = "# Benchmarks\n\nnew\n\n## How\n\nnew how\n"
+        self.assertEqual(bench._keep_sections(old, new),
+                         f"# Benchmarks\n\nnew\n\n{bench.CONTROLLERS_HEADING}\n\n| a |\n\n"
+                         f"{bench.RUNS_HEADING}\n\n| b |\n\n{bench.CELLS_HEADING}\n\n| c |\n\n"
+                         f"note c\n\n## How\n\nnew how\n")
+        self.assertEqual(bench._keep_sections("# Benchmarks\n", new), new)
+
+
 class AreaSplitTestCase(unittest.TestCase):
     """What an area target's row says of a design over it: where its cells go."""
 
