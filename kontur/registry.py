@@ -512,7 +512,10 @@ BOARD_TABLE = (
     # 37) there is room for the feed, rapid and spindle overrides and the laser mode: 5177
     # LC, seeds 1-3 placed at 17.07-17.96 MHz with Yosys's UltraPlus timing model (-device u;
     # 5156 LC, 15.67-16.69 MHz without it; issue 27; the node at 24 bits was 5314 LC and did
-    # not place, at 16 bits 5039 LC).
+    # not place, at 16 bits 5039 LC). With the spindle override's product on a multiplier
+    # block (synth_ice40 -dsp): 4950 LC, 19.04 / 18.84 MHz at seeds 1 and 2, seed 3 unplaced,
+    # seeds 4-7 placed at 17.69-18.58 MHz (with the homing engine besides 5170 LC: seed 1 does
+    # not place).
     Board("icebreaker", "iCEBreaker (iCE40UP5K-SG48)", _icebreaker_platform, DemoTop,
           clock_hz=12e6, arc=("serial", 20), tools=True),
     # The iCEBreaker on three axes (issues 27/28: Z for routers and mills; the two-axis one

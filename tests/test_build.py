@@ -93,8 +93,9 @@ def test_make_bitstream_passes_the_machine_file():
 # tests/golden/build_icebreaker_seed1/ are those `kontur build --board icebreaker --seed 1` wrote
 # (nextpnr's top.tim and the pin file top.pcf, copied unchanged; top.stat is the tail of Yosys's
 # top.rpt from its last "Printing statistics." on), not written by hand: regenerated from
-# build/bench-controllers/icebreaker-s1 when the iCEBreaker went to 12 MHz (issue 27), and
-# again when its arcs moved to the bit-serial node beside the overrides and the laser mode.
+# build/bench-controllers/icebreaker-s1 when the iCEBreaker went to 12 MHz (issue 27), again
+# when its arcs moved to the bit-serial node beside the overrides and the laser mode, and when
+# the iCE40 builds took `synth_ice40 -dsp` (the spindle override on a multiplier block).
 REAL = ROOT / "tests" / "golden" / "build_icebreaker_seed1"
 
 
