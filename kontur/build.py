@@ -133,7 +133,8 @@ TARGETS = {
                     "is icebreaker-z",
             "profile": "the equidistant engine alone is 7520 LC at 16 bits and 4627 at 8 "
                        "(python -m kontur.equidistant_figures fpga; the UP5K has 5280), next "
-                       "to a controller that takes the rest of the device",
+                       "to a controller of 4950 LC without it (where they go: python -m "
+                       "kontur.bench cells)",
         },
         "tried": {
             "profile": "block 11's test and block 3's step kinds registered, the tests for "

@@ -182,6 +182,9 @@ def _mm(point, spm):
 class _Sender:
     """One send: the port, the frames, what is sent and answered."""
 
+    #: Who says what is written on ``out``.
+    NAME = "kontur send"
+
     def __init__(self, job, port, *, progress, timeout, out, stop):
         self.job = job
         self.port = port
@@ -424,7 +427,7 @@ class _Sender:
             return
         self.starved.append(move)
         if self.out is not None:
-            self.out.write(f"kontur send: {_where(self.lines, move)}: the board's queue ran dry "
+            self.out.write(f"{self.NAME}: {_where(self.lines, move)}: the board's queue ran dry "
                            f"at the end of this move: the machine stopped there at once from "
                            f"{speed * 60:.0f} mm/min and goes on at that speed (this computer or "
                            f"the link fell behind the motion)\n")
@@ -586,12 +589,16 @@ class Feeder(_Sender):
     adds frames (with their program lines and planned seconds); :attr:`status` is the last
     ``STATUS`` fields; :meth:`query` asks for another; :meth:`reset` sends ``ABORT`` and drops
     the frames not yet sent. The board may be anywhere at the handshake (:attr:`status`
-    says where). A failure raises :class:`SendError` (an ``ABORT`` sent)."""
+    says where). A failure raises :class:`SendError` (an ``ABORT`` sent). ``out``: where a
+    queue run dry at speed is said (:meth:`ran_dry`; the frames' exits given to
+    :meth:`extend`)."""
 
-    def __init__(self, machine, port, *, timeout=10.0):
+    NAME = "kontur: serve"
+
+    def __init__(self, machine, port, *, timeout=10.0, out=None):
         job = types.SimpleNamespace(machine=machine, start=None, end=None, segments=[],
                                     items=[], seconds=0.0, frames=lambda: ([], []))
-        super().__init__(job, port, progress=None, timeout=timeout, out=None, stop=None)
+        super().__init__(job, port, progress=None, timeout=timeout, out=out, stop=None)
         self.status = None
         self.z = None                           # the last STATUS's Z (a 3-axis board's)
         self.reports = 0                        # STATUS replies taken
@@ -623,10 +630,14 @@ class Feeder(_Sender):
             raise _LinkDown(f"reading from the port failed ({error})") from None
         return super().read() if waiting else []
 
-    def extend(self, frames, lines, durations):
+    def extend(self, frames, lines, durations, exits=None):
+        """Frames to send, with their program lines, planned seconds and (for the move
+        frames) the speeds their plan leaves them at (:func:`_frame_plan`; none given: no
+        queue run dry is said after them)."""
         self.frames += frames
         self.lines += lines
         self.durations += durations
+        self.exits += [None] * len(frames) if exits is None else exits
 
     @property
     def in_flight(self):
@@ -680,4 +691,5 @@ class Feeder(_Sender):
         """``ABORT``: the board stops, the frames not yet sent are dropped."""
         self._link(self.write, protocol.abort())
         del self.frames[self.sent:], self.lines[self.sent:], self.durations[self.sent:]
+        del self.exits[self.sent:]
         self.aborting = self.answered < self.sent

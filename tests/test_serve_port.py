@@ -15,7 +15,7 @@ from kontur.machining import prepare
 from kontur.send import send
 from kontur.sim import processes
 
-from .test_send import FakeMachine, PtyBoard, within
+from .test_send import EagerMachine, FakeMachine, PtyBoard, within
 from .test_serve import BRACKET, LONG, SHORT, SPEED, WELCOME, Port, program_end, read_steps, run_steps, \
     stream, wait_for_outputs
 
@@ -342,10 +342,12 @@ def test_a_slow_sender_never_runs_the_board_dry_at_speed():
     from kontur.grbl.board import PortMotion
     from kontur.grbl.session import Session
     from kontur.machine import Machine
+    import io
     now = [0.0]
     board = Recording(WINDOW)
     machine = Machine(clock_hz=registry.board("icebreaker").clock_hz)
-    motion = PortMotion(machine, "icebreaker", board, clock=lambda: now[0])
+    said = io.StringIO()
+    motion = PortMotion(machine, "icebreaker", board, clock=lambda: now[0], out=said)
     board.holding = True
     grbl = Session(machine, "icebreaker", lambda line: None, clock=lambda: now[0],
                    motion=motion)
@@ -370,3 +372,38 @@ def test_a_slow_sender_never_runs_the_board_dry_at_speed():
     assert turns > 50                           # segments were held back meanwhile
     stops = sum(1 for kind, _ in board.received if kind == protocol.STOP)
     assert stops >= 2                           # the machine stopped and went on
+    assert said.getvalue() == ""                # (no frame answered: never run dry)
+
+
+def test_a_board_run_dry_at_speed_is_said():
+    """A board that makes every frame it is sent at once runs dry behind the slow sender
+    above: kontur serve holds the segments within stopping distance of the last line back,
+    and the board finishes the ones sent, planned to go on at speed, before the next line
+    makes those final. Said with the line and the speed: the first 2 mm line at F3000 ends
+    at sqrt(2 accel 2 mm), 2683 mm/min, where the next goes on."""
+    import io
+    import math
+    import re
+    from kontur import registry
+    from kontur.grbl.board import PortMotion
+    from kontur.grbl.session import Session
+    from kontur.machine import Machine
+    now = [0.0]
+    machine = Machine(clock_hz=registry.board("icebreaker").clock_hz)
+    said = io.StringIO()
+    motion = PortMotion(machine, "icebreaker", EagerMachine(WINDOW), clock=lambda: now[0],
+                        out=said)
+    grbl = Session(machine, "icebreaker", lambda line: None, clock=lambda: now[0],
+                   motion=motion)
+    for line in range(1, 13):
+        grbl.receive(f"G1 X{2 * line} F3000\n".encode())
+        for _ in range(12):                     # 60 ms, a turn every 5 ms
+            grbl.poll()
+            now[0] += 0.005
+    lines = said.getvalue().splitlines()
+    assert lines
+    assert all(re.match(r"^kontur: serve: line \d+: the board's queue ran dry at the end of "
+                        r"this move: the machine stopped there at once from \d+ mm/min and "
+                        r"goes on at that speed", text) for text in lines)
+    speed = round(math.sqrt(2 * machine.accel * 2) * 60)
+    assert lines[0].startswith(f"kontur: serve: line 1: ") and f" from {speed} mm/min " in lines[0]

@@ -38,7 +38,7 @@ from kontur.grbl.motion import Motion
 from kontur.grbl.protocol import PLANNER_BLOCKS
 from kontur.hdl.motion.protocol import INPUT_NAMES
 from kontur.planner import frames as program_frames, plan, step_length
-from kontur.send import ABORT_WAIT, SendError, Feeder, _durations
+from kontur.send import ABORT_WAIT, SendError, Feeder, _frame_plan
 
 __all__ = ["PortMotion", "reach", "SETTLE", "LOW", "POLL"]
 
@@ -79,10 +79,12 @@ def _length(segment, spm):
 class PortMotion(Motion):
     """The virtual machine's motion, every segment also made by the board on ``port`` (an
     open pyserial port); ``say`` takes a line for the sender, ``alarm(code)`` puts the
-    session in ALARM."""
+    session in ALARM; ``out`` is where a board's queue run dry at speed is said
+    (:meth:`kontur.send.Feeder.ran_dry`)."""
 
-    def __init__(self, machine, board, port, *, speed=1.0, timeout=10.0, clock=time.monotonic):
-        self.feeder = Feeder(machine, port, timeout=timeout)
+    def __init__(self, machine, board, port, *, speed=1.0, timeout=10.0, clock=time.monotonic,
+                 out=None):
+        self.feeder = Feeder(machine, port, timeout=timeout, out=out)
         self.feeder.handshake()
         super().__init__(machine, board, speed=speed, position=self._board_position(),
                          clock=clock)
@@ -258,12 +260,13 @@ class PortMotion(Motion):
         # A 3-axis board's segments are the session's on three axes (LINE3, HELIX frames); a
         # tool change's stop is its TOOL frame (planner.dwell_frames).
         frames, lines = program_frames(batch, items[:count], self.machine)
-        times = _durations(types.SimpleNamespace(segments=batch, items=items[:count],
-                                                 machine=self.machine,
-                                                 seconds=0.0), len(frames))
+        times, exits = _frame_plan(types.SimpleNamespace(segments=batch, items=items[:count],
+                                                         machine=self.machine,
+                                                         seconds=0.0), len(frames))
         first = 0 if not self.running else 1
         last = len(frames) if end else len(frames) - 1
-        self.feeder.extend(frames[first:last], lines[first:last], times[first:last])
+        self.feeder.extend(frames[first:last], lines[first:last], times[first:last],
+                           exits[first:last])
         self.settled = -1                   # a STATUS after their answers is awaited
         self.running = not end
         self.context = [] if end else self.context + sent

@@ -222,7 +222,7 @@ def serve(machine, board, *, link=None, tcp=None, out_dir=None, speed=1.0, engin
     motion = None
     if port is not None:
         from kontur.grbl.board import PortMotion
-        motion = PortMotion(machine, board, port, speed=speed, timeout=timeout)
+        motion = PortMotion(machine, board, port, speed=speed, timeout=timeout, out=sys.stderr)
     master, name = _pty(link)
     server = _listener(tcp) if tcp is not None else None
     pty = _Endpoint(master)
