@@ -15,8 +15,8 @@ from pathlib import Path
 from kontur.constraints.flow import (ROOT, SEED, DoesNotFit, ToolchainError, measure_area, measure_speed,
                    tool_versions)
 
-__all__ = ["area", "speed", "cells", "main", "area_designs", "speed_designs", "report", "report_designs",
-           "simulation_throughput", "WIDTHS"]
+__all__ = ["area", "speed", "cells", "main", "area_designs", "speed_designs", "report",
+           "report_designs", "simulation_throughput", "WIDTHS"]
 
 BUILD_ROOT = ROOT / "build" / "bench"
 
@@ -371,14 +371,14 @@ def cells(*, boards=None, build_root=None):
         def split(path, depth):
             # A large part's own parts, and what it has besides them (its own logic).
             for name in parts(path):
-                rows.append(row(name[len("top.controller."):], depth, modules[name]))
+                part = name[len("top.controller."):]
+                rows.append(row(part, depth, modules[name]))
                 under = parts(name)
                 if modules[name]["lut4"] >= CELLS_SPLIT * whole["lut4"] and under:
                     split(name, depth + 1)
-                    own = {kind: count - sum(modules[part][kind] for part in under)
+                    own = {kind: count - sum(modules[sub][kind] for sub in under)
                            for kind, count in modules[name].items()}
-                    rows.append(row(name[len("top.controller."):] + " (its own logic)",
-                                    depth + 1, own))
+                    rows.append(row(part + " (its own logic)", depth + 1, own))
         rows.append(row("controller", 0, whole))
         split("top.controller", 1)
     return rows
@@ -386,8 +386,8 @@ def cells(*, boards=None, build_root=None):
 
 def cells_table(rows):
     """The markdown table of :func:`cells`' rows (a part's own parts indented under it)."""
-    body = [[rec["board"], "\u2003" * rec["depth"] + rec["part"], rec["lut4"], rec["carry"], rec["ff"],
-             rec["ram"], rec["dsp"], f"{100 * rec['share']:.1f} %"] for rec in rows]
+    body = [[rec["board"], "\u2003" * rec["depth"] + rec["part"], rec["lut4"], rec["carry"],
+             rec["ff"], rec["ram"], rec["dsp"], f"{100 * rec['share']:.1f} %"] for rec in rows]
     return _markdown(["board", "part", "LUT4", "carry", "FF", "block RAM", "DSP",
                       "of the controller's LUT4"], body)
 

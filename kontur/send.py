@@ -170,11 +170,6 @@ def _frame_plan(job, count):
     return seconds, exits
 
 
-def _durations(job, count):
-    """The planned time (s) of each of the job's ``count`` frames (:func:`_frame_plan`)."""
-    return _frame_plan(job, count)[0]
-
-
 def _mm(point, spm):
     return f"({point[0] / spm:.4f}, {point[1] / spm:.4f}) mm"
 

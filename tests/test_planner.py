@@ -178,9 +178,9 @@ def _waits(job):
     to back at the machine's baud (10 bits a byte), never more than ``queue_frames`` of them
     unanswered; the board takes each once it has arrived and the one before is done, a move
     frame taking its planned time (the others none)."""
-    from kontur.send import _durations
+    from kontur.send import _frame_plan
     frames, _ = job.frames()
-    durations = _durations(job, len(frames))
+    durations, _ = _frame_plan(job, len(frames))
     window, baud = job.machine.queue_frames, job.machine.baud
     link = board = 0.0
     done, waits = [], []

@@ -94,7 +94,8 @@ class ToolOutputs(wiring.Component):
     100 %), rounded, and at most ``s_max`` (as Grbl clamps it at ``$30``):
     ``min((S × factor + 64) >> 7, s_max)``, worked out in the clock it is used from the S
     register and the factor then (a product of S's width by 9 bits: a multiplier block on
-    the ECP5, and on the UP5K with ``synth_ice40 -dsp``, the builds' option). A new factor thus takes effect, like a new S, at the next period's duty.
+    the ECP5, and on the UP5K with ``synth_ice40 -dsp``, the builds' option). A new factor
+    thus takes effect, like a new S, at the next period's duty.
 
     **Halt.** :py:`halt` drops every output in its own clock and clears the state: the
     outputs stay off until the next command.
