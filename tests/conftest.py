@@ -13,8 +13,6 @@ import pytest
 
 from kontur.sim.runners import SIMULATORS
 
-from .utils import BUILD_DIR
-
 
 def extra_variants():
     """The variants named by ``$KONTUR_EXTRA_VARIANTS``."""
@@ -58,5 +56,8 @@ def selected_simulators():
 
 def cocotb_build_root():
     """Where the tests keep their simulator builds (one directory per design and simulator,
-    see :class:`kontur.sim.runners.CocotbBuild`)."""
-    return BUILD_DIR / "cocotb"
+    see :class:`kontur.sim.runners.CocotbBuild`): where ``kontur`` keeps its own
+    (:func:`kontur.trace.build_root`), so that a design a test builds and one a ``kontur``
+    command of another test builds are one build."""
+    from kontur.trace import build_root
+    return build_root()

@@ -1,6 +1,8 @@
 # amaranth: UnusedElaboratable=no
 """The ``kontur`` command line, run as a program: output format, engines, refusals, waveforms."""
 
+import os
+import shutil
 import subprocess
 import sys
 
@@ -8,6 +10,7 @@ import pytest
 
 from kontur.sim.models.arc import arc_steps
 from kontur.sim.models.linear import steps
+from kontur.sim.runners import verilator_environment
 from kontur.waves import sample_vcd
 
 from .conftest import selected_simulators
@@ -189,6 +192,26 @@ def test_concurrent_runs_on_a_fresh_build(simulator, tmp_path):
         assert stdout == expected_lines(arc_steps(*arc)), arc
     (build,) = (tmp_path / simulator).iterdir()             # one build, shared
     assert not list((build / "runs").iterdir())             # every run cleaned up after it
+    if simulator == "verilator" and shutil.which("ccache"):
+        # Verilator's runtime compiled through ccache (runners.verilator_environment)
+        log = (build / "build.log").read_text().splitlines()
+        assert any(line.startswith("ccache ") and "verilated.cpp" in line for line in log)
+
+
+def test_verilator_builds_use_ccache_unless_told(monkeypatch):
+    for name in ("PATH", "VERILATOR_ROOT"):                 # restored after the test
+        monkeypatch.setenv(name, os.environ.get(name, ""))
+    monkeypatch.setattr(shutil, "which", lambda name: f"/usr/bin/{name}")
+    monkeypatch.delenv("OBJCACHE", raising=False)
+    verilator_environment()
+    assert os.environ["OBJCACHE"] == "ccache"
+    monkeypatch.setenv("OBJCACHE", "")                      # set, even empty: kept
+    verilator_environment()
+    assert os.environ["OBJCACHE"] == ""
+    monkeypatch.delenv("OBJCACHE")
+    monkeypatch.setattr(shutil, "which", lambda name: None)  # no ccache: none
+    verilator_environment()
+    assert "OBJCACHE" not in os.environ
 
 
 def test_full_circle_of_a_million_on_the_model():

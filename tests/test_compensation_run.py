@@ -167,7 +167,7 @@ class RTLTestCase(unittest.TestCase):
     RunError when the steps, an outcome or the position read back differ)."""
 
     def test_tiny_on_icarus(self):
-        job = prepare(TINY, machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=625_000,
+        job = prepare(TINY, machine=Machine(clock_hz=CLOCK, steps_per_mm=10, baud=1_000_000,
                                            accel=5000, cutter_radius=0.3),
                       board=BOARD, name="tiny.ngc")
         self.assertTrue(job.contours)
