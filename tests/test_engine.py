@@ -266,6 +266,28 @@ class EngineContractTestCase(unittest.TestCase):
         with self.assertRaisesRegex(AssertionError, r"^clock \d+: an outcome with no command$"):
             check_outcomes(extra)
 
+    def test_scoreboard_names_the_first_difference(self):
+        # The cocotb benches' check, clock by clock: the model's own outputs pass, one output
+        # changed fails, naming the clock and the output with (model, rtl).
+        from kontur.sim.testbench import Scoreboard
+        model = registry.make_model("line", width=8)
+        board = Scoreboard(registry.make_model("line", width=8))
+        board.check(0, {"rst": 1}, None)
+        model.reset()
+        inputs = {"rst": 0, "valid": 1, "payload": {"x": 5, "y": 2}, "tick": 1, "abort": 0,
+                  "status_ready": 1}
+        for cycle in range(1, 4):
+            outputs, _ = model.cycle(valid=1, payload=inputs["payload"], tick=1, abort=0,
+                                     status_ready=1)
+            board.check(cycle, inputs, dict(outputs))
+        outputs, _ = model.cycle(valid=1, payload=inputs["payload"], tick=1, abort=0,
+                                 status_ready=1)
+        wrong = dict(outputs, step=1 - outputs["step"])
+        with self.assertRaisesRegex(AssertionError, rf"^clock 4: \(model, rtl\) "
+                                                    rf"{{'step': \({outputs['step']}, "
+                                                    rf"{wrong['step']}\)}}$"):
+            board.check(4, inputs, wrong)
+
 
 @EVERY_VARIANT
 def test_every_engine_has_the_signature(label, make_engine, make_model):

@@ -70,7 +70,8 @@ def _interrupt(args, tmp_path, signum, wanted):
     that outlived it."""
     program = tmp_path / "p.ngc"
     program.write_text(PROGRAM)
-    env = dict(os.environ, KONTUR_BUILD=str(tmp_path / "builds"))
+    # (No ccache: a build whose objects are all in its cache ends before the signal comes.)
+    env = dict(os.environ, KONTUR_BUILD=str(tmp_path / "builds"), OBJCACHE="")
     run = subprocess.Popen([sys.executable, "-m", "kontur.cli", *args], cwd=tmp_path,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
                            preexec_fn=_interruptible)
