@@ -340,7 +340,7 @@ async def run_cocotb(dut, frames, *, divisor, window, max_clocks, inject=None, l
     level, driven = 1, (1, idle)
     for _ in range(max_clocks):
         await RisingEdge(dut.clk)
-        if (level, host.pins) != driven:    # (a write costs as much as the rest of a clock)
+        if (level, host.pins) != driven:    # (a write is a simulator call: none if unchanged)
             driven = level, host.pins
             rx_pin.value = level            # applied after this edge: sampled at the next
             inputs_pin.value = host.pins
