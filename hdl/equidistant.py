@@ -193,7 +193,7 @@ class EquidistantEngine(wiring.Component):
     its deviation in register III, an arc by a quadrant run handed to the core two clocks
     before its first step; four clocks from the last step of one line to the first of the
     next. An element whose frame is still being prepared when its predecessor ends waits for
-    it (``2·(width + 2) + 4`` clocks at most).
+    it (``2·(width + 2) + 6`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -642,8 +642,17 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += n_value.eq(pending.e + n.radius2 + Mux(sigma_out, rounded, -rounded))
         circle_value = Signal(signed(f.value))
         m.d.comb += circle_value.eq(b5x.product + b5y.product - n_value)
-        combine1 = (unit == 2) & b6.done
-        combine2 = (unit == 4) & b6.done
+        # The sums are registered: formed in the clock the products are done (they are held
+        # after it) and added into the slot in the next, so that the products' sums and the
+        # slot's integrator are not one path.
+        line_sum = Signal(signed(f.value))
+        circle_sum = Signal(signed(f.value))
+        circle_empty = Signal()
+        sums_done = Signal()
+        m.d.sync += [line_sum.eq(line_value), circle_sum.eq(circle_value),
+                     circle_empty.eq(n_value <= 0), sums_done.eq(b6.done & ~self.abort)]
+        combine1 = (unit == 2) & sums_done
+        combine2 = (unit == 4) & sums_done
         m.d.comb += [
             n.unit_entry.eq(pending.entry),
             n.unit_last_round.eq((combine1 & ~pending.entry) | combine2),
@@ -665,7 +674,7 @@ class EquidistantEngine(wiring.Component):
             m.d.sync += [unit.eq(0), n.radius2.eq(b6.product)]
         with m.If(n.take_element & self.cmd.valid & ~self.abort):
             m.d.sync += [pending.eq(frame), unit.eq(1)]
-        n.line_value, n.n_value, n.circle_value = line_value, n_value, circle_value
+        n.line_value, n.circle_value, n.circle_empty = line_sum, circle_sum, circle_empty
         n.combine1, n.combine2 = combine1, combine2
 
     def _block2_memory(self, m, n):
@@ -682,7 +691,7 @@ class EquidistantEngine(wiring.Component):
                 m.d.comb += out.v.eq(n.stepped_v[i] + Mux(s.arc, n.circle_value,
                                                           n.line_value))
                 with m.If(s.arc):
-                    m.d.comb += out.empty.eq(n.n_value <= 0)
+                    m.d.comb += out.empty.eq(n.circle_empty)
                 with m.If(~pending.entry):
                     m.d.comb += [out.computing.eq(0), out.ready.eq(1)]
             with m.If(s.computing & n.combine2):
@@ -693,8 +702,11 @@ class EquidistantEngine(wiring.Component):
         moved = [advanced(i) for i in range(3)]
         # Block 11's registered test holds for the next clock when this one changes neither
         # the position nor the traced and compared slots.
-        m.d.sync += n.fresh.eq(~n.step_x & ~n.step_y & ~n.shift_cmp & ~n.combine1
-                               & ~n.combine2 & ~self.abort)
+        # (The functions formed into the slot after them change neither.)
+        formed_here = ((own.valid & own.computing) | (cmp.valid & cmp.computing)) & (
+            n.combine1 | n.combine2)
+        m.d.sync += n.fresh.eq(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
+                               & ~self.abort)
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
         with m.Else():

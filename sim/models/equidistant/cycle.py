@@ -113,8 +113,11 @@ class EquidistantEngineModel:
         self._edge_blocks5_8(c)
         self._edge_control(c)
         self.at_point = c.at_point
-        self.fresh = int(not c.step_x and not c.step_y and not c.shift_cmp and not c.combine1
-                         and not c.combine2 and not abort)
+        # (The functions formed into the slot after them change neither.)
+        formed_here = (c.combine1 or c.combine2) and any(
+            s is not None and s["computing"] for s in (c.own, c.cmp))
+        self.fresh = int(not c.step_x and not c.step_y and not c.shift_cmp and not formed_here
+                         and not abort)
         return outputs, state
 
     def _block3(self, c):
@@ -359,11 +362,12 @@ class EquidistantEngineModel:
                 self.unit, self.radius, self.left = 5, frame["x"], length
                 self.product = frame["x"] * frame["x"]
         elif self.unit == 1:
-            self.unit, self.p0, self.left = 2, (x, y), length
+            # The products take ``length`` clocks, their sums one more (registered).
+            self.unit, self.p0, self.left = 2, (x, y), length + 1
         elif c.combine1:
             self.unit = 3 if self.pending["entry"] else 0
         elif self.unit == 3:
-            self.unit, self.left = 4, length
+            self.unit, self.left = 4, length + 1
         elif c.combine2:
             self.unit = 0
         elif self.unit == 5 and self.left == 0:
