@@ -23,13 +23,9 @@ from .arc import ArcCoreSignature, _quadrant, _x_falls
 from .elements import AccumulatingAdder, ReversibleCounter
 from .elements._checks import check_width
 from .engine import EngineSignature, Outcome, StatusUnit
-from .spec import Formats, Kind
+from .spec import SETTLE, Formats, Kind
 
 __all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine", "SETTLE"]
-
-#: The clocks block 11 takes after every step or change of the traced and compared slots
-#: (its test, registered): an element steps every ``SETTLE + 1`` clocks at most.
-SETTLE = 1
 
 
 class SerialMultiplier(wiring.Component):
@@ -187,13 +183,13 @@ class EquidistantEngine(wiring.Component):
     while an element is traced, the next one's function (or its entry line) is compared with
     the threshold of the element's steps (block 11): the element ends at the first point where
     ``2·h·F + 2τ >= 0`` (``2τ`` the largest change of ``F`` over one step of the element's
-    kinds), without a step from it. The test is registered: formed in one clock and used in
-    the next, so an element steps only in a clock after one with no step and no change of
-    its slots (every other clock at most). The next element starts from there: a line with
-    its deviation in register III, an arc by a quadrant run handed to the core two clocks
-    before its first step; four clocks from the last step of one line to the first of the
-    next. An element whose frame is still being prepared when its predecessor ends waits for
-    it (``2·(width + 2) + 6`` clocks at most).
+    kinds), without a step from it. The test is two registered stages (:data:`SETTLE`), so
+    an element steps only after two clocks with no step and no change of its slots (every
+    third clock at most). The next element starts from there: a line with its deviation in
+    register III, an arc by a quadrant run handed to the core two clocks before its first
+    step; six clocks from the last step of one line to the first of the next. An element
+    whose frame is still being prepared when its predecessor ends waits for it
+    (``2·(width + 2) + 6`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -458,40 +454,47 @@ class EquidistantEngine(wiring.Component):
                                Mux(cmp.entry, cmp.ek, cmp.k), one)
         tu, tv = self._relative(n, cmp)
         target_circle = cmp.arc & ~cmp.entry
+        # The test is two registered stages (SETTLE): the first forms the kinds of the
+        # traced element's steps against the target (its own carry chains, the quadrant's
+        # and the kinds'), the second the comparisons; :py:`fresh` (block 2's) says nothing of
+        # the state (position, traced and compared slots) changed in the two clocks before,
+        # so the test is of this state and an element runs only after two clocks with no
+        # step and no change of its slots.
         kind_a = Signal(signed(f.value))
         kind_b = Signal(signed(f.value))
-        kind_d = Signal(signed(f.value))
-        m.d.comb += [
+        twice = Signal(signed(f.value + 1))
+        kinds = Signal(2)                    # x_kind, y_kind
+        falls = Signal()                     # cmp.h
+        special = Signal()                   # an arc ends where it is empty or at its centre
+        at_centre = own.arc & (own_u == 0) & (own_v == 0)
+        m.d.sync += [
             kind_a.eq(Mux(target_circle, Mux(qx_neg, -2 * tu + 1, 2 * tu + 1),
                           Mux(qx_neg, -tc, tc))),
             kind_b.eq(Mux(target_circle, Mux(qy_neg, -2 * tv + 1, 2 * tv + 1),
                           Mux(qy_neg, -td, td))),
-            kind_d.eq(kind_a + kind_b),
+            twice.eq(Mux(cmp.entry, cmp.w, cmp.v) << 1),
+            kinds.eq(Cat(x_kind, y_kind)),
+            falls.eq(cmp.h),
+            special.eq(own.arc & (own.empty | at_centre)),
         ]
         # 2τ, the largest change over one step, is max(x_kind·|a|, y_kind·|b|, |a + b|) of
         # the kinds a, b; the element ends where ±2F + 2τ >= 0. Formed as that test against
         # each of ±a, ±b, ±(a + b) (2F + 2τ >= 0 holds when it holds for one of the three,
-        # and for |z| when it holds for z or -z), with no absolute value and no maximum:
-        # two carry chains after the kinds, not five.
-        def reached(value):
-            twice = value << 1
-            tests = []
-            for z, kind in ((kind_a, x_kind), (kind_b, y_kind), (kind_d, 1)):
-                plus = Signal(signed(f.value + 3))
-                minus = Signal(signed(f.value + 3))
-                m.d.comb += [plus.eq(twice + z), minus.eq(twice - z)]
-                # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0.
-                tests.append(kind & Mux(cmp.h, (minus <= 0) | (plus <= 0),
-                                        (plus >= 0) | (minus >= 0)))
-            return tests[0] | tests[1] | tests[2]
-
-        target = Mux(cmp.entry, cmp.w, cmp.v)
-
-        at_centre = own.arc & (own_u == 0) & (own_v == 0)
-        # The test is registered: it is of the state of the clock before (position, slots),
-        # and :py:`fresh` (block 2's) says nothing of that state changed since, so an element
-        # runs only in a clock after one with no step and no change of its slots.
-        m.d.sync += n.at_point.eq(reached(target) | (own.arc & (own.empty | at_centre)))
+        # and for |z| when it holds for z or -z), with no absolute value and no maximum; the
+        # sums with a + b are written out, so that synthesis adds their three terms with one
+        # carry chain.
+        tests = []
+        for plus_value, minus_value, kind in (
+                (twice + kind_a, twice - kind_a, kinds[0]),
+                (twice + kind_b, twice - kind_b, kinds[1]),
+                (twice + kind_a + kind_b, twice - kind_a - kind_b, 1)):
+            plus = Signal(signed(f.value + 3))
+            minus = Signal(signed(f.value + 3))
+            m.d.comb += [plus.eq(plus_value), minus.eq(minus_value)]
+            # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0.
+            tests.append(kind & Mux(falls, (minus <= 0) | (plus <= 0),
+                                    (plus >= 0) | (minus >= 0)))
+        m.d.sync += n.at_point.eq(tests[0] | tests[1] | tests[2] | special)
         m.d.comb += n.end_now.eq(n.running & n.at_point)
 
         # The arc core: a run from the position, on the circle N (residue = -S), stopped by
@@ -700,13 +703,15 @@ class EquidistantEngine(wiring.Component):
             return out
 
         moved = [advanced(i) for i in range(3)]
-        # Block 11's registered test holds for the next clock when this one changes neither
-        # the position nor the traced and compared slots.
-        # (The functions formed into the slot after them change neither.)
+        # Block 11's registered test is of this state when the SETTLE clocks before changed
+        # neither the position nor the traced and compared slots (the functions formed into
+        # the slot after them change neither).
         formed_here = ((own.valid & own.computing) | (cmp.valid & cmp.computing)) & (
             n.combine1 | n.combine2)
-        m.d.sync += n.fresh.eq(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
-                               & ~self.abort)
+        quiet = Signal(SETTLE)               # of the clocks before, the last first
+        m.d.sync += quiet.eq(Cat(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
+                                 & ~self.abort, quiet[:-1]))
+        m.d.comb += n.fresh.eq(quiet.all())
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
         with m.Else():

@@ -10,7 +10,12 @@ parameters and data only, not behaviour.
 import math
 from dataclasses import dataclass
 
-__all__ = ["Kind", "Formats", "OCTAGON", "ONE", "SQRT2", "SQRT3", "STEP_LENGTHS"]
+__all__ = ["Kind", "Formats", "SETTLE", "OCTAGON", "ONE", "SQRT2", "SQRT3", "STEP_LENGTHS"]
+
+#: The clocks the equidistant engine's block 11 takes after every step or change of the traced
+#: and compared slots (its test, two registered stages): an element steps every ``SETTLE + 1``
+#: clocks at most.
+SETTLE = 2
 
 
 class Kind:

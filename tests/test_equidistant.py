@@ -9,7 +9,8 @@ from amaranth.lib import wiring
 
 from kontur.hdl.circular import FaithfulArcCore, FastArcCore
 from kontur.hdl.engine import EngineSignature
-from kontur.hdl.equidistant import EquidistantEngine, Formats, Kind, SerialMultiplier
+from kontur.hdl.equidistant import (SETTLE, EquidistantEngine, Formats, Kind,
+                                   SerialMultiplier)
 from kontur.hdl.motion import FeedDivider, StepDirStage
 from kontur.hdl.linear import LinearCore
 from kontur import registry
@@ -158,11 +159,12 @@ class AgainstModelTestCase(unittest.TestCase):
         outcomes = [outcome for _, _, outcome, _ in record_outcomes(record)]
         self.assertEqual(outcomes, [REFUSED] * 3 + [DONE] * len(square))
 
-    def test_lines_follow_lines_with_two_settling_clocks(self):
-        # Each element here lasts longer than the forming of a frame (2·width + 8 clocks),
-        # so from the first step to the last there is a step in every other clock (block 11's
-        # registered test settles for a clock after each), and four clocks from the last
-        # step of an element to the first of the next (its end at the point, the shift).
+    def test_lines_follow_lines_with_settling_clocks(self):
+        # Each element here lasts longer than the forming of a frame (2·width + 10 clocks),
+        # so from the first step to the last there is a step in every SETTLE + 1 clocks
+        # (block 11's registered test settles for SETTLE clocks after each), and twice that
+        # from the last step of an element to the first of the next (its end at the point,
+        # the shift).
         arrow = model.profile_from_moves(read(ARROW).moves)
         cases = [program("square", 1), program("square", 1, side="other"),
                  list(model.prepare(arrow, 2, formats=model.Formats(WIDTH)).frames)]
@@ -172,8 +174,8 @@ class AgainstModelTestCase(unittest.TestCase):
             gaps = [b - a for a, b in zip(moves, moves[1:])]
             traced = [f for f in frames if f["kind"] in (Kind.LINE, Kind.ARC)
                       and not f.get("last")]
-            self.assertEqual(set(gaps), {2, 4})
-            self.assertEqual(gaps.count(4), len(traced) - 1)
+            self.assertEqual(set(gaps), {SETTLE + 1, 2 * (SETTLE + 1)})
+            self.assertEqual(gaps.count(2 * (SETTLE + 1)), len(traced) - 1)
             self.assertGreater(len(moves), 100)
 
     def test_one_program_several_radii(self):

@@ -5,6 +5,8 @@ from types import SimpleNamespace
 
 from ..arc import direction_bits, quadrant, type_a
 from ..engine import StatusModel
+from kontur.hdl.spec import SETTLE
+
 from .functions import DONE_CODE, KIND, REFUSED_CODE, Formats, _frame_defaults
 
 __all__ = ["EquidistantEngineModel"]
@@ -46,8 +48,8 @@ class EquidistantEngineModel:
         self.run_swap = 0
         self.run_dir = 0
         self.product = 0                  # block 6's last product (r² is taken from it)
-        self.fresh = 0                    # block 11's registered test is of this state
-        self.at_point = 0                 # ... the element ends at the point
+        self.quiet = [0] * SETTLE         # the clocks before changed nothing (the last first)
+        self.tests = [0] * SETTLE         # block 11's two stages: the element ends at the point
 
     def state(self):
         return {"x": self.x, "y": self.y, "unit": self.unit, "arc_state": self.arc_state}
@@ -99,7 +101,7 @@ class EquidistantEngineModel:
                             hold=self.status.hold)
         own, cmp = c.own, c.cmp
         c.running = int(own is not None and not own["last"] and own["ready"]
-                        and cmp is not None and cmp["ready"] and bool(self.fresh)
+                        and cmp is not None and cmp["ready"] and all(self.quiet)
                         and not c.hold and not abort)
         self._block3(c)
         self._block11_threshold(c)
@@ -112,12 +114,12 @@ class EquidistantEngineModel:
         self._edge_block2_memory(c)
         self._edge_blocks5_8(c)
         self._edge_control(c)
-        self.at_point = c.at_point
+        self.tests = [c.at_point] + self.tests[:-1]
         # (The functions formed into the slot after them change neither.)
         formed_here = (c.combine1 or c.combine2) and any(
             s is not None and s["computing"] for s in (c.own, c.cmp))
-        self.fresh = int(not c.step_x and not c.step_y and not c.shift_cmp and not formed_here
-                         and not abort)
+        self.quiet = [int(not c.step_x and not c.step_y and not c.shift_cmp and not formed_here
+                          and not abort)] + self.quiet[:-1]
         return outputs, state
 
     def _block3(self, c):
@@ -136,8 +138,9 @@ class EquidistantEngineModel:
 
     def _block11_threshold(self, c):
         """Block 11: the kinds of the traced element's steps, the target's threshold ``2τ``,
-        whether the element ends at the point (registered: ``at_point``), and its end now
-        (``end_now``: by the test of the clock before, of this state while ``fresh``)."""
+        whether the element ends at the point (``at_point``, through SETTLE registers), and
+        its end now (``end_now``: by the test of SETTLE clocks before, of this state while
+        the clocks since changed nothing)."""
         own, cmp, x, y = c.own, c.cmp, c.x, c.y
         c.tau2 = 0
         c.quadrant_own = 0
@@ -172,7 +175,7 @@ class EquidistantEngineModel:
             at_centre = own["arc"] and (x, y) == (own["cx"], own["cy"])
             c.at_point = int(self._reached(c, target)
                              or bool(own["arc"] and (own["empty"] or at_centre)))
-        c.end_now = int(bool(c.running) and bool(self.at_point))
+        c.end_now = int(bool(c.running) and bool(self.tests[-1]))
 
     def _reached(self, c, value):
         """Block 11's comparison: the target function ``value`` has reached the element's end."""
