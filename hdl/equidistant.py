@@ -142,7 +142,8 @@ def _slot(f):
         "valid": 1, "ready": 1, "computing": 1, "last": 1, "arc": 1, "h": 1, "entry": 1,
         "empty": 1,
         "swap": 1, "minor": 1, "back": 1, "k": signed(f.coefficient),
-        "cx": signed(f.width + 1), "cy": signed(f.width + 1), "cw": 1,
+        "cu": signed(f.width + 3), "cv": signed(f.width + 3),   # the position less the centre
+        "cw": 1,
         "eswap": 1, "eminor": 1, "ek": signed(f.coefficient),
         "v": signed(f.value),                # its own function at the position
         "w": signed(f.value),                # its entry line's function at the position
@@ -156,9 +157,22 @@ def _coefficients(swap, minor, k, one):
     return Mux(swap, -sone, sk), Mux(swap, sk, -sone)
 
 
-def _term(c, step, negative):
-    """``c·d`` for a step ``d`` in {-1, 0, +1} given as (step, negative)."""
-    return Mux(step, Mux(negative, -c, c), 0)
+def _delta(step, negative):
+    """A step ``d`` in {-1, 0, +1} given as (step, negative)."""
+    return Mux(step, Mux(negative, -1, 1), 0)
+
+
+def _line_terms(swap, minor, k, one, step_x, step_y, neg_x, neg_y):
+    """``C·dx + D·dy`` of a line function (:func:`_coefficients`) as the terms of a sum with
+    no carry chain of its own: ``±k`` (``~k`` and a carry of one where negative), ``±one``
+    (a constant), the carry."""
+    step_k, neg_k = Mux(swap, step_y, step_x), Mux(swap, neg_y, neg_x)
+    step_one, neg_one = Mux(swap, step_x, step_y), Mux(swap, neg_x, neg_y)
+    k_negative = minor ^ neg_k               # C (D when swapped) is ±k: sk = (minor ? -k : k)
+    one_negative = ~minor ^ neg_one          # ... the other is -sone = (minor ? one : -one)
+    return (Mux(step_k, Mux(k_negative, ~k, k), 0),
+            Mux(step_one, Mux(one_negative, -one, one), 0),
+            step_k & k_negative)
 
 
 def _abs(value):
@@ -401,36 +415,31 @@ class EquidistantEngine(wiring.Component):
         n.step_x, n.step_y, n.neg_x, n.neg_y = step_x, step_y, neg_x, neg_y
 
     def _relative(self, n, s):
-        """The position relative to slot ``s``'s centre."""
-        return n.x - s.cx, n.y - s.cy
+        """The position relative to slot ``s``'s centre (the slot's registers: counted with
+        every step from the position it entered at, so that no subtraction precedes the
+        functions' sums and block 11)."""
+        return s.cu, s.cv
 
     def _blocks4_10_integrators(self, m, n):
-        """Blocks 4 and 10: every slot's functions ``(v, w)`` after this clock's step."""
-        f, one = n.f, n.one
+        """Blocks 4 and 10: the terms every slot's functions ``(v, w)`` take from this clock's
+        step (added by block 2 with the functions formed, one sum each)."""
+        one = n.one
         step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
 
-        def stepped_values(s, step_x, step_y, neg_x, neg_y):
-            """``(v, w)`` of slot ``s`` after a step ``(step_x, step_y)`` in the directions
-            ``(neg_x, neg_y)``."""
-            c, d = _coefficients(s.swap, s.minor, s.k, one)
-            ec, ed = _coefficients(s.eswap, s.eminor, s.ek, one)
+        def terms(s):
+            """The terms of ``v`` and of ``w`` of slot ``s`` for the step ``(step_x,
+            step_y)`` in the directions ``(neg_x, neg_y)``: a circle's ``±2u + 1`` is ``2u + 1``
+            or ``~2u`` and a carry of two, a line's :func:`_line_terms`."""
             u, v = self._relative(n, s)
-            circle = (Mux(step_x, Mux(neg_x, -2 * u + 1, 2 * u + 1), 0)
-                      + Mux(step_y, Mux(neg_y, -2 * v + 1, 2 * v + 1), 0))
-            line = _term(c, step_x, neg_x) + _term(d, step_y, neg_y)
-            return (s.v + Mux(s.arc, circle, line),
-                    s.w + _term(ec, step_x, neg_x) + _term(ed, step_y, neg_y))
+            circle = (Mux(step_x, Mux(neg_x, ~(u << 1), (u << 1) | 1), 0),
+                      Mux(step_y, Mux(neg_y, ~(v << 1), (v << 1) | 1), 0),
+                      Cat(C(0, 1), (step_x & neg_x) ^ (step_y & neg_y),
+                          step_x & neg_x & step_y & neg_y))
+            line = _line_terms(s.swap, s.minor, s.k, one, step_x, step_y, neg_x, neg_y)
+            entry = _line_terms(s.eswap, s.eminor, s.ek, one, step_x, step_y, neg_x, neg_y)
+            return [Mux(s.arc, a, b) for a, b in zip(circle, line)], entry
 
-        stepped_v = []
-        stepped_w = []
-        for i, s in enumerate(n.slots):
-            sv = Signal(signed(f.value), name=f"stepped_v{i}")
-            sw = Signal(signed(f.value), name=f"stepped_w{i}")
-            v_expr, w_expr = stepped_values(s, step_x, step_y, neg_x, neg_y)
-            m.d.comb += [sv.eq(v_expr), sw.eq(w_expr)]
-            stepped_v.append(sv)
-            stepped_w.append(sw)
-        n.stepped_v, n.stepped_w = stepped_v, stepped_w
+        n.terms = [terms(s) for s in n.slots]
 
     def _block11_comparator(self, m, n):
         """Block 11: the traced element's end at the point where the next element's function
@@ -586,7 +595,10 @@ class EquidistantEngine(wiring.Component):
             new.valid.eq(1), new.computing.eq(1), new.last.eq(frame.last),
             new.arc.eq(kind == Kind.ARC), new.h.eq(frame.h), new.entry.eq(frame.entry),
             new.swap.eq(frame.swap), new.minor.eq(frame.minor), new.back.eq(frame.sec < 0),
-            new.k.eq(frame.k), new.cx.eq(frame.x), new.cy.eq(frame.y), new.cw.eq(frame.cw),
+            new.k.eq(frame.k), new.cw.eq(frame.cw),
+            # The position it enters at (after this clock's step) less the centre.
+            new.cu.eq(n.x - frame.x + _delta(n.step_x, n.neg_x)),
+            new.cv.eq(n.y - frame.y + _delta(n.step_y, n.neg_y)),
             new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
         ]
         n.kind, n.unit, n.unit_entry, n.unit_last_round, n.pending = (
@@ -686,20 +698,28 @@ class EquidistantEngine(wiring.Component):
         own, cmp, prep, slots, pending = n.own, n.cmp, n.prep, n.slots, n.pending
 
         def advanced(i):
-            """Slot ``i`` after this clock: stepped, and its functions added when formed."""
+            """Slot ``i`` after this clock: stepped, and its functions added when formed (each
+            function one sum of its terms, so one carry chain)."""
             s = slots[i]
             out = Signal(n.slot, name=f"advanced{i}")
-            m.d.comb += [out.eq(s), out.v.eq(n.stepped_v[i]), out.w.eq(n.stepped_w[i])]
+            (v1, v2, v_carry), (w1, w2, w_carry) = n.terms[i]
+            formed_v = Mux(s.computing & n.combine1,
+                           Mux(s.arc, n.circle_value, n.line_value), 0)
+            formed_w = Mux(s.computing & n.combine2, n.line_value, 0)
+            m.d.comb += [
+                out.eq(s),
+                out.v.eq(s.v + v1 + v2 + v_carry + formed_v),
+                out.w.eq(s.w + w1 + w2 + w_carry + formed_w),
+                out.cu.eq(s.cu + _delta(n.step_x, n.neg_x)),
+                out.cv.eq(s.cv + _delta(n.step_y, n.neg_y)),
+            ]
             with m.If(s.computing & n.combine1):
-                m.d.comb += out.v.eq(n.stepped_v[i] + Mux(s.arc, n.circle_value,
-                                                          n.line_value))
                 with m.If(s.arc):
                     m.d.comb += out.empty.eq(n.circle_empty)
                 with m.If(~pending.entry):
                     m.d.comb += [out.computing.eq(0), out.ready.eq(1)]
             with m.If(s.computing & n.combine2):
-                m.d.comb += [out.w.eq(n.stepped_w[i] + n.line_value), out.computing.eq(0),
-                             out.ready.eq(1)]
+                m.d.comb += [out.computing.eq(0), out.ready.eq(1)]
             return out
 
         moved = [advanced(i) for i in range(3)]
