@@ -375,12 +375,21 @@ class EquidistantEngine(wiring.Component):
             core.feed.tick.eq(self.feed.tick & arc_go),
         ]
 
+        # The return: the position less the start, from which the steps (towards the start)
+        # and the return's end (the start within a step on each axis, so no sum after the step)
+        # are read.
+        home_ux = Signal(signed(f.position + 1))
+        home_uy = Signal(signed(f.position + 1))
         home_dx = Signal()
         home_dy = Signal()
         m.d.comb += [
-            home_dx.eq(n.x != n.start_x),
-            home_dy.eq(n.y != n.start_y),
+            home_ux.eq(n.x - n.start_x),
+            home_uy.eq(n.y - n.start_y),
+            home_dx.eq(home_ux != 0),
+            home_dy.eq(home_uy != 0),
         ]
+        n.home_near = ((home_ux >= -1) & (home_ux <= 1)) & ((home_uy >= -1) & (home_uy <= 1))
+        n.home_ux, n.home_uy = home_ux, home_uy
         home_due = n.homing & (home_dx | home_dy) & ~hold & ~self.abort
         home_step = home_due & self.feed.tick
         n.hold, n.running, n.end_now = hold, running, end_now
@@ -407,8 +416,8 @@ class EquidistantEngine(wiring.Component):
                 m.d.comb += [step_x.eq(n.line_major), neg_x.eq(own.back),
                              step_y.eq(n.line_minor), neg_y.eq(n.line_minor_negative)]
         with m.Elif(n.home_step):
-            m.d.comb += [step_x.eq(n.home_dx), neg_x.eq(x > n.start_x),
-                         step_y.eq(n.home_dy), neg_y.eq(y > n.start_y)]
+            m.d.comb += [step_x.eq(n.home_dx), neg_x.eq(n.home_ux > 0),
+                         step_y.eq(n.home_dy), neg_y.eq(n.home_uy > 0)]
         with m.Elif(n.arc_go):
             m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(n.run_dir[0]),
                          step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
@@ -750,15 +759,13 @@ class EquidistantEngine(wiring.Component):
     def _control_frames(self, m, n):
         """Control frames: the radius's end, the start, the return (``CLOSE``)."""
         frame, kind, taken = n.frame, n.kind, n.taken
-        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
         start_now = taken & (kind == Kind.START)
         close_now = taken & (kind == Kind.CLOSE)
         close_end = Signal()
-        home_x_after = n.x + Mux(step_x, Mux(neg_x, -1, 1), 0)
-        home_y_after = n.y + Mux(step_y, Mux(neg_y, -1, 1), 0)
+        # A step of the return is towards the start on every axis it is away on, so it ends
+        # there when the start is within a step on each.
         m.d.comb += close_end.eq((close_now & ~n.home_dx & ~n.home_dy)
-                                 | (n.home_step & (home_x_after == n.start_x)
-                                    & (home_y_after == n.start_y)))
+                                 | (n.home_step & n.home_near))
         with m.If(self.abort):
             m.d.sync += [n.contour.eq(0), n.homing.eq(0)]
         with m.Else():

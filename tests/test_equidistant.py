@@ -178,6 +178,32 @@ class AgainstModelTestCase(unittest.TestCase):
             self.assertEqual(gaps.count(2 * (SETTLE + 1)), len(traced) - 1)
             self.assertGreater(len(moves), 100)
 
+    def test_close_returns_by_a_staircase(self):
+        # An open contour, then CLOSE: the engine returns from the contour's end to its start
+        # by sign steps (both axes while both are away), ending where it began.
+        frames = program("zigzag", 2) + [{"kind": Kind.CLOSE}]
+        for variant in CORES:
+            record = compare(self, Job(frames=frames, max_cycles=50_000), variant)
+            outcomes = record_outcomes(record)
+            self.assertEqual([outcome for _, _, outcome, _ in outcomes], [DONE] * len(frames))
+            contour_end = outcomes[-2][0]           # the terminal's outcome, then CLOSE's
+            x = y = 0
+            returned = []
+            for e in record:
+                if e["rst"] or not e["step"]:
+                    continue
+                dx = (e["step"] & 1) * (-1 if e["dir"] & 1 else 1)
+                dy = (e["step"] >> 1 & 1) * (-1 if e["dir"] >> 1 & 1 else 1)
+                if e["cycle"] > contour_end:
+                    returned.append((dx, dy))
+                x, y = x + dx, y + dy
+            self.assertEqual((x, y), (0, 0))         # back at the start
+            rx, ry = (sum(d[axis] for d in returned) for axis in (0, 1))
+            self.assertEqual(tuple(outcomes[-1][3]), (rx, ry))
+            # Sign steps: both axes while both are away, so max(|rx|, |ry|) steps.
+            self.assertGreater(len(returned), 10)
+            self.assertEqual(len(returned), max(abs(rx), abs(ry)))
+
     def test_one_program_several_radii(self):
         frames = program("rounded", 0)
         body = frames[2:]
