@@ -430,15 +430,24 @@ class EquidistantEngine(wiring.Component):
         return s.cu, s.cv
 
     def _blocks4_10_integrators(self, m, n):
-        """Blocks 4 and 10: the terms every slot's functions ``(v, w)`` take from this clock's
-        step (added by block 2 with the functions formed, one sum each)."""
+        """Blocks 4 and 10: the terms every slot's functions ``(v, w)`` and its relative
+        position take from the step of the clock before (added by block 2 with the functions
+        formed, one sum each). The slots follow the position a clock late, so that the step's
+        decision ends in a register here; block 11's first stage reads them a clock after
+        that (SETTLE)."""
         one = n.one
-        step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
+        late = Signal(4)                     # the step of the clock before: x, y, -x, -y
+        m.d.sync += late.eq(Cat(n.step_x, n.step_y, n.neg_x, n.neg_y))
+        # The last slot was taken in the clock before, at the position after its step:
+        # that step is not its.
+        n.taken_late = Signal()
 
-        def terms(s):
+        def terms(s, skip):
             """The terms of ``v`` and of ``w`` of slot ``s`` for the step ``(step_x,
             step_y)`` in the directions ``(neg_x, neg_y)``: a circle's ``±2u + 1`` is ``2u + 1``
-            or ``~2u`` and a carry of two, a line's :func:`_line_terms`."""
+            or ``~2u`` and a carry of two, a line's :func:`_line_terms`; and the step."""
+            step_x, step_y = late[0] & ~skip, late[1] & ~skip
+            neg_x, neg_y = late[2], late[3]
             u, v = self._relative(n, s)
             circle = (Mux(step_x, Mux(neg_x, ~(u << 1), (u << 1) | 1), 0),
                       Mux(step_y, Mux(neg_y, ~(v << 1), (v << 1) | 1), 0),
@@ -446,9 +455,11 @@ class EquidistantEngine(wiring.Component):
                           step_x & neg_x & step_y & neg_y))
             line = _line_terms(s.swap, s.minor, s.k, one, step_x, step_y, neg_x, neg_y)
             entry = _line_terms(s.eswap, s.eminor, s.ek, one, step_x, step_y, neg_x, neg_y)
-            return [Mux(s.arc, a, b) for a, b in zip(circle, line)], entry
+            return ([Mux(s.arc, a, b) for a, b in zip(circle, line)], entry,
+                    (_delta(step_x, neg_x), _delta(step_y, neg_y)))
 
-        n.terms = [terms(s) for s in n.slots]
+        skips = (C(0, 1), C(0, 1), n.taken_late)
+        n.terms = [terms(s, skip) for s, skip in zip(n.slots, skips)]
 
     def _block11_comparator(self, m, n):
         """Block 11: the traced element's end at the point where the next element's function
@@ -605,7 +616,8 @@ class EquidistantEngine(wiring.Component):
             new.arc.eq(kind == Kind.ARC), new.h.eq(frame.h), new.entry.eq(frame.entry),
             new.swap.eq(frame.swap), new.minor.eq(frame.minor), new.back.eq(frame.sec < 0),
             new.k.eq(frame.k), new.cw.eq(frame.cw),
-            # The position it enters at (after this clock's step) less the centre.
+            # The position it enters at (after this clock's step, which it skips) less the
+            # centre.
             new.cu.eq(n.x - frame.x + _delta(n.step_x, n.neg_x)),
             new.cv.eq(n.y - frame.y + _delta(n.step_y, n.neg_y)),
             new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
@@ -711,7 +723,7 @@ class EquidistantEngine(wiring.Component):
             function one sum of its terms, so one carry chain)."""
             s = slots[i]
             out = Signal(n.slot, name=f"advanced{i}")
-            (v1, v2, v_carry), (w1, w2, w_carry) = n.terms[i]
+            (v1, v2, v_carry), (w1, w2, w_carry), (du, dv) = n.terms[i]
             formed_v = Mux(s.computing & n.combine1,
                            Mux(s.arc, n.circle_value, n.line_value), 0)
             formed_w = Mux(s.computing & n.combine2, n.line_value, 0)
@@ -719,8 +731,8 @@ class EquidistantEngine(wiring.Component):
                 out.eq(s),
                 out.v.eq(s.v + v1 + v2 + v_carry + formed_v),
                 out.w.eq(s.w + w1 + w2 + w_carry + formed_w),
-                out.cu.eq(s.cu + _delta(n.step_x, n.neg_x)),
-                out.cv.eq(s.cv + _delta(n.step_y, n.neg_y)),
+                out.cu.eq(s.cu + du),
+                out.cv.eq(s.cv + dv),
             ]
             with m.If(s.computing & n.combine1):
                 with m.If(s.arc):
@@ -741,6 +753,8 @@ class EquidistantEngine(wiring.Component):
         m.d.sync += quiet.eq(Cat(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
                                  & ~self.abort, quiet[:-1]))
         m.d.comb += n.fresh.eq(quiet.all())
+        m.d.sync += n.taken_late.eq(n.shift_prep & n.take_element & self.cmd.valid
+                                    & ~self.abort)
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
         with m.Else():
