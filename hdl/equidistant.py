@@ -609,7 +609,9 @@ class EquidistantEngine(wiring.Component):
             self.cmd.ready.eq(Mux(bad, refuse, Mux(is_element, take_element, take_control))),
         ]
         accept = self.cmd.valid & self.cmd.ready
-        taken = accept & ~bad                # accepted and not refused
+        # A control frame taken (RADIUS, START, CLOSE: its end is then formed without the
+        # elements' shifts, which only an element's taking waits for).
+        taken = self.cmd.valid & take_control
         new = Signal(n.slot)
         m.d.comb += [
             new.valid.eq(1), new.computing.eq(1), new.last.eq(frame.last),
@@ -661,23 +663,38 @@ class EquidistantEngine(wiring.Component):
             b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, _abs(lg)))),
             b6.b.eq(Mux(unit == 0, frame.x, radius)),
         ]
-        # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position.
-        kx = Mux(lk[-1] ^ base_x[-1], -b5x.product, b5x.product)
-        ky = Mux(lk[-1] ^ base_y[-1], -b5y.product, b5y.product)
-        gr = Mux(lg[-1], -b6.product, b6.product)
+        # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position,
+        # every term signed by a complement and a carry, so that each sum is one carry chain
+        # (modulo 2**value, as the function is kept).
+        def term(value, negative):
+            ext = Signal(signed(f.value))
+            m.d.comb += ext.eq(value)
+            return Mux(negative, ~ext, ext), negative
+
         lb = Mux(second, pending.eb, pending.b)
         lminor = Mux(second, pending.eminor, pending.minor)
-        line_xy = kx + lb - base_y * one + gr
-        line_yx = ky + lb - base_x * one - gr
+        # line (x, y): k·x00 + b - y00·one + g·r; (y, x): k·y00 + b - x00·one - g·r; negated
+        # when the minor coordinate falls.
+        line_terms = [
+            term(Mux(lswap, b5y.product, b5x.product),
+                 Mux(lswap, lk[-1] ^ base_y[-1], lk[-1] ^ base_x[-1]) ^ lminor),
+            term(lb, lminor),
+            term(Mux(lswap, base_x, base_y) * one, ~lminor),
+            term(b6.product, lg[-1] ^ lswap ^ lminor),
+        ]
         line_value = Signal(signed(f.value))
-        line_raw = Mux(lswap, line_yx, line_xy)
-        m.d.comb += line_value.eq(Mux(lminor, -line_raw, line_raw))
+        m.d.comb += line_value.eq(sum(t for t, _ in line_terms) + sum(c for _, c in line_terms))
         sigma_out = (pending.side == 1) == pending.cw
-        rounded = (b6.product + half) >> fr
+        rounded = Signal(unsigned(f.value))
+        m.d.comb += rounded.eq((b6.product + half) >> fr)
+        # N = E + r² ± G·r (rounded); S = x00² + y00² - N.
         n_value = Signal(signed(f.value))
-        m.d.comb += n_value.eq(pending.e + n.radius2 + Mux(sigma_out, rounded, -rounded))
+        n_rounded, n_carry = term(rounded, ~sigma_out)
+        m.d.comb += n_value.eq(pending.e + n.radius2 + n_rounded + n_carry)
         circle_value = Signal(signed(f.value))
-        m.d.comb += circle_value.eq(b5x.product + b5y.product - n_value)
+        s_rounded, s_carry = term(rounded, sigma_out)
+        m.d.comb += circle_value.eq(b5x.product + b5y.product - pending.e - n.radius2
+                                    + s_rounded + s_carry)
         # The sums are registered: formed in the clock the products are done (they are held
         # after it) and added into the slot in the next, so that the products' sums and the
         # slot's integrator are not one path.
