@@ -375,16 +375,14 @@ class EquidistantEngine(wiring.Component):
             core.feed.tick.eq(self.feed.tick & arc_go),
         ]
 
-        # The return: the position less the start, from which the steps (towards the start)
-        # and the return's end (the start within a step on each axis, so no sum after the step)
-        # are read.
+        # The return: the position less the start (counted with every step, blocks 12 and 13
+        # beside it), from which the steps (towards the start) and the return's end (the start
+        # within a step on each axis) are read without a carry chain.
         home_ux = Signal(signed(f.position + 1))
         home_uy = Signal(signed(f.position + 1))
         home_dx = Signal()
         home_dy = Signal()
         m.d.comb += [
-            home_ux.eq(n.x - n.start_x),
-            home_uy.eq(n.y - n.start_y),
             home_dx.eq(home_ux != 0),
             home_dy.eq(home_uy != 0),
         ]
@@ -815,6 +813,11 @@ class EquidistantEngine(wiring.Component):
         """Blocks 12, 13: the position counters, loaded by ``START``, counting every step."""
         step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
         block12, block13 = self.block12, self.block13
+        with m.If(n.start_now):              # the position and the start alike
+            m.d.sync += [n.home_ux.eq(0), n.home_uy.eq(0)]
+        with m.Else():
+            m.d.sync += [n.home_ux.eq(n.home_ux + _delta(step_x, neg_x)),
+                         n.home_uy.eq(n.home_uy + _delta(step_y, neg_y))]
         m.d.comb += [
             block12.d.eq(n.frame.x), block12.load.eq(n.start_now),
             block12.up.eq(step_x & ~neg_x), block12.down.eq(step_x & neg_x),
