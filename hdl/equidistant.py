@@ -179,6 +179,12 @@ def _abs(value):
     return Mux(value < 0, -value, value)
 
 
+def _abs_difference(a, b):
+    """``|a - b|``: both differences formed side by side, the sign of one choosing (one carry
+    chain deep)."""
+    return Mux(a < b, b - a, a - b)
+
+
 class EquidistantEngine(wiring.Component):
     """Cutter-radius compensation (T. Siimut, 1963) around a quadrant core: profile elements
     in, the cutter centre's steps out.
@@ -640,8 +646,8 @@ class EquidistantEngine(wiring.Component):
         base_x = Mux(unit == 1, x, p0x)
         base_y = Mux(unit == 1, y, p0y)
         second = (unit == 3) | (unit == 4)
-        u0 = base_x - pending.x
-        v0 = base_y - pending.y
+        u0 = _abs_difference(base_x, pending.x)
+        v0 = _abs_difference(base_y, pending.y)
         circle = (pending.kind == Kind.ARC) & ~second
         lswap = Mux(second, pending.eswap, pending.swap)
         lk = Mux(second, pending.ek, pending.k)
@@ -654,10 +660,10 @@ class EquidistantEngine(wiring.Component):
             b5x.clear.eq(self.abort),
             b5y.clear.eq(self.abort),
             b6.clear.eq(self.abort),
-            b5x.a.eq(Mux(circle, _abs(u0), Mux(~lswap, _abs(lk), 0))),
-            b5x.b.eq(Mux(circle, _abs(u0), _abs(base_x))),
-            b5y.a.eq(Mux(circle, _abs(v0), Mux(lswap, _abs(lk), 0))),
-            b5y.b.eq(Mux(circle, _abs(v0), _abs(base_y))),
+            b5x.a.eq(Mux(circle, u0, Mux(~lswap, _abs(lk), 0))),
+            b5x.b.eq(Mux(circle, u0, _abs(base_x))),
+            b5y.a.eq(Mux(circle, v0, Mux(lswap, _abs(lk), 0))),
+            b5y.b.eq(Mux(circle, v0, _abs(base_y))),
             b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, _abs(lg)))),
             b6.b.eq(Mux(unit == 0, frame.x, radius)),
         ]
