@@ -442,8 +442,9 @@ class EquidistantEngine(wiring.Component):
         one = n.one
         late = Signal(4)                     # the step of the clock before: x, y, -x, -y
         m.d.sync += late.eq(Cat(n.step_x, n.step_y, n.neg_x, n.neg_y))
-        # The last slot was taken in the clock before, at the position after its step:
-        # that step is not its.
+        # The last slot was taken in the clock before, its functions at the position after
+        # that clock's step: the step is not theirs (its relative position, taken before the
+        # step, follows it as every slot's).
         n.taken_late = Signal()
 
         def terms(s, skip):
@@ -460,7 +461,7 @@ class EquidistantEngine(wiring.Component):
             line = _line_terms(s.swap, s.minor, s.k, one, step_x, step_y, neg_x, neg_y)
             entry = _line_terms(s.eswap, s.eminor, s.ek, one, step_x, step_y, neg_x, neg_y)
             return ([Mux(s.arc, a, b) for a, b in zip(circle, line)], entry,
-                    (_delta(step_x, neg_x), _delta(step_y, neg_y)))
+                    (_delta(late[0], neg_x), _delta(late[1], neg_y)))
 
         skips = (C(0, 1), C(0, 1), n.taken_late)
         n.terms = [terms(s, skip) for s, skip in zip(n.slots, skips)]
@@ -622,10 +623,10 @@ class EquidistantEngine(wiring.Component):
             new.arc.eq(kind == Kind.ARC), new.h.eq(frame.h), new.entry.eq(frame.entry),
             new.swap.eq(frame.swap), new.minor.eq(frame.minor), new.back.eq(frame.sec < 0),
             new.k.eq(frame.k), new.cw.eq(frame.cw),
-            # The position it enters at (after this clock's step, which it skips) less the
-            # centre.
-            new.cu.eq(n.x - frame.x + _delta(n.step_x, n.neg_x)),
-            new.cv.eq(n.y - frame.y + _delta(n.step_y, n.neg_y)),
+            # The position less the centre (before this clock's step, which it follows a
+            # clock late as every slot).
+            new.cu.eq(n.x - frame.x),
+            new.cv.eq(n.y - frame.y),
             new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
         ]
         n.kind, n.unit, n.unit_entry, n.unit_last_round, n.pending = (
