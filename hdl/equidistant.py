@@ -203,13 +203,14 @@ class EquidistantEngine(wiring.Component):
     while an element is traced, the next one's function (or its entry line) is compared with
     the threshold of the element's steps (block 11): the element ends at the first point where
     ``2·h·F + 2τ >= 0`` (``2τ`` the largest change of ``F`` over one step of the element's
-    kinds), without a step from it. The test is two registered stages (:data:`SETTLE`), so
-    an element steps only after two clocks with no step and no change of its slots (every
-    third clock at most). The next element starts from there: a line with its deviation in
-    register III, an arc by a quadrant run handed to the core two clocks before its first
-    step; six clocks from the last step of one line to the first of the next. An element
-    whose frame is still being prepared when its predecessor ends waits for it
-    (``2·(width + 2) + 6`` clocks at most).
+    kinds), without a step from it. The slots follow the position a clock late (every
+    function and relative position takes the step of the clock before) and the test is two
+    registered stages after them (:data:`SETTLE` clocks in all), so an element steps only
+    after three clocks with no step and no change of its slots (every fourth clock at most).
+    The next element starts from there: a line with its deviation in register III, an arc by
+    a quadrant run handed to the core two clocks before its first step; eight clocks from the
+    last step of one line to the first of the next. An element whose frame is still being
+    prepared when its predecessor ends waits for it (``2·(width + 2) + 6`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -553,16 +554,14 @@ class EquidistantEngine(wiring.Component):
         terminal_end = Signal()
         shift_own = Signal()
         shift_cmp = Signal()
-        shift_prep = Signal()
         m.d.comb += [
             element_end.eq(n.end_now),
             terminal_end.eq(n.own.valid & n.own.last & ~n.hold & ~self.abort),
             shift_own.eq(element_end | terminal_end | ~n.own.valid),
             shift_cmp.eq(shift_own | ~n.cmp.valid),
-            shift_prep.eq(shift_cmp | ~n.prep.valid),
         ]
         n.element_end, n.terminal_end = element_end, terminal_end
-        n.shift_own, n.shift_cmp, n.shift_prep = shift_own, shift_cmp, shift_prep
+        n.shift_own, n.shift_cmp = shift_own, shift_cmp
 
     def _arc_runs(self, m, n):
         """The arc runs' state: a run handed to the core in WAIT, taken in TAKE, run to its
@@ -607,7 +606,7 @@ class EquidistantEngine(wiring.Component):
         take_control = Signal()
         refuse = Signal()
         m.d.comb += [
-            take_element.eq(accepting & n.contour & is_element & n.shift_prep
+            take_element.eq(accepting & n.contour & is_element & ~prep.valid
                             & ((unit == 0) | unit_last_round)),
             take_control.eq(accepting & ~is_element & ~bad & engine_idle & status.idle),
             refuse.eq(self.cmd.valid & accepting & bad & engine_idle & status.idle),
@@ -775,7 +774,7 @@ class EquidistantEngine(wiring.Component):
         m.d.sync += quiet.eq(Cat(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
                                  & ~self.abort, quiet[:-1]))
         m.d.comb += n.fresh.eq(quiet.all())
-        m.d.sync += n.taken_late.eq(n.shift_prep & n.take_element & self.cmd.valid
+        m.d.sync += n.taken_late.eq(~prep.valid & n.take_element & self.cmd.valid
                                     & ~self.abort)
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
@@ -784,11 +783,13 @@ class EquidistantEngine(wiring.Component):
                 own.eq(Mux(n.shift_own, moved[1], moved[0])),
                 cmp.eq(Mux(n.shift_cmp, moved[2], moved[1])),
             ]
-            with m.If(n.shift_prep):
+            # A frame is taken into the last slot when it is empty (not in the clock it
+            # empties: the decision to take does not wait for the element's end).
+            with m.If(~prep.valid):
                 with m.If(n.take_element & self.cmd.valid):
                     m.d.sync += prep.eq(n.new)
-                with m.Else():
-                    m.d.sync += prep.valid.eq(0)
+            with m.Elif(n.shift_cmp):
+                m.d.sync += prep.valid.eq(0)
             with m.Else():
                 m.d.sync += prep.eq(moved[2])
 

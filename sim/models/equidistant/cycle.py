@@ -229,7 +229,6 @@ class EquidistantEngineModel:
                              and not c.abort)
         c.shift_own = int(bool(c.element_end) or bool(c.terminal_end) or own is None)
         c.shift_cmp = int(bool(c.shift_own) or cmp is None)
-        c.shift_prep = int(bool(c.shift_cmp) or c.prep is None)
 
     def _block1_frames(self, c):
         """Block 1: the frame offered, checked, taken or refused; the control frames' ends."""
@@ -246,7 +245,7 @@ class EquidistantEngineModel:
                        and not self.homing and not self.contour)
         accepting = not c.abort and not status.flushing
         c.take_element = (accepting and bool(self.contour) and is_element
-                          and bool(c.shift_prep) and (self.unit == 0 or bool(last_round)))
+                          and c.prep is None and (self.unit == 0 or bool(last_round)))
         take_control = accepting and not is_element and not bad and engine_idle and \
             bool(status.idle)
         c.refuse = int(bool(valid) and accepting and bool(bad) and engine_idle
@@ -349,10 +348,11 @@ class EquidistantEngineModel:
         else:
             self.own = moved[1] if c.shift_own else moved[0]
             self.cmp = moved[2] if c.shift_cmp else moved[1]
-            if c.shift_prep:
+            # A frame is taken into the last slot when it is empty at the clock's start.
+            if c.prep is None:
                 self.prep = _new_slot(c.frame) if (c.take_element and c.valid) else None
             else:
-                self.prep = moved[2]
+                self.prep = None if c.shift_cmp else moved[2]
 
     def _edge_blocks5_8(self, c):
         """Blocks 5-8: the product unit's state, the radius and r², the frame being formed."""
