@@ -210,7 +210,7 @@ class EquidistantEngine(wiring.Component):
     The next element starts from there: a line with its deviation in register III, an arc by
     a quadrant run handed to the core two clocks before its first step; eight clocks from the
     last step of one line to the first of the next. An element whose frame is still being
-    prepared when its predecessor ends waits for it (``2·(width + 2) + 6`` clocks at most).
+    prepared when its predecessor ends waits for it (``2·(width + 2) + 8`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -667,13 +667,18 @@ class EquidistantEngine(wiring.Component):
             b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, _abs(lg)))),
             b6.b.eq(Mux(unit == 0, frame.x, radius)),
         ]
-        # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position,
-        # every term signed by a complement and a carry, so that each sum is one carry chain
-        # (modulo 2**value, as the function is kept).
+        # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position, in
+        # two registered stages after the products are done (they are held after it): first
+        # every term signed by a complement and a carry (and G·r rounded), then each sum with
+        # one carry chain (modulo 2**value, as the function is kept); added into the slot in
+        # the clock after that.
         def term(value, negative):
             ext = Signal(signed(f.value))
+            operand = Signal(signed(f.value))
+            carry = Signal()
             m.d.comb += ext.eq(value)
-            return Mux(negative, ~ext, ext), negative
+            m.d.sync += [operand.eq(Mux(negative, ~ext, ext)), carry.eq(negative)]
+            return operand, carry
 
         lb = Mux(second, pending.eb, pending.b)
         lminor = Mux(second, pending.eminor, pending.minor)
@@ -686,28 +691,28 @@ class EquidistantEngine(wiring.Component):
             term(Mux(lswap, base_x, base_y) * one, ~lminor),
             term(b6.product, lg[-1] ^ lswap ^ lminor),
         ]
-        line_value = Signal(signed(f.value))
-        m.d.comb += line_value.eq(sum(t for t, _ in line_terms) + sum(c for _, c in line_terms))
         sigma_out = (pending.side == 1) == pending.cw
         rounded = Signal(unsigned(f.value))
-        m.d.comb += rounded.eq((b6.product + half) >> fr)
+        m.d.sync += rounded.eq((b6.product + half) >> fr)
         # N = E + r² ± G·r (rounded); S = x00² + y00² - N.
         n_value = Signal(signed(f.value))
-        n_rounded, n_carry = term(rounded, ~sigma_out)
-        m.d.comb += n_value.eq(pending.e + n.radius2 + n_rounded + n_carry)
+        m.d.comb += n_value.eq(pending.e + n.radius2 + Mux(sigma_out, rounded, ~rounded)
+                               + ~sigma_out)
         circle_value = Signal(signed(f.value))
-        s_rounded, s_carry = term(rounded, sigma_out)
         m.d.comb += circle_value.eq(b5x.product + b5y.product - pending.e - n.radius2
-                                    + s_rounded + s_carry)
-        # The sums are registered: formed in the clock the products are done (they are held
-        # after it) and added into the slot in the next, so that the products' sums and the
-        # slot's integrator are not one path.
+                                    + Mux(sigma_out, ~rounded, rounded) + sigma_out)
         line_sum = Signal(signed(f.value))
         circle_sum = Signal(signed(f.value))
         circle_empty = Signal()
+        terms_done = Signal()
         sums_done = Signal()
-        m.d.sync += [line_sum.eq(line_value), circle_sum.eq(circle_value),
-                     circle_empty.eq(n_value <= 0), sums_done.eq(b6.done & ~self.abort)]
+        m.d.sync += [
+            line_sum.eq(sum(t for t, _ in line_terms) + sum(c for _, c in line_terms)),
+            circle_sum.eq(circle_value),
+            circle_empty.eq(n_value <= 0),
+            terms_done.eq(b6.done & ~self.abort),
+            sums_done.eq(terms_done & ~self.abort),
+        ]
         combine1 = (unit == 2) & sums_done
         combine2 = (unit == 4) & sums_done
         m.d.comb += [

@@ -230,7 +230,7 @@ class ProfileRun:
 
 def _profile_clocks(prepared, clocks_per_step):
     """An upper bound on the clocks of a contour on the engine: forming every frame
-    (``2·(width + 2) + 8`` clocks each, a few frames at once before the first step, and
+    (``2·(width + 2) + 10`` clocks each, a few frames at once before the first step, and
     block 11's settling at each), every step (``clocks_per_step``, the variant's
     :func:`kontur.registry.step_clocks`: block 11's settling and the step's own clock at
     least, and two idle clocks for each quadrant run of an arc), plus slack."""
@@ -239,7 +239,7 @@ def _profile_clocks(prepared, clocks_per_step):
     frames = len(prepared.frames)
     steps = sum(1 for _, steps in _parts(prepared) for _ in steps)
     arcs = sum(1 for e in prepared.elements if e.kind == "arc")
-    return (frames * (2 * (width + 2) + 10 + 2 * SETTLE)
+    return (frames * (2 * (width + 2) + 12 + 2 * SETTLE)
             + clocks_per_step * (steps + 16) + 10 * (arcs + 1) + 64), steps
 
 

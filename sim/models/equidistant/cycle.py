@@ -365,12 +365,12 @@ class EquidistantEngineModel:
                 self.unit, self.radius, self.left = 5, frame["x"], length
                 self.product = frame["x"] * frame["x"]
         elif self.unit == 1:
-            # The products take ``length`` clocks, their sums one more (registered).
-            self.unit, self.p0, self.left = 2, (x, y), length + 1
+            # The products take ``length`` clocks, their sums two more (registered).
+            self.unit, self.p0, self.left = 2, (x, y), length + 2
         elif c.combine1:
             self.unit = 3 if self.pending["entry"] else 0
         elif self.unit == 3:
-            self.unit, self.left = 4, length + 1
+            self.unit, self.left = 4, length + 2
         elif c.combine2:
             self.unit = 0
         elif self.unit == 5 and self.left == 0:
