@@ -340,8 +340,12 @@ class EquidistantEngine(wiring.Component):
         hold = n.status.hold
         running = Signal()
         end_now = Signal()
-        m.d.comb += running.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready
-                               & n.fresh & ~hold & ~self.abort)
+        # The slots' flags registered: they change only in a clock that is not quiet (a shift,
+        # a function formed into the traced or compared slot, an abort), so while the test is
+        # fresh they are this clock's.
+        slots_ready = Signal()
+        m.d.sync += slots_ready.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready)
+        m.d.comb += running.eq(slots_ready & n.fresh & ~hold & ~self.abort)
 
         # Block 3: the pulse distributor of lines. Register I holds |k|; register III the
         # element's deviation T (+ 1/2): every step moves the major axis, and the minor one
@@ -393,7 +397,12 @@ class EquidistantEngine(wiring.Component):
             home_dx.eq(home_ux != 0),
             home_dy.eq(home_uy != 0),
         ]
-        n.home_near = ((home_ux >= -1) & (home_ux <= 1)) & ((home_uy >= -1) & (home_uy <= 1))
+        def near(value):
+            """``value`` in {-1, 0, 1}: its bits above the first all zero, or all one and
+            the first one (no comparator's carry chain)."""
+            return ~value[1:].any() | (value[1:].all() & value[0])
+
+        n.home_near = near(home_ux) & near(home_uy)
         n.home_ux, n.home_uy = home_ux, home_uy
         home_due = n.homing & (home_dx | home_dy) & ~hold & ~self.abort
         home_step = home_due & self.feed.tick
@@ -421,8 +430,8 @@ class EquidistantEngine(wiring.Component):
                 m.d.comb += [step_x.eq(n.line_major), neg_x.eq(own.back),
                              step_y.eq(n.line_minor), neg_y.eq(n.line_minor_negative)]
         with m.Elif(n.home_step):
-            m.d.comb += [step_x.eq(n.home_dx), neg_x.eq(n.home_ux > 0),
-                         step_y.eq(n.home_dy), neg_y.eq(n.home_uy > 0)]
+            m.d.comb += [step_x.eq(n.home_dx), neg_x.eq(n.home_dx & ~n.home_ux[-1]),
+                         step_y.eq(n.home_dy), neg_y.eq(n.home_dy & ~n.home_uy[-1])]
         with m.Elif(n.arc_go):
             m.d.comb += [step_x.eq(arc_bits[0]), neg_x.eq(n.run_dir[0]),
                          step_y.eq(arc_bits[1]), neg_y.eq(n.run_dir[1])]
