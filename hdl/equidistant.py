@@ -535,9 +535,13 @@ class EquidistantEngine(wiring.Component):
             plus = Signal(signed(f.value + 3))
             minus = Signal(signed(f.value + 3))
             m.d.comb += [plus.eq(plus_value), minus.eq(minus_value)]
-            # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0.
-            tests.append(kind & Mux(falls, (minus <= 0) | (plus <= 0),
-                                    (plus >= 0) | (minus >= 0)))
+            # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0. Read from the sign and a zero test, not by
+            # a comparator (a second carry chain).
+            def at_most_zero(value):
+                return value[-1] | ~value.any()
+
+            tests.append(kind & Mux(falls, at_most_zero(minus) | at_most_zero(plus),
+                                    ~plus[-1] | ~minus[-1]))
         m.d.sync += n.at_point.eq(tests[0] | tests[1] | tests[2] | special)
         m.d.comb += n.end_now.eq(n.running & n.at_point)
 
