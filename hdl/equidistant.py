@@ -397,6 +397,7 @@ class EquidistantEngine(wiring.Component):
             home_dx.eq(home_ux != 0),
             home_dy.eq(home_uy != 0),
         ]
+
         def near(value):
             """``value`` in {-1, 0, 1}: its bits above the first all zero, or all one and
             the first one (no comparator's carry chain)."""
@@ -498,12 +499,12 @@ class EquidistantEngine(wiring.Component):
                                Mux(cmp.entry, cmp.ek, cmp.k), one)
         tu, tv = self._relative(n, cmp)
         target_circle = cmp.arc & ~cmp.entry
-        # The test is two registered stages (SETTLE): the first forms the kinds of the
-        # traced element's steps against the target (its own carry chains, the quadrant's
-        # and the kinds'), the second the comparisons; :py:`fresh` (block 2's) says nothing of
-        # the state (position, traced and compared slots) changed in the two clocks before,
-        # so the test is of this state and an element runs only after two clocks with no
-        # step and no change of its slots.
+        # The test is two registered stages: the first forms the kinds of the traced
+        # element's steps against the target (the quadrant and the kinds from the slots'
+        # registers), the second the comparisons; :py:`fresh` (block 2's) says nothing of the
+        # state (position, traced and compared slots) changed in the SETTLE clocks before (the
+        # first of them the slots' late step), so the test is of this state and an element
+        # runs only after SETTLE clocks with no step and no change of its slots.
         kind_a = Signal(signed(f.value))
         kind_b = Signal(signed(f.value))
         twice = Signal(signed(f.value + 1))
@@ -527,6 +528,9 @@ class EquidistantEngine(wiring.Component):
         # and for |z| when it holds for z or -z), with no absolute value and no maximum; the
         # sums with a + b are written out, so that synthesis adds their three terms with one
         # carry chain.
+        def at_most_zero(value):
+            return value[-1] | ~value.any()
+
         tests = []
         for plus_value, minus_value, kind in (
                 (twice + kind_a, twice - kind_a, kinds[0]),
@@ -537,9 +541,6 @@ class EquidistantEngine(wiring.Component):
             m.d.comb += [plus.eq(plus_value), minus.eq(minus_value)]
             # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0. Read from the sign and a zero test, not by
             # a comparator (a second carry chain).
-            def at_most_zero(value):
-                return value[-1] | ~value.any()
-
             tests.append(kind & Mux(falls, at_most_zero(minus) | at_most_zero(plus),
                                     ~plus[-1] | ~minus[-1]))
         m.d.sync += n.at_point.eq(tests[0] | tests[1] | tests[2] | special)
