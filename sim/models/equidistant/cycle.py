@@ -3,10 +3,10 @@ clock for clock."""
 
 from types import SimpleNamespace
 
-from ..arc import direction_bits, quadrant, type_a
-from ..engine import StatusModel
 from kontur.hdl.spec import SETTLE
 
+from ..arc import direction_bits, quadrant, type_a
+from ..engine import StatusModel
 from .functions import DONE_CODE, KIND, REFUSED_CODE, Formats, _frame_defaults
 
 __all__ = ["EquidistantEngineModel"]
@@ -21,7 +21,11 @@ class EquidistantEngineModel:
     position counters (blocks 12, 13), the radius and r², the start, the product unit
     (blocks 5-8: its state, the frame being formed, the position it is formed at, the clocks
     left), the arc run (state, swap, directions), the contour and return flags, the status
-    unit. Call :meth:`cycle` once per clock.
+    unit. Where the RTL keeps a sum in registers that no output sees (the slots a clock behind
+    the position, their relative positions, the return's difference, block 11's stages) the
+    model keeps the value it stands for: its slots are stepped in the clock of the step, and
+    block 11's test is delayed SETTLE clocks, the clocks the RTL needs after a step. Call
+    :meth:`cycle` once per clock.
     """
 
     def __init__(self, core, *, fraction=None, number_width=8):
@@ -49,7 +53,9 @@ class EquidistantEngineModel:
         self.run_dir = 0
         self.product = 0                  # block 6's last product (r² is taken from it)
         self.quiet = [0] * SETTLE         # the clocks before changed nothing (the last first)
-        self.tests = [0] * SETTLE         # block 11's two stages: the element ends at the point
+        # Block 11's test (the element ends at the point) of the state SETTLE clocks before:
+        # in the RTL the slots a clock behind the position, then the test's two stages.
+        self.tests = [0] * SETTLE
 
     def state(self):
         return {"x": self.x, "y": self.y, "unit": self.unit, "arc_state": self.arc_state}
