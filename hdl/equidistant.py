@@ -322,13 +322,11 @@ class EquidistantEngine(wiring.Component):
         n.x, n.y = self.block12.q, self.block13.q    # blocks 12, 13: the cutter's centre
         radius = Signal(w)
         radius2 = Signal(2 * w)
-        start_x = Signal(signed(w + 1))
-        start_y = Signal(signed(w + 1))
         contour = Signal()                   # a contour is open: elements are taken
         homing = Signal()
         fresh = Signal()                     # block 11's registered test is of this state
         at_point = Signal()                  # ... the element ends at the point (registered)
-        n.radius, n.radius2, n.start_x, n.start_y = radius, radius2, start_x, start_y
+        n.radius, n.radius2 = radius, radius2
         n.contour, n.homing, n.fresh, n.at_point = contour, homing, fresh, at_point
         return n
 
@@ -826,7 +824,7 @@ class EquidistantEngine(wiring.Component):
             m.d.sync += [n.contour.eq(0), n.homing.eq(0)]
         with m.Else():
             with m.If(start_now):
-                m.d.sync += [n.contour.eq(1), n.start_x.eq(frame.x), n.start_y.eq(frame.y)]
+                m.d.sync += n.contour.eq(1)     # (the return counts from the start: home_ux)
             with m.If(n.take_element & self.cmd.valid & frame.last):
                 m.d.sync += n.contour.eq(0)
             with m.If(close_now & ~close_end):
