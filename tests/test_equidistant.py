@@ -19,7 +19,8 @@ from kontur.sim.models import equidistant as model
 from kontur.sim.models.circular import FaithfulArcCoreModel, FastArcCoreModel
 from kontur.sim.models.engine import ABORTED, DONE, REFUSED
 from kontur.sim.runners import run_amaranth
-from kontur.sim.stimulus import Job, first_difference, record_outcomes, record_steps, run_model
+from kontur.sim.stimulus import (Job, first_difference, record_moves, record_outcomes,
+                                 record_steps, run_model)
 
 from .test_equidistant_model import load
 from .utils import simulate, used
@@ -187,17 +188,10 @@ class AgainstModelTestCase(unittest.TestCase):
             outcomes = record_outcomes(record)
             self.assertEqual([outcome for _, _, outcome, _ in outcomes], [DONE] * len(frames))
             contour_end = outcomes[-2][0]           # the terminal's outcome, then CLOSE's
-            x = y = 0
-            returned = []
-            for e in record:
-                if e["rst"] or not e["step"]:
-                    continue
-                dx = (e["step"] & 1) * (-1 if e["dir"] & 1 else 1)
-                dy = (e["step"] >> 1 & 1) * (-1 if e["dir"] >> 1 & 1 else 1)
-                if e["cycle"] > contour_end:
-                    returned.append((dx, dy))
-                x, y = x + dx, y + dy
-            self.assertEqual((x, y), (0, 0))         # back at the start
+            moves = record_moves(record)
+            self.assertEqual((sum(dx for _, dx, _ in moves), sum(dy for _, _, dy in moves)),
+                             (0, 0))                 # back at the start
+            returned = [(dx, dy) for cycle, dx, dy in moves if cycle > contour_end]
             rx, ry = (sum(d[axis] for d in returned) for axis in (0, 1))
             self.assertEqual(tuple(outcomes[-1][3]), (rx, ry))
             # Sign steps: both axes while both are away, so max(|rx|, |ry|) steps.
