@@ -19,7 +19,7 @@ from amaranth import *
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out
 
-from .arc import ArcCoreSignature, _quadrant, _x_falls
+from .arc import ArcCoreSignature, _quadrant_of_signs, _x_falls
 from .elements import AccumulatingAdder, ReversibleCounter
 from .elements._checks import check_width
 from .engine import EngineSignature, Outcome, StatusUnit
@@ -143,6 +143,7 @@ def _slot(f):
         "empty": 1,
         "swap": 1, "minor": 1, "back": 1, "k": signed(f.coefficient),
         "cu": signed(f.width + 3), "cv": signed(f.width + 3),   # the position less the centre
+        "zu": 1, "zv": 1,                    # cu, cv are zero (kept with them, not tested)
         "cw": 1,
         "eswap": 1, "eminor": 1, "ek": signed(f.coefficient),
         "v": signed(f.value),                # its own function at the position
@@ -160,6 +161,20 @@ def _coefficients(swap, minor, k, one):
 def _delta(step, negative):
     """A step ``d`` in {-1, 0, +1} given as (step, negative)."""
     return Mux(step, Mux(negative, -1, 1), 0)
+
+
+def _zero_after(value, step, negative):
+    """Whether ``value`` plus the step ``(step, negative)`` is zero, from equality tests of
+    ``value`` (no carry chain): it is -1, 1 or 0."""
+    return Mux(step, Mux(negative, value == 1, value == -1), value == 0)
+
+
+def _near_after(value, step, negative):
+    """Whether ``value`` plus the step ``(step, negative)`` is -1, 0 or 1, from equality tests
+    of ``value``."""
+    def within(low):
+        return (value == low) | (value == low + 1) | (value == low + 2)
+    return Mux(step, Mux(negative, within(0), within(-2)), within(-1))
 
 
 def _line_terms(swap, minor, k, one, step_x, step_y, neg_x, neg_y):
@@ -204,13 +219,14 @@ class EquidistantEngine(wiring.Component):
     the threshold of the element's steps (block 11): the element ends at the first point where
     ``2·h·F + 2τ >= 0`` (``2τ`` the largest change of ``F`` over one step of the element's
     kinds), without a step from it. The slots follow the position a clock late (every
-    function and relative position takes the step of the clock before) and the test is two
-    registered stages after them (:data:`SETTLE` clocks in all), so an element steps only
-    after three clocks with no step and no change of its slots (every fourth clock at most).
-    The next element starts from there: a line with its deviation in register III, an arc by
-    a quadrant run handed to the core two clocks before its first step; eight clocks from the
-    last step of one line to the first of the next. An element whose frame is still being
-    prepared when its predecessor ends waits for it (``2·(width + 2) + 8`` clocks at most).
+    relative position takes the step of the clock before; the functions take its terms,
+    registered, a clock after that) and the test is three registered stages (:data:`SETTLE`
+    clocks in all), so an element steps only after four clocks with no step and no change of
+    its slots (every fifth clock at most). The next element starts from there: a line with
+    its deviation in register III, an arc by a quadrant run handed to the core two clocks
+    before its first step; ten clocks from the last step of one line to the first of the
+    next. An element whose frame is still being prepared when its predecessor ends waits for
+    it (``2·(width + 2) + 10`` clocks at most).
 
     Everything else is the common interface (:class:`~kontur.hdl.engine.EngineSignature`): one
     outcome per frame, in order, with the steps made during it; :py:`abort`. Refused
@@ -319,15 +335,19 @@ class EquidistantEngine(wiring.Component):
         prep = Signal(slot)                  # ... the one after (being formed, blocks 5-8)
         n.own, n.cmp, n.prep = own, cmp, prep
         n.slots = (own, cmp, prep)
+        # Each slot's terms of the step of the clock before, added into its functions (block 2)
+        n.tv = [Signal(signed(f.value), name=f"tv{i}") for i in range(3)]
+        n.tw = [Signal(signed(f.value), name=f"tw{i}") for i in range(3)]
         n.x, n.y = self.block12.q, self.block13.q    # blocks 12, 13: the cutter's centre
         radius = Signal(w)
         radius2 = Signal(2 * w)
         contour = Signal()                   # a contour is open: elements are taken
         homing = Signal()
-        fresh = Signal()                     # block 11's registered test is of this state
-        at_point = Signal()                  # ... the element ends at the point (registered)
+        fresh_next = Signal()                # block 11's test will be of the next state
+        at_point_next = Signal()             # ... and the element ends at its point
         n.radius, n.radius2 = radius, radius2
-        n.contour, n.homing, n.fresh, n.at_point = contour, homing, fresh, at_point
+        n.contour, n.homing, n.fresh_next, n.at_point_next = (contour, homing, fresh_next,
+                                                               at_point_next)
         return n
 
     def _block3_line_steps(self, m, n):
@@ -336,26 +356,41 @@ class EquidistantEngine(wiring.Component):
         f, own, cmp, core = n.f, n.own, n.cmp, n.core
         half = n.half
         hold = n.status.hold
-        running = Signal()
         end_now = Signal()
         # The slots' flags registered: they change only in a clock that is not quiet (a shift,
         # a function formed into the traced or compared slot, an abort), so while the test is
         # fresh they are this clock's.
-        slots_ready = Signal()
-        m.d.sync += slots_ready.eq(own.valid & ~own.last & own.ready & cmp.valid & cmp.ready)
-        m.d.comb += running.eq(slots_ready & n.fresh & ~hold & ~self.abort)
+        # The element runs, ends at the point, runs a line or an arc: registered from the
+        # slots' flags, the test's freshness and its outcome of the next clock.
+        slots_ready = own.valid & ~own.last & own.ready & cmp.valid & cmp.ready
+        ends = Signal()
+        runs_line = Signal()
+        runs_arc = Signal()
+        go = slots_ready & n.fresh_next
+        m.d.sync += [
+            ends.eq(go & n.at_point_next),
+            runs_line.eq(go & ~n.at_point_next & ~own.arc),
+            runs_arc.eq(go & ~n.at_point_next & own.arc),
+        ]
+        free = ~hold & ~self.abort
+        m.d.comb += end_now.eq(ends & free)
 
         # Block 3: the pulse distributor of lines. Register I holds |k|; register III the
         # element's deviation T (+ 1/2): every step moves the major axis, and the minor one
         # when the line is half a step ahead after it (overflow), back when it is more than
         # half a step behind; a step along the minor axis alone when it is half a step ahead
         # already (the catch-up after a corner).
-        register1 = Mux(own.k < 0, -own.k, own.k)
+        # |k| as k or ~k and a carry; ahead = T + |k| tested against ±half from the signs of
+        # two sums (each one carry chain, not a negation, a sum and a comparator in a row).
+        k_negative = own.k[-1]
+        register1 = Mux(k_negative, ~own.k, own.k)
         minor_only = own.v >= half
-        ahead = Signal(signed(f.value + 1))
-        m.d.comb += ahead.eq(own.v + register1)
-        forward = ~minor_only & (ahead >= half)
-        backward = ~minor_only & (ahead < -half)
+        ahead_less_half = Signal(signed(f.value + 2))
+        ahead_plus_half = Signal(signed(f.value + 2))
+        m.d.comb += [ahead_less_half.eq(own.v + register1 + k_negative - half),
+                     ahead_plus_half.eq(own.v + register1 + k_negative + half)]
+        forward = ~minor_only & ~ahead_less_half[-1]
+        backward = ~minor_only & ahead_plus_half[-1]
         # The step's kinds are registered, formed from the slot of the clock before: a line
         # steps only while block 11's test is fresh, i.e. when that clock changed nothing of
         # its slot, so they are this clock's (and block 3's carry chains leave the step's
@@ -370,7 +405,7 @@ class EquidistantEngine(wiring.Component):
         ]
 
         line_due = Signal()
-        m.d.comb += line_due.eq(running & ~end_now & ~own.arc)
+        m.d.comb += line_due.eq(runs_line & free)
         line_step = Signal()
         m.d.comb += line_step.eq(line_due & self.feed.tick)
 
@@ -380,7 +415,7 @@ class EquidistantEngine(wiring.Component):
         run_dir = Signal(2)
         arc_go = Signal()
         m.d.comb += [
-            arc_go.eq(running & ~end_now & own.arc),
+            arc_go.eq(runs_arc & free),
             core.feed.tick.eq(self.feed.tick & arc_go),
         ]
 
@@ -389,23 +424,19 @@ class EquidistantEngine(wiring.Component):
         # within a step on each axis) are read without a carry chain.
         home_ux = Signal(signed(f.position + 1))
         home_uy = Signal(signed(f.position + 1))
+        # Whether each is non-zero, and within a step of zero: kept with them (registered
+        # from the value and the step, by equality tests), not tested after them.
         home_dx = Signal()
         home_dy = Signal()
-        m.d.comb += [
-            home_dx.eq(home_ux != 0),
-            home_dy.eq(home_uy != 0),
-        ]
+        near_x = Signal(init=1)
+        near_y = Signal(init=1)
 
-        def near(value):
-            """``value`` in {-1, 0, 1}: its bits above the first all zero, or all one and
-            the first one (no comparator's carry chain)."""
-            return ~value[1:].any() | (value[1:].all() & value[0])
-
-        n.home_near = near(home_ux) & near(home_uy)
+        n.home_near = near_x & near_y
         n.home_ux, n.home_uy = home_ux, home_uy
+        n.near_x, n.near_y = near_x, near_y
         home_due = n.homing & (home_dx | home_dy) & ~hold & ~self.abort
         home_step = home_due & self.feed.tick
-        n.hold, n.running, n.end_now = hold, running, end_now
+        n.hold, n.end_now = hold, end_now
         n.line_major, n.line_minor, n.line_minor_negative = (line_major, line_minor,
                                                              line_minor_negative)
         n.line_due, n.line_step = line_due, line_step
@@ -451,6 +482,7 @@ class EquidistantEngine(wiring.Component):
         one = n.one
         late = Signal(4)                     # the step of the clock before: x, y, -x, -y
         m.d.sync += late.eq(Cat(n.step_x, n.step_y, n.neg_x, n.neg_y))
+        n.late = late
         # The last slot was taken in the clock before, its functions at the position after
         # that clock's step: the step is not theirs (its relative position, taken before the
         # step, follows it as every slot's).
@@ -482,7 +514,8 @@ class EquidistantEngine(wiring.Component):
         f, one, own, cmp = n.f, n.one, n.own, n.cmp
         # The kinds of the traced element's steps (signs qx, qy; which axis steps occur).
         own_u, own_v = self._relative(n, own)
-        quadrant = _quadrant(own_u, own_v, own.cw)
+        quadrant = _quadrant_of_signs(~own_u[-1] & ~own.zu, own_u[-1],
+                                      ~own_v[-1] & ~own.zv, own_v[-1], own.cw)
         x_negative = (quadrant == 1) | (quadrant == 2)
         y_negative = (quadrant == 2) | (quadrant == 3)
         qx_neg = Mux(own.arc, Mux(own.cw, y_negative, ~y_negative),
@@ -497,25 +530,25 @@ class EquidistantEngine(wiring.Component):
                                Mux(cmp.entry, cmp.ek, cmp.k), one)
         tu, tv = self._relative(n, cmp)
         target_circle = cmp.arc & ~cmp.entry
-        # The test is two registered stages: the first forms the kinds of the traced
+        # The test is three registered stages: the first forms the kinds of the traced
         # element's steps against the target (the quadrant and the kinds from the slots'
-        # registers), the second the comparisons; :py:`fresh` (block 2's) says nothing of the
-        # state (position, traced and compared slots) changed in the SETTLE clocks before (the
-        # first of them the slots' late step), so the test is of this state and an element
-        # runs only after SETTLE clocks with no step and no change of its slots.
+        # registers), the second the sums with the function (which the slots keep two clocks
+        # behind the position), the third the comparisons. Block 2's freshness says nothing of
+        # the state (position, traced and compared slots) changed in the SETTLE clocks before
+        # (the first of them the slots' late step), so the test is of this state and an
+        # element runs only after SETTLE clocks with no step and no change of its slots.
         kind_a = Signal(signed(f.value))
         kind_b = Signal(signed(f.value))
         twice = Signal(signed(f.value + 1))
         kinds = Signal(2)                    # x_kind, y_kind
         falls = Signal()                     # cmp.h
         special = Signal()                   # an arc ends where it is empty or at its centre
-        at_centre = own.arc & (own_u == 0) & (own_v == 0)
+        at_centre = own.arc & own.zu & own.zv
         m.d.sync += [
             kind_a.eq(Mux(target_circle, Mux(qx_neg, -2 * tu + 1, 2 * tu + 1),
                           Mux(qx_neg, -tc, tc))),
             kind_b.eq(Mux(target_circle, Mux(qy_neg, -2 * tv + 1, 2 * tv + 1),
                           Mux(qy_neg, -td, td))),
-            twice.eq(Mux(cmp.entry, cmp.w, cmp.v) << 1),
             kinds.eq(Cat(x_kind, y_kind)),
             falls.eq(cmp.h),
             special.eq(own.arc & (own.empty | at_centre)),
@@ -529,31 +562,46 @@ class EquidistantEngine(wiring.Component):
         def at_most_zero(value):
             return value[-1] | ~value.any()
 
+        # The third stage: the sums registered, then their signs and zero tests (the kinds
+        # and the flags carried along a clock).
+        m.d.comb += twice.eq(Mux(cmp.entry, cmp.w, cmp.v) << 1)
+        kinds_late = Signal(2)
+        falls_late = Signal()
+        special_late = Signal()
+        m.d.sync += [kinds_late.eq(kinds), falls_late.eq(falls), special_late.eq(special)]
         tests = []
         for plus_value, minus_value, kind in (
-                (twice + kind_a, twice - kind_a, kinds[0]),
-                (twice + kind_b, twice - kind_b, kinds[1]),
+                (twice + kind_a, twice - kind_a, kinds_late[0]),
+                (twice + kind_b, twice - kind_b, kinds_late[1]),
                 (twice + kind_a + kind_b, twice - kind_a - kind_b, 1)):
             plus = Signal(signed(f.value + 3))
             minus = Signal(signed(f.value + 3))
-            m.d.comb += [plus.eq(plus_value), minus.eq(minus_value)]
+            m.d.sync += [plus.eq(plus_value), minus.eq(minus_value)]
             # h: -2F ± z >= 0, i.e. 2F ∓ z <= 0. Read from the sign and a zero test, not by
             # a comparator (a second carry chain).
-            tests.append(kind & Mux(falls, at_most_zero(minus) | at_most_zero(plus),
+            tests.append(kind & Mux(falls_late, at_most_zero(minus) | at_most_zero(plus),
                                     ~plus[-1] | ~minus[-1]))
-        m.d.sync += n.at_point.eq(tests[0] | tests[1] | tests[2] | special)
-        m.d.comb += n.end_now.eq(n.running & n.at_point)
+        m.d.comb += n.at_point_next.eq(tests[0] | tests[1] | tests[2] | special_late)
 
         # The arc core: a run from the position, on the circle N (residue = -S), stopped by
         # this comparator.
         core, arc_state = n.core, n.arc_state
-        core_native_x = Mux(_x_falls(quadrant, own.cw), _abs(own_u), _abs(own_v))
-        core_native_y = Mux(_x_falls(quadrant, own.cw), _abs(own_v), _abs(own_u))
+        # The run's operands registered from the slot of the clock before: a run is handed
+        # over only while block 11's test is fresh, i.e. when that clock changed nothing of the
+        # traced slot, so they are this clock's.
+        core_native_x = Signal.like(core.cmd.payload.x)
+        core_native_y = Signal.like(core.cmd.payload.y)
+        core_residue = Signal.like(core.cmd.payload.residue)
+        m.d.sync += [
+            core_native_x.eq(Mux(_x_falls(quadrant, own.cw), _abs(own_u), _abs(own_v))),
+            core_native_y.eq(Mux(_x_falls(quadrant, own.cw), _abs(own_v), _abs(own_u))),
+            core_residue.eq(-own.v),
+        ]
         m.d.comb += [
             core.cmd.valid.eq(n.arc_go & (arc_state == 0)),
             core.cmd.payload.x.eq(core_native_x),
             core.cmd.payload.y.eq(core_native_y),
-            core.cmd.payload.residue.eq(-own.v),
+            core.cmd.payload.residue.eq(core_residue),
             core.stop.eq(0),
             core.abort.eq(self.abort | (own.arc & n.end_now)),
         ]
@@ -638,6 +686,8 @@ class EquidistantEngine(wiring.Component):
             # clock late as every slot).
             new.cu.eq(n.x - frame.x),
             new.cv.eq(n.y - frame.y),
+            new.zu.eq(n.x == frame.x),
+            new.zv.eq(n.y == frame.y),
             new.eswap.eq(frame.eswap), new.eminor.eq(frame.eminor), new.ek.eq(frame.ek),
         ]
         n.kind, n.unit, n.unit_entry, n.unit_last_round, n.pending = (
@@ -663,20 +713,28 @@ class EquidistantEngine(wiring.Component):
         circle = (pending.kind == Kind.ARC) & ~second
         lswap = Mux(second, pending.eswap, pending.swap)
         lk = Mux(second, pending.ek, pending.k)
-        side_g = Mux(pending.side == 0, 0, Mux(pending.side[-1], -pending.sec, pending.sec))
-        lg = Mux(second, pending.eg, side_g)
-        m.d.comb += [
-            b5x.start.eq(launching),
-            b5y.start.eq(launching),
-            b6.start.eq(launching | ((unit == 0) & n.taken & (kind == Kind.RADIUS))),
-            b5x.clear.eq(self.abort),
-            b5y.clear.eq(self.abort),
-            b6.clear.eq(self.abort),
-            b5x.a.eq(Mux(circle, u0, Mux(~lswap, _abs(lk), 0))),
+        # The magnitudes of the coefficients, taken with the frame (no negation between the
+        # frame being formed and the multipliers' operands); g: ±1/cos α by the side (none
+        # with no offset), or the entry line's shift.
+        magnitude = Signal(data.StructLayout({
+            "k": f.coefficient, "ek": f.coefficient, "sec": f.coefficient, "eg": f.intercept}))
+        lk_magnitude = Mux(second, magnitude.ek, magnitude.k)
+        lg_magnitude = Mux(second, magnitude.eg, Mux(pending.side == 0, 0, magnitude.sec))
+        lg_negative = Mux(second, pending.eg[-1], pending.side[-1] ^ pending.sec[-1])
+        # The multipliers start a clock after the launch, from their operands registered (the
+        # differences and magnitudes are off the multipliers' loading).
+        m.d.comb += [b5x.clear.eq(self.abort), b5y.clear.eq(self.abort),
+                     b6.clear.eq(self.abort)]
+        m.d.sync += [
+            b5x.start.eq(launching & ~self.abort),
+            b5y.start.eq(launching & ~self.abort),
+            b6.start.eq((launching | ((unit == 0) & n.taken & (kind == Kind.RADIUS)))
+                        & ~self.abort),
+            b5x.a.eq(Mux(circle, u0, Mux(~lswap, lk_magnitude, 0))),
             b5x.b.eq(Mux(circle, u0, _abs(base_x))),
-            b5y.a.eq(Mux(circle, v0, Mux(lswap, _abs(lk), 0))),
+            b5y.a.eq(Mux(circle, v0, Mux(lswap, lk_magnitude, 0))),
             b5y.b.eq(Mux(circle, v0, _abs(base_y))),
-            b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, _abs(lg)))),
+            b6.a.eq(Mux(unit == 0, frame.x, Mux(circle, pending.g, lg_magnitude))),
             b6.b.eq(Mux(unit == 0, frame.x, radius)),
         ]
         # Block 7 (E + G·r) and block 8 (+ C·x00 + D·y00): the function at the position, in
@@ -701,7 +759,7 @@ class EquidistantEngine(wiring.Component):
                  Mux(lswap, lk[-1] ^ base_y[-1], lk[-1] ^ base_x[-1]) ^ lminor),
             term(lb, lminor),
             term(Mux(lswap, base_x, base_y) * one, ~lminor),
-            term(b6.product, lg[-1] ^ lswap ^ lminor),
+            term(b6.product, lg_negative ^ lswap ^ lminor),
         ]
         sigma_out = (pending.side == 1) == pending.cw
         rounded = Signal(unsigned(f.value))
@@ -713,20 +771,21 @@ class EquidistantEngine(wiring.Component):
         circle_value = Signal(signed(f.value))
         m.d.comb += circle_value.eq(b5x.product + b5y.product - pending.e - n.radius2
                                     + Mux(sigma_out, ~rounded, rounded) + sigma_out)
-        line_sum = Signal(signed(f.value))
-        circle_sum = Signal(signed(f.value))
+        # The function formed (the circle's in round 1 of an arc, else the line's) and the
+        # rounds' ends registered, so that a slot adds it with no decision before the sum.
+        value = Signal(signed(f.value))
         circle_empty = Signal()
         terms_done = Signal()
-        sums_done = Signal()
+        combine1 = Signal()
+        combine2 = Signal()
         m.d.sync += [
-            line_sum.eq(sum(t for t, _ in line_terms) + sum(c for _, c in line_terms)),
-            circle_sum.eq(circle_value),
+            value.eq(Mux(circle, circle_value,
+                         sum(t for t, _ in line_terms) + sum(c for _, c in line_terms))),
             circle_empty.eq(n_value <= 0),
             terms_done.eq(b6.done & ~self.abort),
-            sums_done.eq(terms_done & ~self.abort),
+            combine1.eq((unit == 2) & terms_done & ~self.abort),
+            combine2.eq((unit == 4) & terms_done & ~self.abort),
         ]
-        combine1 = (unit == 2) & sums_done
-        combine2 = (unit == 4) & sums_done
         m.d.comb += [
             n.unit_entry.eq(pending.entry),
             n.unit_last_round.eq((combine1 & ~pending.entry) | combine2),
@@ -747,8 +806,10 @@ class EquidistantEngine(wiring.Component):
         with m.Elif((unit == 5) & b6.done):
             m.d.sync += [unit.eq(0), n.radius2.eq(b6.product)]
         with m.If(n.take_element & self.cmd.valid & ~self.abort):
-            m.d.sync += [pending.eq(frame), unit.eq(1)]
-        n.line_value, n.circle_value, n.circle_empty = line_sum, circle_sum, circle_empty
+            m.d.sync += [pending.eq(frame), unit.eq(1),
+                         magnitude.k.eq(_abs(frame.k)), magnitude.ek.eq(_abs(frame.ek)),
+                         magnitude.sec.eq(_abs(frame.sec)), magnitude.eg.eq(_abs(frame.eg))]
+        n.value, n.circle_empty = value, circle_empty
         n.combine1, n.combine2 = combine1, combine2
 
     def _block2_memory(self, m, n):
@@ -761,16 +822,17 @@ class EquidistantEngine(wiring.Component):
             function one sum of its terms, so one carry chain)."""
             s = slots[i]
             out = Signal(n.slot, name=f"advanced{i}")
-            (v1, v2, v_carry), (w1, w2, w_carry), (du, dv) = n.terms[i]
-            formed_v = Mux(s.computing & n.combine1,
-                           Mux(s.arc, n.circle_value, n.line_value), 0)
-            formed_w = Mux(s.computing & n.combine2, n.line_value, 0)
+            _, _, (du, dv) = n.terms[i]
+            formed_v = Mux(s.computing & n.combine1, n.value, 0)
+            formed_w = Mux(s.computing & n.combine2, n.value, 0)
             m.d.comb += [
                 out.eq(s),
-                out.v.eq(s.v + v1 + v2 + v_carry + formed_v),
-                out.w.eq(s.w + w1 + w2 + w_carry + formed_w),
+                out.v.eq(s.v + n.tv[i] + formed_v),
+                out.w.eq(s.w + n.tw[i] + formed_w),
                 out.cu.eq(s.cu + du),
                 out.cv.eq(s.cv + dv),
+                out.zu.eq(_zero_after(s.cu, n.late[0], n.late[2])),
+                out.zv.eq(_zero_after(s.cv, n.late[1], n.late[3])),
             ]
             with m.If(s.computing & n.combine1):
                 with m.If(s.arc):
@@ -782,33 +844,47 @@ class EquidistantEngine(wiring.Component):
             return out
 
         moved = [advanced(i) for i in range(3)]
+        # Each slot's step terms (blocks 4 and 10) are registered and added into its functions
+        # a clock after, so the functions follow the position two clocks late. They stay with
+        # the slot's place, not its contents: a shift comes only in a clock with no step of the
+        # clock before (an element ends at the point only while its test is fresh; a terminal,
+        # an empty slot make no step), so the terms of every slot that moves are then zero, and
+        # the registers are cleared (as they are for an empty last slot, which a frame may
+        # enter).
+        for i, clear in enumerate((n.shift_own, n.shift_cmp, n.shift_cmp | ~prep.valid)):
+            (v1, v2, v_carry), (w1, w2, w_carry), _ = n.terms[i]
+            with m.If(clear):
+                m.d.sync += [n.tv[i].eq(0), n.tw[i].eq(0)]
+            with m.Else():
+                m.d.sync += [n.tv[i].eq(v1 + v2 + v_carry), n.tw[i].eq(w1 + w2 + w_carry)]
         # Block 11's registered test is of this state when the SETTLE clocks before changed
         # neither the position nor the traced and compared slots (the functions formed into
         # the slot after them change neither).
         formed_here = ((own.valid & own.computing) | (cmp.valid & cmp.computing)) & (
             n.combine1 | n.combine2)
         quiet = Signal(SETTLE)               # of the clocks before, the last first
-        m.d.sync += quiet.eq(Cat(~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here
-                                 & ~self.abort, quiet[:-1]))
-        m.d.comb += n.fresh.eq(quiet.all())
+        quiet_now = ~n.step_x & ~n.step_y & ~n.shift_cmp & ~formed_here & ~self.abort
+        m.d.sync += quiet.eq(Cat(quiet_now, quiet[:-1]))
+        m.d.comb += n.fresh_next.eq(quiet_now & quiet[:-1].all())
         m.d.sync += n.taken_late.eq(~prep.valid & n.take_element & self.cmd.valid
                                     & ~self.abort)
+        m.d.sync += [
+            own.eq(Mux(n.shift_own, moved[1], moved[0])),
+            cmp.eq(Mux(n.shift_cmp, moved[2], moved[1])),
+        ]
+        # A frame is taken into the last slot when it is empty (not in the clock it empties:
+        # the decision to take does not wait for the element's end). An empty slot loads the
+        # frame on the input whether it is taken or not (a slot is read only while valid), so
+        # the decision sets only its valid flag: the handshake and the abort stay off the
+        # slots' contents.
+        with m.If(~prep.valid):
+            m.d.sync += [prep.eq(n.new), prep.valid.eq(n.take_element & self.cmd.valid)]
+        with m.Elif(n.shift_cmp):
+            m.d.sync += prep.valid.eq(0)
+        with m.Else():
+            m.d.sync += prep.eq(moved[2])
         with m.If(self.abort):
             m.d.sync += [own.valid.eq(0), cmp.valid.eq(0), prep.valid.eq(0)]
-        with m.Else():
-            m.d.sync += [
-                own.eq(Mux(n.shift_own, moved[1], moved[0])),
-                cmp.eq(Mux(n.shift_cmp, moved[2], moved[1])),
-            ]
-            # A frame is taken into the last slot when it is empty (not in the clock it
-            # empties: the decision to take does not wait for the element's end).
-            with m.If(~prep.valid):
-                with m.If(n.take_element & self.cmd.valid):
-                    m.d.sync += prep.eq(n.new)
-            with m.Elif(n.shift_cmp):
-                m.d.sync += prep.valid.eq(0)
-            with m.Else():
-                m.d.sync += prep.eq(moved[2])
 
     def _control_frames(self, m, n):
         """Control frames: the radius's end, the start, the return (``CLOSE``)."""
@@ -839,10 +915,15 @@ class EquidistantEngine(wiring.Component):
         step_x, step_y, neg_x, neg_y = n.step_x, n.step_y, n.neg_x, n.neg_y
         block12, block13 = self.block12, self.block13
         with m.If(n.start_now):              # the position and the start alike
-            m.d.sync += [n.home_ux.eq(0), n.home_uy.eq(0)]
+            m.d.sync += [n.home_ux.eq(0), n.home_uy.eq(0), n.home_dx.eq(0), n.home_dy.eq(0),
+                         n.near_x.eq(1), n.near_y.eq(1)]
         with m.Else():
             m.d.sync += [n.home_ux.eq(n.home_ux + _delta(step_x, neg_x)),
-                         n.home_uy.eq(n.home_uy + _delta(step_y, neg_y))]
+                         n.home_uy.eq(n.home_uy + _delta(step_y, neg_y)),
+                         n.home_dx.eq(~_zero_after(n.home_ux, step_x, neg_x)),
+                         n.home_dy.eq(~_zero_after(n.home_uy, step_y, neg_y)),
+                         n.near_x.eq(_near_after(n.home_ux, step_x, neg_x)),
+                         n.near_y.eq(_near_after(n.home_uy, step_y, neg_y))]
         m.d.comb += [
             block12.d.eq(n.frame.x), block12.load.eq(n.start_now),
             block12.up.eq(step_x & ~neg_x), block12.down.eq(step_x & neg_x),

@@ -13,9 +13,10 @@ from dataclasses import dataclass
 __all__ = ["Kind", "Formats", "SETTLE", "OCTAGON", "ONE", "SQRT2", "SQRT3", "STEP_LENGTHS"]
 
 #: The clocks the equidistant engine takes after every step or change of the traced and
-#: compared slots (the slots' functions a clock after the step, then block 11's test in two
-#: registered stages): an element steps every ``SETTLE + 1`` clocks at most.
-SETTLE = 3
+#: compared slots (the slots' positions a clock after the step and their functions a clock
+#: after that, then block 11's test in three registered stages): an element steps every
+#: ``SETTLE + 1`` clocks at most.
+SETTLE = 4
 
 
 class Kind:

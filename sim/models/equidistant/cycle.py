@@ -368,15 +368,17 @@ class EquidistantEngineModel:
             self.unit = 0
         elif self.unit == 0:
             if c.taken and c.kind == KIND["radius"]:
-                self.unit, self.radius, self.left = 5, frame["x"], length
+                # The product starts a clock after the frame (its operands registered).
+                self.unit, self.radius, self.left = 5, frame["x"], length + 1
                 self.product = frame["x"] * frame["x"]
         elif self.unit == 1:
-            # The products take ``length`` clocks, their sums two more (registered).
-            self.unit, self.p0, self.left = 2, (x, y), length + 2
+            # The products start a clock after the launch (their operands registered) and
+            # take ``length`` clocks, their sums two more (registered).
+            self.unit, self.p0, self.left = 2, (x, y), length + 3
         elif c.combine1:
             self.unit = 3 if self.pending["entry"] else 0
         elif self.unit == 3:
-            self.unit, self.left = 4, length + 2
+            self.unit, self.left = 4, length + 3
         elif c.combine2:
             self.unit = 0
         elif self.unit == 5 and self.left == 0:
