@@ -14,7 +14,7 @@ from amaranth.lib.wiring import In, Out
 from .elements._checks import check_width
 
 __all__ = ["Outcome", "MotionSignature", "FeedSignature", "StatusLayout", "EngineSignature",
-           "StatusUnit", "frame_coord_width", "permit"]
+           "StatusUnit", "frame_coord_width", "permit", "step_delta"]
 
 
 class Outcome(enum.Enum, shape=2):
@@ -361,7 +361,7 @@ class StatusUnit(wiring.Component):
         moved = Signal(data.ArrayLayout(signed(width), axes))
         position = Signal(data.ArrayLayout(signed(width), axes))
         for axis in range(axes):
-            delta = Mux(self.motion.step[axis], Mux(self.motion.dir[axis], -1, 1), 0)
+            delta = step_delta(self.motion.step[axis], self.motion.dir[axis])
             m.d.comb += position[axis].eq(Mux(taken, 0, moved[axis]) + delta)
 
         waiting = Signal()                  # an outcome waits for the consumer
@@ -418,6 +418,12 @@ def frame_coord_width(width, coord_width):
     if coord_width < width + 1:
         raise ValueError(f"Coordinate width must be at least {width + 1}, not {coord_width!r}")
     return coord_width
+
+
+def step_delta(step, negative):
+    """A step as a number in {-1, 0, +1}, from its :py:`step` and direction (:py:`negative`)
+    bits (a position's change in a clock)."""
+    return Mux(step, Mux(negative, -1, 1), 0)
 
 
 def permit(m, feed, *, armed, running, free=0, abort=0):

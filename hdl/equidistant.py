@@ -22,7 +22,7 @@ from amaranth.lib.wiring import In, Out
 from .arc import ArcCoreSignature, _quadrant_of_signs, _x_falls
 from .elements import AccumulatingAdder, ReversibleCounter
 from .elements._checks import check_width
-from .engine import EngineSignature, Outcome, StatusUnit
+from .engine import EngineSignature, Outcome, StatusUnit, step_delta
 from .spec import SETTLE, Formats, Kind
 
 __all__ = ["Kind", "Formats", "SerialMultiplier", "EquidistantEngine", "SETTLE"]
@@ -156,11 +156,6 @@ def _coefficients(swap, minor, k, one):
     sk = Mux(minor, -k, k)
     sone = Mux(minor, -one, one)
     return Mux(swap, -sone, sk), Mux(swap, sk, -sone)
-
-
-def _delta(step, negative):
-    """A step ``d`` in {-1, 0, +1} given as (step, negative)."""
-    return Mux(step, Mux(negative, -1, 1), 0)
 
 
 def _zero_after(value, step, negative):
@@ -502,7 +497,7 @@ class EquidistantEngine(wiring.Component):
             line = _line_terms(s.swap, s.minor, s.k, one, step_x, step_y, neg_x, neg_y)
             entry = _line_terms(s.eswap, s.eminor, s.ek, one, step_x, step_y, neg_x, neg_y)
             return ([Mux(s.arc, a, b) for a, b in zip(circle, line)], entry,
-                    (_delta(late[0], neg_x), _delta(late[1], neg_y)))
+                    (step_delta(late[0], neg_x), step_delta(late[1], neg_y)))
 
         skips = (C(0, 1), C(0, 1), n.taken_late)
         n.terms = [terms(s, skip) for s, skip in zip(n.slots, skips)]
@@ -918,8 +913,8 @@ class EquidistantEngine(wiring.Component):
             m.d.sync += [n.home_ux.eq(0), n.home_uy.eq(0), n.home_dx.eq(0), n.home_dy.eq(0),
                          n.near_x.eq(1), n.near_y.eq(1)]
         with m.Else():
-            m.d.sync += [n.home_ux.eq(n.home_ux + _delta(step_x, neg_x)),
-                         n.home_uy.eq(n.home_uy + _delta(step_y, neg_y)),
+            m.d.sync += [n.home_ux.eq(n.home_ux + step_delta(step_x, neg_x)),
+                         n.home_uy.eq(n.home_uy + step_delta(step_y, neg_y)),
                          n.home_dx.eq(~_zero_after(n.home_ux, step_x, neg_x)),
                          n.home_dy.eq(~_zero_after(n.home_uy, step_y, neg_y)),
                          n.near_x.eq(_near_after(n.home_ux, step_x, neg_x)),

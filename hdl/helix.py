@@ -23,7 +23,7 @@ from amaranth.lib import data, wiring
 
 from .arc import ArcEngine
 from .elements import magnitude
-from .engine import EngineSignature, Outcome
+from .engine import EngineSignature, Outcome, step_delta
 
 __all__ = ["HelixEngine"]
 
@@ -151,7 +151,7 @@ class HelixEngine(wiring.Component):
         z_position = Signal(signed(pw))
         m.d.comb += [
             own_valid.eq(active & own & ~self.abort),
-            z_position.eq(moved + Mux(z_step, Mux(z_dir, -1, 1), 0)),
+            z_position.eq(moved + step_delta(z_step, z_dir)),
             self.status.valid.eq(own_valid | arc.status.valid),
             arc.status.ready.eq(self.status.ready),
             self.status.p.number.eq(number),
