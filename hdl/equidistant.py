@@ -740,10 +740,9 @@ class EquidistantEngine(wiring.Component):
         def term(value, negative):
             ext = Signal(signed(f.value))
             operand = Signal(signed(f.value))
-            carry = Signal()
             m.d.comb += ext.eq(value)
-            m.d.sync += [operand.eq(Mux(negative, ~ext, ext)), carry.eq(negative)]
-            return operand, carry
+            m.d.sync += operand.eq(Mux(negative, ~ext, ext))
+            return operand, negative
 
         lb = Mux(second, pending.eb, pending.b)
         lminor = Mux(second, pending.eminor, pending.minor)
@@ -764,6 +763,10 @@ class EquidistantEngine(wiring.Component):
         m.d.comb += n_value.eq(pending.e + n.radius2 + Mux(sigma_out, rounded, ~rounded)
                                + ~sigma_out)
         circle_value = Signal(signed(f.value))
+        # The terms' carries (one for each complemented term) as one number, registered with
+        # them: one narrow operand of the sum, not four.
+        line_carries = Signal(3)
+        m.d.sync += line_carries.eq(sum(negative for _, negative in line_terms))
         m.d.comb += circle_value.eq(b5x.product + b5y.product - pending.e - n.radius2
                                     + Mux(sigma_out, ~rounded, rounded) + sigma_out)
         # The function formed (the circle's in round 1 of an arc, else the line's) and the
@@ -774,8 +777,7 @@ class EquidistantEngine(wiring.Component):
         combine1 = Signal()
         combine2 = Signal()
         m.d.sync += [
-            value.eq(Mux(circle, circle_value,
-                         sum(t for t, _ in line_terms) + sum(c for _, c in line_terms))),
+            value.eq(Mux(circle, circle_value, sum(t for t, _ in line_terms) + line_carries)),
             circle_empty.eq(n_value <= 0),
             terms_done.eq(b6.done & ~self.abort),
             combine1.eq((unit == 2) & terms_done & ~self.abort),
