@@ -131,7 +131,7 @@ TARGETS = {
         "limits": {
             "axes": "this is the two-axis build (lasers, plasma, plotters); the three-axis one "
                     "is icebreaker-z",
-            "profile": "the equidistant engine alone is 6468 LC at 16 bits and 4025 at 8 "
+            "profile": "the equidistant engine alone is 6464 LC at 16 bits and 4015 at 8 "
                        "(python -m kontur.equidistant_figures fpga; the UP5K has 5280), next "
                        "to a controller of 4950 LC without it (where they go: python -m "
                        "kontur.bench cells)",
@@ -142,7 +142,7 @@ TARGETS = {
                        "bits; the slots a clock behind the position, block 11 and blocks 7 "
                        "and 8 in two registered stages, every sum one carry chain: 6657 LC; "
                        "block 11 in three stages, the slots' step terms and the multipliers' "
-                       "operands registered: 6468 LC; "
+                       "operands registered: 6464 LC; "
                        "what would fit is a serial equidistant engine (the slots in "
                        "block RAM, one adder shared by the six integrators, the step's "
                        "settling clocks spent on it), a redesign with its model",
